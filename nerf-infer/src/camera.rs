@@ -1,0 +1,195 @@
+//! Pinhole cameras and rays (OpenGL/Blender convention: the camera looks
+//! down −z, +x right, +y up; pixel (0, 0) is the top-left corner and ray
+//! `(i, j)` passes through the pixel centre `(i + ½, j + ½)`).
+//!
+//! All quantities are f32 and computed once per ray.
+
+use crate::error::{Error, Result};
+use crate::format::Scene;
+use glam::{Mat3, Vec3};
+
+/// A pinhole camera: intrinsics in pixels and a camera-to-world pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Image width in pixels (≥ 1).
+    pub width: u32,
+    /// Image height in pixels (≥ 1).
+    pub height: u32,
+    /// Focal length along x, pixels.
+    pub fx: f32,
+    /// Focal length along y, pixels.
+    pub fy: f32,
+    /// Principal point x, pixels from the left edge.
+    pub cx: f32,
+    /// Principal point y, pixels from the top edge.
+    pub cy: f32,
+    /// Camera-to-world rotation (columns: camera x, y, z axes in world).
+    pub rotation: Mat3,
+    /// Camera centre in world units.
+    pub position: Vec3,
+}
+
+impl Camera {
+    /// Builds a camera from intrinsics and a row-major 3×4 camera-to-world
+    /// matrix `[R | t]`. Fails with [`Error::InvalidCamera`] if a value is
+    /// not finite, a size or focal length is not positive, or `R` is not a
+    /// rotation (orthonormal within 10⁻³, determinant +1).
+    pub fn new(
+        width: u32,
+        height: u32,
+        fx: f32,
+        fy: f32,
+        cx: f32,
+        cy: f32,
+        c2w: [[f32; 4]; 3],
+    ) -> Result<Self> {
+        let finite = [fx, fy, cx, cy].iter().all(|v| v.is_finite())
+            && c2w.iter().flatten().all(|v| v.is_finite());
+        if !finite || width == 0 || height == 0 || fx <= 0.0 || fy <= 0.0 {
+            return Err(Error::InvalidCamera);
+        }
+        let rotation = Mat3::from_cols(
+            Vec3::new(c2w[0][0], c2w[1][0], c2w[2][0]),
+            Vec3::new(c2w[0][1], c2w[1][1], c2w[2][1]),
+            Vec3::new(c2w[0][2], c2w[1][2], c2w[2][2]),
+        );
+        if !is_rotation(&rotation) {
+            return Err(Error::InvalidCamera);
+        }
+        Ok(Self {
+            width,
+            height,
+            fx,
+            fy,
+            cx,
+            cy,
+            rotation,
+            position: Vec3::new(c2w[0][3], c2w[1][3], c2w[2][3]),
+        })
+    }
+
+    /// A camera with square pixels, principal point at the centre, and the
+    /// horizontal field of view `fov_x` in radians (Blender's `camera_angle_x`).
+    pub fn from_fov(width: u32, height: u32, fov_x: f32, c2w: [[f32; 4]; 3]) -> Result<Self> {
+        let f = 0.5 * width as f32 / libm::tanf(0.5 * fov_x);
+        Self::new(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32, c2w)
+    }
+
+    /// Origin and (unnormalised, camera-space `z = −1`) direction of the ray
+    /// through pixel `(i, j)`, in world units.
+    pub fn ray(&self, i: u32, j: u32) -> (Vec3, Vec3) {
+        let x = (i as f32 + 0.5 - self.cx) / self.fx;
+        let y = -(j as f32 + 0.5 - self.cy) / self.fy;
+        (self.position, self.rotation * Vec3::new(x, y, -1.0))
+    }
+}
+
+/// True if `m` is orthonormal within 10⁻³ with determinant +1.
+pub fn is_rotation(m: &Mat3) -> bool {
+    let d = *m * m.transpose() - Mat3::IDENTITY;
+    let err = d.x_axis.abs().max_element().max(d.y_axis.abs().max_element()).max(d.z_axis.abs().max_element());
+    err.is_finite() && err < 1e-3 && (m.determinant() - 1.0).abs() < 1e-3
+}
+
+/// A ray prepared for sampling: what both numeric paths need, per ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin in normalised scene coordinates (bounds ↦ [−1, 1]³).
+    pub norm_origin: Vec3,
+    /// Direction in normalised scene coordinates (per unit of `t`).
+    pub norm_dir: Vec3,
+    /// Unit view direction in world space (input of the view branch).
+    pub viewdir: Vec3,
+    /// Length of the sampling direction: `δ = Δt · dir_len`, world units.
+    pub dir_len: f32,
+    /// Near bound of `t`.
+    pub near: f32,
+    /// Far bound of `t`.
+    pub far: f32,
+}
+
+impl Ray {
+    /// Prepares a world-space ray (`origin`, `dir` with `d.z = −1` in
+    /// camera space) for `scene`, mapping to NDC first for forward-facing
+    /// scenes. Returns `None` if the ray is not finite or degenerate
+    /// (zero direction, or an NDC ray parallel to the image plane).
+    pub fn new(scene: &Scene, origin: Vec3, dir: Vec3) -> Option<Self> {
+        if !origin.is_finite() || !dir.is_finite() || dir.length_squared() == 0.0 {
+            return None;
+        }
+        let viewdir = dir.normalize();
+        let (o, d) = match scene.ndc {
+            Some(n) => ndc_ray(n.width, n.height, n.focal, 1.0, origin, dir)?,
+            None => (origin, dir),
+        };
+        let lo = Vec3::from(scene.bounds_min);
+        let hi = Vec3::from(scene.bounds_max);
+        let centre = 0.5 * (lo + hi);
+        let inv_half = 2.0 / (hi - lo);
+        let r = Self {
+            norm_origin: (o - centre) * inv_half,
+            norm_dir: d * inv_half,
+            viewdir,
+            dir_len: d.length(),
+            near: scene.near,
+            far: scene.far,
+        };
+        let ok = r.norm_origin.is_finite() && r.norm_dir.is_finite() && r.dir_len.is_finite();
+        ok.then_some(r)
+    }
+
+    /// Normalised position at parameter `t`.
+    #[inline(always)]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.norm_origin + t * self.norm_dir
+    }
+}
+
+/// nerf-pytorch's `ndc_rays`: shifts the origin to the `near` plane and maps
+/// the ray to normalised device coordinates, where `t ∈ [0, 1]` spans
+/// `near..∞`. Returns `None` for rays parallel to the image plane.
+pub fn ndc_ray(w: f32, h: f32, focal: f32, near: f32, o: Vec3, d: Vec3) -> Option<(Vec3, Vec3)> {
+    if d.z == 0.0 {
+        return None;
+    }
+    let t = -(near + o.z) / d.z;
+    let o = o + t * d;
+    if o.z == 0.0 {
+        return None;
+    }
+    let ax = -1.0 / (w / (2.0 * focal));
+    let ay = -1.0 / (h / (2.0 * focal));
+    let o2 = Vec3::new(ax * o.x / o.z, ay * o.y / o.z, 1.0 + 2.0 * near / o.z);
+    let d2 = Vec3::new(
+        ax * (d.x / d.z - o.x / o.z),
+        ay * (d.y / d.z - o.y / o.z),
+        -2.0 * near / o.z,
+    );
+    (o2.is_finite() && d2.is_finite()).then_some((o2, d2))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const IDENTITY: [[f32; 4]; 3] = [[1., 0., 0., 0.], [0., 1., 0., 0.], [0., 0., 1., 4.]];
+
+    #[test]
+    fn centre_ray_looks_down_minus_z() {
+        let c = Camera::from_fov(2, 2, 1.0, IDENTITY).unwrap();
+        let (o, d) = c.ray(1, 1);
+        assert_eq!(o, Vec3::new(0.0, 0.0, 4.0));
+        assert!(d.z == -1.0 && d.x > 0.0 && d.y < 0.0);
+    }
+
+    #[test]
+    fn rejects_non_rigid_and_non_finite() {
+        let mut m = IDENTITY;
+        m[0][0] = 2.0;
+        assert_eq!(Camera::from_fov(4, 4, 1.0, m), Err(Error::InvalidCamera));
+        m = IDENTITY;
+        m[1][3] = f32::NAN;
+        assert_eq!(Camera::from_fov(4, 4, 1.0, m), Err(Error::InvalidCamera));
+        assert_eq!(Camera::from_fov(0, 4, 1.0, IDENTITY), Err(Error::InvalidCamera));
+    }
+}

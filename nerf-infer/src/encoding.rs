@@ -1,0 +1,123 @@
+//! Positional encoding γ (NeRF eq. 4), f32 and fixed point.
+//!
+//! Convention (written down because implementations differ): for each
+//! coordinate `p` of a *normalised* position (scene bounds mapped to
+//! `[−1, 1]³`, see [`crate::camera::Ray`]) or of a unit view direction,
+//!
+//! `γ(p) = (p, sin(2⁰πp), …, sin(2^{L−1}πp), cos(2^{L−1}πp))` laid out as
+//! `[p₀ p₁ p₂ | sin(2⁰πp₀) sin(2⁰πp₁) sin(2⁰πp₂) | cos(2⁰πp₀) … | sin(2¹πp₀) …]`
+//! — the paper's π factor, nerf-pytorch's ordering. The raw `p` block is
+//! present only with `include_input`.
+//!
+//! Both paths reduce the phase exactly: `2ᵏ·p` is an exact scaling, and only
+//! the fractional number of turns is kept, so large `k` loses nothing beyond
+//! the precision of `p` itself.
+
+use crate::fixed::{cos_turns_q15, sat_i16, shr_round_i64, sin_turns_q15};
+
+/// Fractional bits of normalised positions in the fixed path (Q24 in i32,
+/// range ±128 normalised units).
+pub const NPOS_FRAC: u32 = 24;
+
+/// `sin(π·x)` and `cos(π·x)` for any finite f32 `x` with exact reduction.
+#[inline]
+pub fn sincospi_f32(x: f32) -> (f32, f32) {
+    // r = x − 2·round(x/2) is exact in f32 and lies in [−1, 1].
+    let r = x - 2.0 * libm::roundf(x * 0.5);
+    let a = core::f32::consts::PI * r;
+    (libm::sinf(a), libm::cosf(a))
+}
+
+/// Encodes `p` (3 coordinates) with `freqs` frequencies into `out`,
+/// returning the number of values written (`3·(include_input + 2·freqs)`).
+/// Non-finite coordinates encode as 0.
+#[inline]
+pub fn encode_f32(p: [f32; 3], freqs: usize, include_input: bool, out: &mut [f32]) -> usize {
+    let p = p.map(|v| if v.is_finite() { v } else { 0.0 });
+    let mut n = 0;
+    if include_input {
+        out[..3].copy_from_slice(&p);
+        n = 3;
+    }
+    let mut scale = 1.0f32;
+    for _ in 0..freqs {
+        for c in 0..3 {
+            let (s, co) = sincospi_f32(p[c] * scale);
+            out[n + c] = s;
+            out[n + 3 + c] = co;
+        }
+        n += 6;
+        scale *= 2.0;
+    }
+    n
+}
+
+/// Fixed-point encoding of a Q24 position (or direction) into i16 features.
+///
+/// Sin/cos features are Q15; the raw block is `p` requantised to
+/// `raw_frac_bits` fractional bits and saturated to i16. The phase of
+/// frequency `k` is `p·2^{k−1}` turns, computed as a wrapping left shift of
+/// the Q24 integer into turns·2³² — exact for every `k` ≤ 16.
+#[inline]
+pub fn encode_fixed(
+    p: [i32; 3],
+    freqs: usize,
+    include_input: bool,
+    raw_frac_bits: u32,
+    out: &mut [i16],
+) -> usize {
+    let mut n = 0;
+    if include_input {
+        for c in 0..3 {
+            out[c] = sat_i16(shr_round_i64(p[c] as i64, NPOS_FRAC - raw_frac_bits));
+        }
+        n = 3;
+    }
+    for k in 0..freqs as u32 {
+        // turns·2³² = p·2^(k−1)·2^(32−24) = p << (k + 7)
+        for c in 0..3 {
+            let phase = (p[c] as u32).wrapping_shl(k + 32 - 1 - NPOS_FRAC);
+            out[n + c] = sin_turns_q15(phase);
+            out[n + 3 + c] = cos_turns_q15(phase);
+        }
+        n += 6;
+    }
+    n
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn f32_reduction_is_exact_for_large_arguments() {
+        // sin(π·(2^15 + 0.25)) = sin(π/4): naive sinf loses this.
+        let (s, c) = sincospi_f32(32768.25);
+        assert!((s - core::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6);
+        assert!((c - core::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6);
+    }
+
+    #[test]
+    fn fixed_matches_f32_for_all_frequencies() {
+        let mut f = [0f32; 99];
+        let mut q = [0i16; 99];
+        for i in 0..500 {
+            let v = (i as f32 * 0.37).sin() * 1.3;
+            let p = [v, -v * 0.5, v * 0.25 + 0.1];
+            let pq = p.map(|x| libm::roundf(x * (1 << NPOS_FRAC) as f32) as i32);
+            // encode the exactly representable value in f32 too
+            let pr = pq.map(|x| x as f32 / (1 << NPOS_FRAC) as f32);
+            let n = encode_f32(pr, 16, true, &mut f);
+            let m = encode_fixed(pq, 16, true, 13, &mut q);
+            assert_eq!(n, m);
+            for j in 3..n {
+                let want = f[j] * 32768.0;
+                // one Q15 LSB from the table, plus the f32 sinf error at 2^15π.
+                assert!((q[j] as f32 - want).abs() <= 2.0, "feature {j}: {} vs {want}", q[j]);
+            }
+            for j in 0..3 {
+                assert!((q[j] as f32 / 8192.0 - pr[j]).abs() <= 1.0 / 8192.0);
+            }
+        }
+    }
+}

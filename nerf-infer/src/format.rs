@@ -1,0 +1,537 @@
+//! The model file format (version 1). The full layout is in `FORMAT.md`.
+//!
+//! A model is a 14-byte header followed by a postcard payload:
+//!
+//! | offset | size | field                                   |
+//! |--------|------|-----------------------------------------|
+//! | 0      | 4    | magic `b"NERF"`                          |
+//! | 4      | 2    | format version, u16 little-endian (= 1) |
+//! | 6      | 4    | payload length in bytes, u32 LE         |
+//! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
+//! | 14     | n    | payload: [`Model`] in postcard encoding |
+//!
+//! Tensors are borrowed from the blob ([`Model::from_bytes`] never copies or
+//! allocates), so a model can live in flash. Multi-byte tensor elements are
+//! little-endian and read without alignment requirements.
+
+use crate::error::{Error, Result};
+use crate::fixed::Requant;
+use serde::{Deserialize, Serialize};
+
+/// The four bytes every model starts with.
+pub const MAGIC: [u8; 4] = *b"NERF";
+/// The format version this build reads and writes.
+pub const FORMAT_VERSION: u16 = 1;
+/// Length of the fixed header before the postcard payload, in bytes.
+pub const HEADER_LEN: usize = 14;
+/// Most layers a network may have (trunk + heads).
+pub const MAX_LAYERS: usize = 24;
+/// Widest layer (inputs or outputs) the kernel's scratch buffers hold.
+pub const MAX_WIDTH: usize = 256;
+/// Longest layer input: `MAX_WIDTH` plus the largest encoding (16 freqs + raw).
+pub const MAX_INPUT: usize = MAX_WIDTH + 3 + 6 * MAX_FREQS;
+/// Highest number of encoding frequencies `L` (per coordinate).
+pub const MAX_FREQS: usize = 16;
+/// Most coarse samples per ray.
+pub const MAX_COARSE: usize = 256;
+/// Most fine samples per ray (in addition to the coarse ones).
+pub const MAX_FINE: usize = 256;
+
+/// Numeric scheme of a network's weights.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scheme {
+    /// f32 weights and biases; rendered by the f32 path.
+    F32,
+    /// int16 weights with per-output-channel scales; i64 accumulation.
+    I16,
+    /// int8 weights with per-output-channel scales; i32 accumulation.
+    I8,
+}
+
+impl Scheme {
+    /// Bytes per weight element.
+    pub const fn weight_bytes(self) -> usize {
+        match self {
+            Scheme::F32 => 4,
+            Scheme::I16 => 2,
+            Scheme::I8 => 1,
+        }
+    }
+    /// Weight bits (32, 16 or 8).
+    pub const fn bits(self) -> u32 {
+        self.weight_bytes() as u32 * 8
+    }
+    /// True for the integer schemes rendered by the fixed-point path.
+    pub const fn is_fixed(self) -> bool {
+        !matches!(self, Scheme::F32)
+    }
+}
+
+/// Camera convention of the poses the model was trained with.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraConvention {
+    /// OpenGL/Blender: camera looks down −z, +y up, +x right.
+    OpenGl,
+}
+
+/// Normalised-device-coordinate ray space of forward-facing (LLFF) scenes.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct Ndc {
+    /// Focal length of the training cameras, in pixels.
+    pub focal: f32,
+    /// Training image width in pixels.
+    pub width: f32,
+    /// Training image height in pixels.
+    pub height: f32,
+}
+
+/// Where the scene is and how rays see it.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct Scene {
+    /// Axis-aligned bounds of the content, world units (NDC units if `ndc`).
+    pub bounds_min: [f32; 3],
+    /// Upper corner of the bounds; each component > `bounds_min`.
+    pub bounds_max: [f32; 3],
+    /// Near plane distance along the ray parameter `t` (units of `|d|`, `d.z = −1` in camera space).
+    pub near: f32,
+    /// Far plane distance, > `near`.
+    pub far: f32,
+    /// Composite on white (true, Blender) or black (false).
+    pub white_background: bool,
+    /// Pose convention.
+    pub convention: CameraConvention,
+    /// Rays are mapped to NDC before sampling (forward-facing scenes).
+    pub ndc: Option<Ndc>,
+}
+
+/// Positional encoding parameters (NeRF eq. 4): per coordinate p,
+/// `γ(p) = (p, sin(2⁰πp), cos(2⁰πp), …, sin(2^{L−1}πp), cos(2^{L−1}πp))`.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Encoding {
+    /// Frequencies `L` for positions (0..=16; 0 disables the encoding).
+    pub pos_freqs: u8,
+    /// Frequencies `L` for view directions (0..=16).
+    pub dir_freqs: u8,
+    /// Whether the raw coordinate is included before the sin/cos features.
+    pub include_input: bool,
+    /// Fixed path: raw positions enter the first layer as i16 with this many
+    /// fractional bits (0..=15). Ignored by the f32 path.
+    pub raw_frac_bits: u8,
+}
+
+impl Encoding {
+    /// Width of the encoded position.
+    pub const fn pos_dim(&self) -> usize {
+        3 * (self.include_input as usize + 2 * self.pos_freqs as usize)
+    }
+    /// Width of the encoded direction.
+    pub const fn dir_dim(&self) -> usize {
+        3 * (self.include_input as usize + 2 * self.dir_freqs as usize)
+    }
+}
+
+/// The MLP's shape (NeRF fig. 7, configurable).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Topology {
+    /// Trunk layers (each `width` wide, ReLU), ≥ 1.
+    pub depth: u8,
+    /// Trunk width (1..=256).
+    pub width: u16,
+    /// Bit `i` set: trunk layer `i` (≥ 1) takes `[γ(x), h]` as input.
+    pub skip_mask: u16,
+    /// View-dependent colour branch (feature layer + view layer) on or off.
+    pub view_dependent: bool,
+    /// Width of the view layer (1..=256); ignored without the branch.
+    pub view_width: u16,
+}
+
+impl Topology {
+    /// Number of layers a network of this topology has.
+    pub const fn layer_count(&self) -> usize {
+        self.depth as usize + if self.view_dependent { 4 } else { 2 }
+    }
+    /// Whether trunk layer `i` takes the encoded position as extra input.
+    pub const fn is_skip(&self, i: usize) -> bool {
+        i > 0 && i < 16 && self.skip_mask & (1 << i) != 0
+    }
+}
+
+/// Default sample counts per ray.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Samples {
+    /// Stratified samples evaluated by the coarse network (2..=256).
+    pub coarse: u16,
+    /// Importance samples added for the fine network (0..=256; 0: no fine pass).
+    pub fine: u16,
+}
+
+/// Provenance recorded by the trainer.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Meta {
+    /// Dataset downscale factor used for training (1 = full resolution).
+    pub train_downscale: u16,
+    /// Training iterations run.
+    pub iterations: u32,
+}
+
+/// One dense layer `y = W·x + b`. Activation follows from its position.
+///
+/// * `weights`: `in_dim · out_dim` elements, input-major (`[in][out]`:
+///   element `(j, c)` at index `j·out_dim + c`), f32/i16/i8 little-endian.
+/// * `bias`: `out_dim` elements, f32 for [`Scheme::F32`], otherwise i32 in
+///   accumulator units (real bias = `bias[c] · scales[c]`).
+/// * `scales`: integer schemes only, `out_dim` f32: real accumulator value
+///   = integer accumulator · `scales[c]`.
+/// * `requant`: integer schemes only, `out_dim` pairs (i32 multiplier, i32
+///   shift) of [`Requant`] mapping the accumulator to the output format.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct Layer<'a> {
+    /// Input width.
+    pub in_dim: u16,
+    /// Output width.
+    pub out_dim: u16,
+    /// Largest |output| seen on calibration rays (0 = not measured).
+    pub act_max: f32,
+    /// Weight tensor bytes.
+    #[serde(borrow)]
+    pub weights: &'a [u8],
+    /// Bias tensor bytes.
+    #[serde(borrow)]
+    pub bias: &'a [u8],
+    /// Per-output accumulator scales (integer schemes), f32 LE.
+    #[serde(borrow)]
+    pub scales: &'a [u8],
+    /// Per-output requantisation constants (integer schemes), 2 × i32 LE.
+    #[serde(borrow)]
+    pub requant: &'a [u8],
+}
+
+impl Layer<'_> {
+    /// Real-valued scale of output channel `c` (integer schemes).
+    pub fn scale(&self, c: usize) -> f32 {
+        read_f32(self.scales, c)
+    }
+    /// Requantisation constants of output channel `c` (integer schemes).
+    #[inline(always)]
+    pub fn requant(&self, c: usize) -> Requant {
+        Requant {
+            multiplier: read_i32(self.requant, 2 * c),
+            shift: read_i32(self.requant, 2 * c + 1),
+        }
+    }
+}
+
+/// Reads element `i` of a little-endian f32 tensor.
+#[inline(always)]
+pub fn read_f32(bytes: &[u8], i: usize) -> f32 {
+    let b = &bytes[4 * i..4 * i + 4];
+    f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+}
+
+/// Reads element `i` of a little-endian i32 tensor.
+#[inline(always)]
+pub fn read_i32(bytes: &[u8], i: usize) -> i32 {
+    let b = &bytes[4 * i..4 * i + 4];
+    i32::from_le_bytes([b[0], b[1], b[2], b[3]])
+}
+
+/// One MLP: the trunk, the density head and the colour head(s).
+///
+/// Layer order: trunk `0..depth`; density head (`width → 1`, ReLU applied
+/// at compositing); then either feature (`width → width`, linear), view
+/// (`width + dir_dim → view_width`, ReLU, input `[feature, γ(d)]`) and
+/// colour (`view_width → 3`, sigmoid), or colour (`width → 3`, sigmoid).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Network<'a> {
+    /// Numeric scheme of every layer's weights.
+    pub scheme: Scheme,
+    /// Activation width of the fixed-point path in bits (16); 32 for f32.
+    pub act_bits: u8,
+    /// The layers, in the order documented above.
+    #[serde(borrow)]
+    pub layers: heapless::Vec<Layer<'a>, MAX_LAYERS>,
+}
+
+/// Index of the density head.
+pub const fn sigma_layer(t: &Topology) -> usize {
+    t.depth as usize
+}
+
+/// A decoded model, borrowing its tensors from the blob.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Model<'a> {
+    /// Scene bounds, near/far, background, camera convention.
+    pub scene: Scene,
+    /// Positional encoding.
+    pub encoding: Encoding,
+    /// Network shape (both networks share it).
+    pub topology: Topology,
+    /// Default sample counts.
+    pub samples: Samples,
+    /// Provenance.
+    pub meta: Meta,
+    /// The coarse network (the only one when `fine` is `None`).
+    #[serde(borrow)]
+    pub coarse: Network<'a>,
+    /// The fine network evaluated on coarse + importance samples.
+    #[serde(borrow)]
+    pub fine: Option<Network<'a>>,
+}
+
+impl<'a> Model<'a> {
+    /// Decodes and validates a model from `bytes` without copying or allocating.
+    pub fn from_bytes(bytes: &'a [u8]) -> Result<Self> {
+        let payload = check_header(bytes)?;
+        let model: Model<'a> = postcard::from_bytes(payload).map_err(|_| Error::Decode)?;
+        model.validate()?;
+        Ok(model)
+    }
+
+    /// The network that produces the final colour (fine if present).
+    pub fn final_network(&self) -> &Network<'a> {
+        self.fine.as_ref().unwrap_or(&self.coarse)
+    }
+
+    /// Numeric scheme of the model (both networks share it).
+    pub fn scheme(&self) -> Scheme {
+        self.coarse.scheme
+    }
+
+    /// Total bytes of all tensors (weights, biases, scales, requant).
+    pub fn tensor_bytes(&self) -> usize {
+        core::iter::once(&self.coarse)
+            .chain(self.fine.as_ref())
+            .flat_map(|n| n.layers.iter())
+            .map(|l| l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len())
+            .sum()
+    }
+
+    /// Checks every field; called by [`Model::from_bytes`].
+    pub fn validate(&self) -> Result<()> {
+        let s = &self.scene;
+        let finite3 = |v: &[f32; 3]| v.iter().all(|x| x.is_finite());
+        if !finite3(&s.bounds_min) || !finite3(&s.bounds_max) {
+            return Err(Error::InvalidScene("bounds are not finite"));
+        }
+        if (0..3).any(|i| s.bounds_min[i] >= s.bounds_max[i]) {
+            return Err(Error::InvalidScene("bounds_min is not below bounds_max"));
+        }
+        if !(s.near.is_finite() && s.far.is_finite() && s.near >= 0.0 && s.near < s.far) {
+            return Err(Error::InvalidScene("need finite 0 <= near < far"));
+        }
+        if s.far > 30000.0 {
+            return Err(Error::InvalidScene("far exceeds the fixed-point range (30000)"));
+        }
+        if let Some(n) = s.ndc {
+            if !(n.focal.is_finite() && n.focal > 0.0 && n.width >= 1.0 && n.height >= 1.0)
+                || !(n.width.is_finite() && n.height.is_finite())
+            {
+                return Err(Error::InvalidScene("NDC parameters"));
+            }
+        }
+        let e = &self.encoding;
+        if e.pos_freqs as usize > MAX_FREQS || e.dir_freqs as usize > MAX_FREQS {
+            return Err(Error::InvalidEncoding("more than 16 frequencies"));
+        }
+        if e.raw_frac_bits > 15 {
+            return Err(Error::InvalidEncoding("raw_frac_bits above 15"));
+        }
+        if e.pos_dim() == 0 || (self.topology.view_dependent && e.dir_dim() == 0) {
+            return Err(Error::InvalidEncoding("empty encoding"));
+        }
+        let t = &self.topology;
+        if t.depth == 0 || t.width == 0 || (t.view_dependent && t.view_width == 0) {
+            return Err(Error::InvalidTopology("zero depth or width"));
+        }
+        if t.width as usize > MAX_WIDTH || t.view_width as usize > MAX_WIDTH {
+            return Err(Error::Capacity("layer width above 256"));
+        }
+        if t.layer_count() > MAX_LAYERS {
+            return Err(Error::Capacity("more than 24 layers"));
+        }
+        if t.skip_mask & 1 != 0 || (t.depth < 16 && t.skip_mask >> t.depth != 0) {
+            return Err(Error::InvalidTopology("skip mask names a layer outside 1..depth"));
+        }
+        let sm = &self.samples;
+        if sm.coarse < 2 || sm.coarse as usize > MAX_COARSE || sm.fine as usize > MAX_FINE {
+            return Err(Error::InvalidSamples);
+        }
+        if (sm.fine > 0) != self.fine.is_some() {
+            return Err(Error::InvalidTopology("fine samples without a fine network or vice versa"));
+        }
+        self.validate_network(&self.coarse)?;
+        if let Some(f) = &self.fine {
+            if f.scheme != self.coarse.scheme {
+                return Err(Error::MixedScheme(0));
+            }
+            self.validate_network(f)?;
+        }
+        Ok(())
+    }
+
+    fn validate_network(&self, n: &Network<'_>) -> Result<()> {
+        let t = &self.topology;
+        let e = &self.encoding;
+        if n.layers.len() != t.layer_count() {
+            return Err(Error::InvalidTopology("layer count does not match the topology"));
+        }
+        let want_act = if n.scheme.is_fixed() { 16 } else { 32 };
+        if n.act_bits != want_act {
+            return Err(Error::InvalidTopology("unsupported activation width"));
+        }
+        let w = t.width as usize;
+        for (i, l) in n.layers.iter().enumerate() {
+            let (din, dout) = expected_shape(t, e, i);
+            let idx = i as u8;
+            if l.in_dim as usize != din || l.out_dim as usize != dout {
+                return Err(Error::LayerShape(idx));
+            }
+            if !(l.act_max.is_finite() && l.act_max >= 0.0) {
+                return Err(Error::InvalidScale(idx));
+            }
+            let elems = din * dout;
+            if l.weights.len() != elems * n.scheme.weight_bytes() || l.bias.len() != 4 * dout {
+                return Err(Error::TensorLength(idx));
+            }
+            if n.scheme.is_fixed() {
+                if din > 512 {
+                    return Err(Error::Capacity("fixed-point layer input above 512"));
+                }
+                if l.scales.len() != 4 * dout || l.requant.len() != 8 * dout {
+                    return Err(Error::TensorLength(idx));
+                }
+                for c in 0..dout {
+                    let sc = l.scale(c);
+                    if !(sc.is_finite() && sc > 0.0) || !l.requant(c).is_valid() {
+                        return Err(Error::InvalidScale(idx));
+                    }
+                }
+            } else {
+                if !l.scales.is_empty() || !l.requant.is_empty() {
+                    return Err(Error::TensorLength(idx));
+                }
+                let all_finite = (0..elems).all(|k| read_f32(l.weights, k).is_finite())
+                    && (0..dout).all(|k| read_f32(l.bias, k).is_finite());
+                if !all_finite {
+                    return Err(Error::InvalidScale(idx));
+                }
+            }
+        }
+        let _ = w;
+        Ok(())
+    }
+}
+
+/// Input and output width of layer `i` of a network with this shape.
+pub fn expected_shape(t: &Topology, e: &Encoding, i: usize) -> (usize, usize) {
+    let w = t.width as usize;
+    let d = t.depth as usize;
+    if i < d {
+        let din = if i == 0 {
+            e.pos_dim()
+        } else if t.is_skip(i) {
+            w + e.pos_dim()
+        } else {
+            w
+        };
+        return (din, w);
+    }
+    match (i - d, t.view_dependent) {
+        (0, _) => (w, 1),
+        (1, true) => (w, w),
+        (2, true) => (w + e.dir_dim(), t.view_width as usize),
+        (3, true) => (t.view_width as usize, 3),
+        (1, false) => (w, 3),
+        _ => (0, 0),
+    }
+}
+
+/// Checks magic, version, length and checksum; returns the payload.
+fn check_header(bytes: &[u8]) -> Result<&[u8]> {
+    if bytes.len() < 4 {
+        return Err(Error::Truncated);
+    }
+    if bytes[0..4] != MAGIC {
+        return Err(Error::BadMagic);
+    }
+    if bytes.len() < HEADER_LEN {
+        return Err(Error::Truncated);
+    }
+    let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+    if version != FORMAT_VERSION {
+        return Err(Error::UnsupportedVersion(version));
+    }
+    let len = u32::from_le_bytes([bytes[6], bytes[7], bytes[8], bytes[9]]) as usize;
+    let crc = u32::from_le_bytes([bytes[10], bytes[11], bytes[12], bytes[13]]);
+    let rest = &bytes[HEADER_LEN..];
+    if rest.len() < len {
+        return Err(Error::Truncated);
+    }
+    if rest.len() > len {
+        return Err(Error::TrailingBytes);
+    }
+    if crc32(rest) != crc {
+        return Err(Error::ChecksumMismatch);
+    }
+    Ok(rest)
+}
+
+static CRC_TABLE: [u32; 256] = {
+    let mut t = [0u32; 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut c = i as u32;
+        let mut k = 0;
+        while k < 8 {
+            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            k += 1;
+        }
+        t[i] = c;
+        i += 1;
+    }
+    t
+};
+
+/// CRC-32 (IEEE 802.3, reflected, as zlib's `crc32`).
+pub fn crc32(data: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in data {
+        c = CRC_TABLE[((c ^ b as u32) & 0xFF) as usize] ^ (c >> 8);
+    }
+    !c
+}
+
+/// Encodes a model (header + postcard payload) into a new byte vector.
+#[cfg(feature = "alloc")]
+pub fn to_bytes(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
+    model.validate()?;
+    let payload = postcard::to_allocvec(model).map_err(|_| Error::Decode)?;
+    let mut out = alloc::vec::Vec::with_capacity(HEADER_LEN + payload.len());
+    out.extend_from_slice(&MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    out.extend_from_slice(&crc32(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crc32_matches_zlib() {
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+        assert_eq!(crc32(b""), 0);
+    }
+
+    #[test]
+    fn header_errors_are_typed() {
+        assert_eq!(Model::from_bytes(b"NE").unwrap_err(), Error::Truncated);
+        assert_eq!(Model::from_bytes(b"XXXXXXXXXXXXXXXXXX").unwrap_err(), Error::BadMagic);
+        let mut h = [0u8; 14];
+        h[..4].copy_from_slice(&MAGIC);
+        h[4] = 9;
+        assert_eq!(Model::from_bytes(&h).unwrap_err(), Error::UnsupportedVersion(9));
+    }
+}

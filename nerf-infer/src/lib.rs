@@ -1,0 +1,66 @@
+//! `nerf-infer`: renders Neural Radiance Fields (Mildenhall et al., 2020)
+//! without `std` and without an allocator, in f32 or integer-only fixed
+//! point, from a model blob that can sit in flash.
+//!
+//! Pipeline, one module per stage: [`camera`] (pixel → ray) →
+//! [`sampling`] (where along the ray) → [`encoding`] (γ) → [`network`]
+//! (the MLP) → [`composite`] (the quadrature) → [`render`] (one ray, both
+//! passes) → [`tile`] (a rectangle of pixels). [`format`] decodes models;
+//! [`fixed`] holds the Q formats and integer primitives.
+//!
+//! Memory: nothing is allocated. Working memory is a scratch value the
+//! caller owns ([`ScratchF32`], [`ScratchFixed`]), sized by the constants in
+//! [`format`] (`MAX_WIDTH = 256`, `MAX_COARSE = MAX_FINE = 256`) and a block
+//! size `B` (samples evaluated together).
+//!
+//! # Embedding example
+//!
+//! ```
+//! use nerf_infer::{render_tile, Camera, FixedRenderer, Model, RenderOptions, ScratchFixed, Tile, FixedPixel};
+//!
+//! // The model can live in flash: decoding borrows, it never copies.
+//! static MODEL: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/golden.nerf"));
+//!
+//! let model = Model::from_bytes(MODEL).expect("valid model");
+//! let renderer = FixedRenderer::new(&model, RenderOptions::from_model(&model)).unwrap();
+//! let pose = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 3.0]];
+//! let camera = Camera::from_fov(16, 16, 0.7, pose).unwrap();
+//! let tile = Tile { x0: 4, y0: 4, width: 4, height: 2 };
+//! let mut scratch = ScratchFixed::<1>::default(); // one sample per block: ~14 KiB
+//! let mut pixels = [FixedPixel::default(); 8];
+//! for (k, px) in pixels.iter_mut().enumerate() {
+//!     let (x, y) = (tile.x0 + k as u32 % 4, tile.y0 + k as u32 / 4);
+//!     let (o, d) = camera.ray(x, y);
+//!     *px = renderer.render_ray_in(o, d, (x, y), &mut scratch);
+//! }
+//! // Or the whole tile at once with the default block size:
+//! let mut scratch = ScratchFixed::default();
+//! let mut tile_px = [FixedPixel::default(); 8];
+//! render_tile(&renderer, &camera, tile, &mut scratch, &mut tile_px).unwrap();
+//! assert_eq!(pixels, tile_px);
+//! assert!(pixels.iter().all(|p| p.rgb.iter().all(|&c| c <= 32768)));
+//! ```
+#![cfg_attr(not(feature = "std"), no_std)]
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
+pub mod camera;
+pub mod composite;
+pub mod encoding;
+pub mod error;
+pub mod fixed;
+pub mod format;
+pub mod network;
+pub mod render;
+pub mod sampling;
+pub mod tile;
+
+pub use camera::{Camera, Ray};
+pub use composite::{FixedPixel, Pixel};
+pub use error::{Error, Result};
+pub use format::{Model, Scheme};
+pub use render::{F32Renderer, FixedRenderer, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
+pub use tile::{render_tile, Tile};

@@ -1,0 +1,437 @@
+//! The NeRF MLP evaluated on a block of up to `B` samples of one ray.
+//!
+//! Dense layers are computed in input-major "axpy" form: for each input `j`,
+//! its weight row (all outputs) is loaded once and added, scaled by the
+//! input, to each sample's accumulator. Zero inputs (ReLU) are skipped,
+//! which changes no result. The direction part of the view layer is the
+//! same for every sample of a ray, so it is folded into a per-ray bias by
+//! `prepare_ray`.
+//!
+//! Fixed-point path: i16 activations; [`Scheme::I16`] weights accumulate in
+//! i64, [`Scheme::I8`] weights in i32 (overflow excluded at load, see
+//! [`check_i8_headroom`]); one [`crate::fixed::Requant`] per output channel.
+
+use crate::encoding::{encode_f32, encode_fixed};
+use crate::error::{Error, Result};
+use crate::fixed::{sat_i16, sat_i32, sigmoid_q12_q15};
+use crate::format::{read_f32, read_i32, sigma_layer, Layer, Model, Network, Scheme, MAX_FREQS, MAX_WIDTH};
+
+/// Longest encoded position or direction: `3 + 6·16`.
+pub const ENC_MAX: usize = 3 + 6 * MAX_FREQS;
+
+/// Per-block buffers of the f32 path (`B` samples; ≈ `B`·2.4 KiB + 1 KiB).
+#[derive(Clone)]
+pub struct BlockF32<const B: usize> {
+    enc: [[f32; ENC_MAX]; B],
+    h: [[f32; MAX_WIDTH]; B],
+    g: [[f32; MAX_WIDTH]; B],
+    view_bias: [f32; MAX_WIDTH],
+    /// Raw density head output per sample.
+    pub sigma: [f32; B],
+    /// Colour per sample in `[0, 1]` (valid when requested).
+    pub rgb: [[f32; 3]; B],
+}
+
+impl<const B: usize> Default for BlockF32<B> {
+    fn default() -> Self {
+        Self {
+            enc: [[0.0; ENC_MAX]; B],
+            h: [[0.0; MAX_WIDTH]; B],
+            g: [[0.0; MAX_WIDTH]; B],
+            view_bias: [0.0; MAX_WIDTH],
+            sigma: [0.0; B],
+            rgb: [[0.0; 3]; B],
+        }
+    }
+}
+
+/// `out[s][..] = bias` for the first `n` samples.
+fn init_f32(bias: impl Fn(usize) -> f32, out_dim: usize, n: usize, out: &mut [[f32; MAX_WIDTH]]) {
+    for row in out[..n].iter_mut() {
+        for (c, y) in row[..out_dim].iter_mut().enumerate() {
+            *y = bias(c);
+        }
+    }
+}
+
+/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n` samples.
+#[inline]
+fn accumulate_f32<const N: usize>(
+    l: &Layer<'_>,
+    row0: usize,
+    input: &[[f32; N]],
+    in_dim: usize,
+    n: usize,
+    out: &mut [[f32; MAX_WIDTH]],
+) {
+    let od = l.out_dim as usize;
+    for j in 0..in_dim {
+        let row = &l.weights[(row0 + j) * od * 4..(row0 + j + 1) * od * 4];
+        for s in 0..n {
+            let a = input[s][j];
+            if a == 0.0 {
+                continue;
+            }
+            for (y, w) in out[s][..od].iter_mut().zip(row.chunks_exact(4)) {
+                *y += a * f32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+            }
+        }
+    }
+}
+
+fn relu_f32(out_dim: usize, n: usize, buf: &mut [[f32; MAX_WIDTH]]) {
+    for row in buf[..n].iter_mut() {
+        for y in row[..out_dim].iter_mut() {
+            *y = y.max(0.0);
+        }
+    }
+}
+
+fn sigmoid_f32(x: f32) -> f32 {
+    1.0 / (1.0 + libm::expf(-x))
+}
+
+impl<const B: usize> BlockF32<B> {
+    /// Per-ray setup of network `net`: folds `γ(viewdir)` into the view
+    /// layer's bias. No-op without the view branch.
+    pub fn prepare_ray(&mut self, model: &Model<'_>, net: &Network<'_>, viewdir: [f32; 3]) {
+        let t = &model.topology;
+        if !t.view_dependent {
+            return;
+        }
+        let e = &model.encoding;
+        let l = &net.layers[sigma_layer(t) + 2];
+        let mut enc = [0.0f32; ENC_MAX];
+        let nd = encode_f32(viewdir, e.dir_freqs as usize, e.include_input, &mut enc);
+        let od = l.out_dim as usize;
+        let w = t.width as usize;
+        for c in 0..od {
+            self.view_bias[c] = read_f32(l.bias, c);
+        }
+        for (j, &a) in enc[..nd].iter().enumerate() {
+            for c in 0..od {
+                self.view_bias[c] += a * read_f32(l.weights, (w + j) * od + c);
+            }
+        }
+    }
+
+    /// Evaluates `net` at the normalised positions `pos` (≤ `B` of them),
+    /// filling `sigma` and, if `need_rgb`, `rgb`.
+    pub fn eval(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[f32; 3]], need_rgb: bool) {
+        let n = pos.len();
+        let t = &model.topology;
+        let e = &model.encoding;
+        let mut pd = 0;
+        for (s, p) in pos.iter().enumerate() {
+            pd = encode_f32(*p, e.pos_freqs as usize, e.include_input, &mut self.enc[s]);
+        }
+        let w = t.width as usize;
+        let layers = &net.layers;
+        // Trunk: h ← layer 0, then alternate between h and g.
+        let l0 = &layers[0];
+        init_f32(|c| read_f32(l0.bias, c), w, n, &mut self.h);
+        accumulate_f32(l0, 0, &self.enc, pd, n, &mut self.h);
+        relu_f32(w, n, &mut self.h);
+        let mut in_h = true;
+        for (i, l) in layers.iter().enumerate().take(t.depth as usize).skip(1) {
+            let (src, dst) = if in_h { (&self.h, &mut self.g) } else { (&self.g, &mut self.h) };
+            init_f32(|c| read_f32(l.bias, c), w, n, dst);
+            let mut row0 = 0;
+            if t.is_skip(i) {
+                accumulate_f32(l, 0, &self.enc, pd, n, dst);
+                row0 = pd;
+            }
+            accumulate_f32(l, row0, src, w, n, dst);
+            relu_f32(w, n, dst);
+            in_h = !in_h;
+        }
+        let (trunk, spare) = if in_h { (&mut self.h, &mut self.g) } else { (&mut self.g, &mut self.h) };
+        let ls = &layers[sigma_layer(t)];
+        for s in 0..n {
+            let mut acc = read_f32(ls.bias, 0);
+            for j in 0..w {
+                acc += trunk[s][j] * read_f32(ls.weights, j);
+            }
+            self.sigma[s] = acc;
+        }
+        if !need_rgb {
+            return;
+        }
+        let (rgb_in, rgb_dim, lr) = if t.view_dependent {
+            let lf = &layers[sigma_layer(t) + 1];
+            init_f32(|c| read_f32(lf.bias, c), w, n, spare);
+            accumulate_f32(lf, 0, trunk, w, n, spare);
+            let lv = &layers[sigma_layer(t) + 2];
+            let vw = t.view_width as usize;
+            let vb = &self.view_bias;
+            init_f32(|c| vb[c], vw, n, trunk);
+            accumulate_f32(lv, 0, spare, w, n, trunk);
+            relu_f32(vw, n, trunk);
+            (&*trunk, vw, &layers[sigma_layer(t) + 3])
+        } else {
+            (&*trunk, w, &layers[sigma_layer(t) + 1])
+        };
+        for s in 0..n {
+            for c in 0..3 {
+                let mut acc = read_f32(lr.bias, c);
+                for j in 0..rgb_dim {
+                    acc += rgb_in[s][j] * read_f32(lr.weights, j * 3 + c);
+                }
+                self.rgb[s][c] = sigmoid_f32(acc);
+            }
+        }
+    }
+}
+
+/// Integer weight element types of the fixed-point path.
+pub trait IntWeight {
+    /// Accumulator: i64 for int16 weights, i32 for int8 weights.
+    type Acc: Copy + Default + core::ops::AddAssign + Into<i64>;
+    /// Bytes per weight.
+    const BYTES: usize;
+    /// `a · w` in the accumulator type (`w` is the weight's bytes).
+    fn mul(a: i16, w: &[u8]) -> Self::Acc;
+    /// A bias or partial sum (checked at load to fit the accumulator).
+    fn from_i64(b: i64) -> Self::Acc;
+    /// Picks this type's accumulator buffer.
+    fn pick<'a, const B: usize>(
+        a64: &'a mut [[i64; MAX_WIDTH]; B],
+        a32: &'a mut [[i32; MAX_WIDTH]; B],
+    ) -> &'a mut [[Self::Acc; MAX_WIDTH]; B];
+}
+
+/// int16 weights, i64 accumulation.
+pub struct W16;
+/// int8 weights, i32 accumulation.
+pub struct W8;
+
+impl IntWeight for W16 {
+    type Acc = i64;
+    const BYTES: usize = 2;
+    #[inline(always)]
+    fn mul(a: i16, w: &[u8]) -> i64 {
+        a as i64 * i16::from_le_bytes([w[0], w[1]]) as i64
+    }
+    fn from_i64(b: i64) -> i64 {
+        b
+    }
+    fn pick<'a, const B: usize>(
+        a64: &'a mut [[i64; MAX_WIDTH]; B],
+        _: &'a mut [[i32; MAX_WIDTH]; B],
+    ) -> &'a mut [[i64; MAX_WIDTH]; B] {
+        a64
+    }
+}
+
+impl IntWeight for W8 {
+    type Acc = i32;
+    const BYTES: usize = 1;
+    #[inline(always)]
+    fn mul(a: i16, w: &[u8]) -> i32 {
+        a as i32 * w[0] as i8 as i32
+    }
+    fn from_i64(b: i64) -> i32 {
+        b as i32
+    }
+    fn pick<'a, const B: usize>(
+        _: &'a mut [[i64; MAX_WIDTH]; B],
+        a32: &'a mut [[i32; MAX_WIDTH]; B],
+    ) -> &'a mut [[i32; MAX_WIDTH]; B] {
+        a32
+    }
+}
+
+/// Checks that no int8 layer can overflow its i32 accumulator:
+/// `Σⱼ |W[j][c]| · 32768 + |bias[c]| ≤ i32::MAX` for every output `c`.
+pub fn check_i8_headroom(net: &Network<'_>) -> Result<()> {
+    if net.scheme != Scheme::I8 {
+        return Ok(());
+    }
+    for (i, l) in net.layers.iter().enumerate() {
+        let od = l.out_dim as usize;
+        for c in 0..od {
+            let mut sum = (read_i32(l.bias, c) as i64).abs();
+            for j in 0..l.in_dim as usize {
+                sum += ((l.weights[j * od + c] as i8 as i64).abs()) << 15;
+            }
+            if sum > i32::MAX as i64 {
+                return Err(Error::InvalidScale(i as u8));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Per-block buffers of the fixed-point path (`B` samples; ≈ `B`·4.7 KiB + 2 KiB).
+#[derive(Clone)]
+pub struct BlockFixed<const B: usize> {
+    enc: [[i16; ENC_MAX]; B],
+    h: [[i16; MAX_WIDTH]; B],
+    g: [[i16; MAX_WIDTH]; B],
+    acc64: [[i64; MAX_WIDTH]; B],
+    acc32: [[i32; MAX_WIDTH]; B],
+    view_acc: [i64; MAX_WIDTH],
+    /// Density per sample, Q10 (before ReLU).
+    pub sigma: [i32; B],
+    /// Colour per sample, Q15 (valid when requested).
+    pub rgb: [[u16; 3]; B],
+}
+
+impl<const B: usize> Default for BlockFixed<B> {
+    fn default() -> Self {
+        Self {
+            enc: [[0; ENC_MAX]; B],
+            h: [[0; MAX_WIDTH]; B],
+            g: [[0; MAX_WIDTH]; B],
+            acc64: [[0; MAX_WIDTH]; B],
+            acc32: [[0; MAX_WIDTH]; B],
+            view_acc: [0; MAX_WIDTH],
+            sigma: [0; B],
+            rgb: [[0; 3]; B],
+        }
+    }
+}
+
+/// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` (integer weights).
+#[inline]
+fn accumulate_int<W: IntWeight, const N: usize>(
+    l: &Layer<'_>,
+    row0: usize,
+    input: &[[i16; N]],
+    in_dim: usize,
+    n: usize,
+    acc: &mut [[W::Acc; MAX_WIDTH]],
+) {
+    let od = l.out_dim as usize;
+    let rb = od * W::BYTES;
+    for j in 0..in_dim {
+        let row = &l.weights[(row0 + j) * rb..(row0 + j + 1) * rb];
+        for s in 0..n {
+            let a = input[s][j];
+            if a == 0 {
+                continue;
+            }
+            for (y, w) in acc[s][..od].iter_mut().zip(row.chunks_exact(W::BYTES)) {
+                *y += W::mul(a, w);
+            }
+        }
+    }
+}
+
+/// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
+fn init_int<W: IntWeight>(l: &Layer<'_>, view: Option<&[i64; MAX_WIDTH]>, n: usize, acc: &mut [[W::Acc; MAX_WIDTH]]) {
+    let od = l.out_dim as usize;
+    for row in acc[..n].iter_mut() {
+        for (c, y) in row[..od].iter_mut().enumerate() {
+            *y = match view {
+                // prepare_ray summed a subset of this channel's checked terms.
+                Some(v) => W::from_i64(v[c]),
+                None => W::from_i64(read_i32(l.bias, c) as i64),
+            };
+        }
+    }
+}
+
+/// Requantises accumulators into `out` with `f(requantised value)`.
+#[inline]
+fn requant_each<W: IntWeight, T>(l: &Layer<'_>, n: usize, acc: &[[W::Acc; MAX_WIDTH]], out: &mut [[T; MAX_WIDTH]], f: impl Fn(i64) -> T) {
+    let od = l.out_dim as usize;
+    for c in 0..od {
+        let r = l.requant(c);
+        for s in 0..n {
+            out[s][c] = f(r.apply(acc[s][c].into()));
+        }
+    }
+}
+
+impl<const B: usize> BlockFixed<B> {
+    /// Per-ray setup: folds the encoded direction (Q24 unit vector) into the
+    /// view layer's accumulator bias. No-op without the view branch.
+    pub fn prepare_ray<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, viewdir_q24: [i32; 3]) {
+        let t = &model.topology;
+        if !t.view_dependent {
+            return;
+        }
+        let e = &model.encoding;
+        let l = &net.layers[sigma_layer(t) + 2];
+        let mut enc = [0i16; ENC_MAX];
+        let nd = encode_fixed(viewdir_q24, e.dir_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc);
+        let od = l.out_dim as usize;
+        let w = t.width as usize;
+        for c in 0..od {
+            let mut acc: W::Acc = W::from_i64(read_i32(l.bias, c) as i64);
+            for (j, &a) in enc[..nd].iter().enumerate() {
+                let k = ((w + j) * od + c) * W::BYTES;
+                acc += W::mul(a, &l.weights[k..k + W::BYTES]);
+            }
+            self.view_acc[c] = acc.into();
+        }
+    }
+
+    /// Evaluates `net` at Q24 normalised positions `pos` (≤ `B`), filling
+    /// `sigma` (Q10) and, if `need_rgb`, `rgb` (Q15). Integer only.
+    pub fn eval<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[i32; 3]], need_rgb: bool) {
+        let n = pos.len();
+        let t = &model.topology;
+        let e = &model.encoding;
+        let Self { enc, h, g, acc64, acc32, view_acc, sigma, rgb } = self;
+        let acc = W::pick(acc64, acc32);
+        let mut pd = 0;
+        for (s, p) in pos.iter().enumerate() {
+            pd = encode_fixed(*p, e.pos_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc[s]);
+        }
+        let w = t.width as usize;
+        let layers = &net.layers;
+        let relu = |v: i64| sat_i16(v.max(0));
+        let l0 = &layers[0];
+        init_int::<W>(l0, None, n, acc);
+        accumulate_int::<W, ENC_MAX>(l0, 0, enc, pd, n, acc);
+        requant_each::<W, i16>(l0, n, acc, h, relu);
+        let mut in_h = true;
+        for (i, l) in layers.iter().enumerate().take(t.depth as usize).skip(1) {
+            let (src, dst) = if in_h { (&*h, &mut *g) } else { (&*g, &mut *h) };
+            init_int::<W>(l, None, n, acc);
+            let mut row0 = 0;
+            if t.is_skip(i) {
+                accumulate_int::<W, ENC_MAX>(l, 0, enc, pd, n, acc);
+                row0 = pd;
+            }
+            accumulate_int::<W, MAX_WIDTH>(l, row0, src, w, n, acc);
+            requant_each::<W, i16>(l, n, acc, dst, relu);
+            in_h = !in_h;
+        }
+        let (trunk, spare) = if in_h { (h, g) } else { (g, h) };
+        let si = sigma_layer(t);
+        let ls = &layers[si];
+        init_int::<W>(ls, None, n, acc);
+        accumulate_int::<W, MAX_WIDTH>(ls, 0, trunk, w, n, acc);
+        let rs = ls.requant(0);
+        for s in 0..n {
+            sigma[s] = sat_i32(rs.apply(acc[s][0].into()));
+        }
+        if !need_rgb {
+            return;
+        }
+        let (rgb_in, rgb_dim, lr) = if t.view_dependent {
+            let lf = &layers[si + 1];
+            init_int::<W>(lf, None, n, acc);
+            accumulate_int::<W, MAX_WIDTH>(lf, 0, trunk, w, n, acc);
+            requant_each::<W, i16>(lf, n, acc, spare, |v| sat_i16(v));
+            let lv = &layers[si + 2];
+            init_int::<W>(lv, Some(view_acc), n, acc);
+            accumulate_int::<W, MAX_WIDTH>(lv, 0, spare, w, n, acc);
+            requant_each::<W, i16>(lv, n, acc, trunk, relu);
+            (&*trunk, t.view_width as usize, &layers[si + 3])
+        } else {
+            (&*trunk, w, &layers[si + 1])
+        };
+        init_int::<W>(lr, None, n, acc);
+        accumulate_int::<W, MAX_WIDTH>(lr, 0, rgb_in, rgb_dim, n, acc);
+        for c in 0..3 {
+            let r = lr.requant(c);
+            for s in 0..n {
+                rgb[s][c] = sigmoid_q12_q15(sat_i32(r.apply(acc[s][c].into())));
+            }
+        }
+    }
+}
