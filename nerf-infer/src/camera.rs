@@ -72,7 +72,15 @@ impl Camera {
     /// horizontal field of view `fov_x` in radians (Blender's `camera_angle_x`).
     pub fn from_fov(width: u32, height: u32, fov_x: f32, c2w: [[f32; 4]; 3]) -> Result<Self> {
         let f = 0.5 * width as f32 / libm::tanf(0.5 * fov_x);
-        Self::new(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32, c2w)
+        Self::new(
+            width,
+            height,
+            f,
+            f,
+            0.5 * width as f32,
+            0.5 * height as f32,
+            c2w,
+        )
     }
 
     /// Origin and (unnormalised, camera-space `z = −1`) direction of the ray
@@ -87,7 +95,12 @@ impl Camera {
 /// True if `m` is orthonormal within 10⁻³ with determinant +1.
 pub fn is_rotation(m: &Mat3) -> bool {
     let d = *m * m.transpose() - Mat3::IDENTITY;
-    let err = d.x_axis.abs().max_element().max(d.y_axis.abs().max_element()).max(d.z_axis.abs().max_element());
+    let err = d
+        .x_axis
+        .abs()
+        .max_element()
+        .max(d.y_axis.abs().max_element())
+        .max(d.z_axis.abs().max_element());
     err.is_finite() && err < 1e-3 && (m.determinant() - 1.0).abs() < 1e-3
 }
 
@@ -190,6 +203,9 @@ mod tests {
         m = IDENTITY;
         m[1][3] = f32::NAN;
         assert_eq!(Camera::from_fov(4, 4, 1.0, m), Err(Error::InvalidCamera));
-        assert_eq!(Camera::from_fov(0, 4, 1.0, IDENTITY), Err(Error::InvalidCamera));
+        assert_eq!(
+            Camera::from_fov(0, 4, 1.0, IDENTITY),
+            Err(Error::InvalidCamera)
+        );
     }
 }

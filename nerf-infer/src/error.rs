@@ -64,13 +64,27 @@ impl fmt::Display for Error {
             Error::InvalidEncoding(w) => write!(f, "invalid encoding: {w}"),
             Error::InvalidTopology(w) => write!(f, "invalid topology: {w}"),
             Error::LayerShape(i) => write!(f, "layer {i}: dimensions do not match the topology"),
-            Error::TensorLength(i) => write!(f, "layer {i}: tensor length does not match its shape"),
-            Error::InvalidScale(i) => write!(f, "layer {i}: scale or requantisation constant out of range"),
-            Error::MixedScheme(i) => write!(f, "layer {i}: numeric scheme differs from the network's"),
+            Error::TensorLength(i) => {
+                write!(f, "layer {i}: tensor length does not match its shape")
+            }
+            Error::InvalidScale(i) => write!(
+                f,
+                "layer {i}: scale or requantisation constant out of range"
+            ),
+            Error::MixedScheme(i) => {
+                write!(f, "layer {i}: numeric scheme differs from the network's")
+            }
             Error::Capacity(w) => write!(f, "model exceeds this build's capacity: {w}"),
-            Error::InvalidSamples => write!(f, "sample counts are zero or exceed the kernel's capacity"),
-            Error::WrongNumericPath => write!(f, "the model's numeric scheme does not match this renderer"),
-            Error::InvalidCamera => write!(f, "camera parameters are not finite or the pose is not rigid"),
+            Error::InvalidSamples => {
+                write!(f, "sample counts are zero or exceed the kernel's capacity")
+            }
+            Error::WrongNumericPath => {
+                write!(f, "the model's numeric scheme does not match this renderer")
+            }
+            Error::InvalidCamera => write!(
+                f,
+                "camera parameters are not finite or the pose is not rigid"
+            ),
             Error::InvalidTile => write!(f, "tile outside the image or output buffer too small"),
             Error::BufferTooSmall => write!(f, "output buffer too small"),
         }

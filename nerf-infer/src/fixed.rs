@@ -51,7 +51,6 @@ pub fn to_fixed(x: f32, frac: u32) -> i32 {
     }
 }
 
-
 /// Arithmetic right shift by `n` (0..=63) rounding half up.
 #[inline(always)]
 pub fn shr_round_i64(x: i64, n: u32) -> i64 {
@@ -192,7 +191,7 @@ const fn build_sin_table() -> [i32; 257] {
 pub fn sin_turns_q15(phase: u32) -> i16 {
     let quadrant = phase >> 30;
     let within = phase & 0x3FFF_FFFF; // 30 bits within the quadrant
-    // Mirror for quadrants 1 and 3: sin(π/2 + a) = sin(π/2 − a).
+                                      // Mirror for quadrants 1 and 3: sin(π/2 + a) = sin(π/2 − a).
     let pos = if quadrant & 1 == 1 {
         (1u32 << 30) - within
     } else {
@@ -282,7 +281,7 @@ fn exp2_neg_frac_q30(f: i64) -> i64 {
 pub fn sigmoid_q12_q15(z: i32) -> u16 {
     let a = (z as i64).unsigned_abs() as i64;
     let e = exp_neg_q16_q30(a << (16 - LOGIT_FRAC)) as u64; // Q30
-    // s = 2^45 / (2^30 + e), in Q15, for the non-negative half.
+                                                            // s = 2^45 / (2^30 + e), in Q15, for the non-negative half.
     let den = (1u64 << 30) + e;
     let s = ((1u64 << 45) + den / 2) / den; // in [16384, 32768]
     if z >= 0 {
@@ -318,7 +317,10 @@ mod tests {
             let x = phase as f64 / 4294967296.0 * core::f64::consts::TAU;
             let want = libm::sin(x) * 32768.0;
             let got = sin_turns_q15(phase) as f64;
-            assert!((got - want.clamp(-32767.0, 32767.0)).abs() <= 1.0, "phase {phase}: {got} vs {want}");
+            assert!(
+                (got - want.clamp(-32767.0, 32767.0)).abs() <= 1.0,
+                "phase {phase}: {got} vs {want}"
+            );
             let wantc = (libm::cos(x) * 32768.0).clamp(-32767.0, 32767.0);
             assert!((cos_turns_q15(phase) as f64 - wantc).abs() <= 1.0);
         }
@@ -330,7 +332,10 @@ mod tests {
             let x = i * 97; // up to ~30 in Q16
             let want = libm::exp(-(x as f64) / 65536.0) * 1073741824.0;
             let got = exp_neg_q16_q30(x) as f64;
-            assert!((got - want).abs() <= 2.0 + want * 2e-7, "x={x}: {got} vs {want}");
+            assert!(
+                (got - want).abs() <= 2.0 + want * 2e-7,
+                "x={x}: {got} vs {want}"
+            );
         }
         assert_eq!(exp_neg_q16_q30(0), T_ONE);
         assert_eq!(exp_neg_q16_q30(-5), T_ONE);

@@ -62,5 +62,7 @@ pub use camera::{Camera, Ray};
 pub use composite::{FixedPixel, Pixel};
 pub use error::{Error, Result};
 pub use format::{Model, Scheme};
-pub use render::{F32Renderer, FixedRenderer, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
+pub use render::{
+    F32Renderer, FixedRenderer, RayRenderer, RenderOptions, ScratchF32, ScratchFixed,
+};
 pub use tile::{render_tile, Tile};

@@ -9,12 +9,15 @@
 
 use crate::camera::Ray;
 use crate::composite::{CompositorF32, CompositorFixed, FixedPixel, Pixel, DELTA_INF_Q16};
+use crate::encoding::NPOS_FRAC;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
-use crate::encoding::NPOS_FRAC;
 use crate::format::{Model, Network, Scheme, MAX_COARSE, MAX_FINE};
 use crate::network::{check_i8_headroom, BlockF32, BlockFixed, IntWeight, W16, W8};
-use crate::sampling::{jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_f32, stratified_fixed};
+use crate::sampling::{
+    jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_f32,
+    stratified_fixed,
+};
 use glam::Vec3;
 
 /// Render-time knobs; [`RenderOptions::from_model`] gives the model's defaults.
@@ -70,7 +73,13 @@ pub trait RayRenderer {
     /// Renders the world-space ray `origin + t·dir` (`dir` with camera-space
     /// `z = −1`, as [`crate::Camera::ray`] gives); `pixel` keys the jitter.
     /// A non-finite or degenerate ray renders as the background at `far`.
-    fn render_ray(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), scratch: &mut Self::Scratch) -> Self::Pixel;
+    fn render_ray(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        pixel: (u32, u32),
+        scratch: &mut Self::Scratch,
+    ) -> Self::Pixel;
 }
 
 /// Working memory of [`F32Renderer`] for blocks of `B` samples:
@@ -168,7 +177,11 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             *evaluations += len as u64;
             for k in 0..len {
                 let i = start + k;
-                let delta = if i + 1 < n { (t[i + 1] - t[i]) * ray.dir_len } else { f32::INFINITY };
+                let delta = if i + 1 < n {
+                    (t[i + 1] - t[i]) * ray.dir_len
+                } else {
+                    f32::INFINITY
+                };
                 let rgb = if need_rgb { block.rgb[k] } else { [0.0; 3] };
                 let w = comp.add(block.sigma[k], delta, rgb, t[i]);
                 if let Some(ws) = weights.as_deref_mut() {
@@ -200,23 +213,55 @@ impl<'m, 'a> RayRenderer for F32Renderer<'m, 'a> {
 
 impl<'m, 'a> F32Renderer<'m, 'a> {
     /// [`RayRenderer::render_ray`] with any block size `B`.
-    pub fn render_ray_in<const B: usize>(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), s: &mut ScratchF32<B>) -> Pixel {
+    pub fn render_ray_in<const B: usize>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        pixel: (u32, u32),
+        s: &mut ScratchF32<B>,
+    ) -> Pixel {
         let m = self.model;
         let Some(ray) = Ray::new(&m.scene, origin, dir) else {
             return self.background();
         };
         let key = self.opts.key(pixel);
         let nc = self.opts.coarse;
-        let ScratchF32 { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
+        let ScratchF32 {
+            t_coarse,
+            w_coarse,
+            cdf,
+            t_fine,
+            t_all,
+            block,
+            evaluations,
+        } = s;
         let t_c = &mut t_coarse[..nc];
         stratified_f32(ray.near, ray.far, key, t_c);
-        let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
+        let fine = if self.opts.fine > 0 {
+            m.fine.as_ref()
+        } else {
+            None
+        };
         let Some(fine_net) = fine else {
             return self.pass(&m.coarse, &ray, t_c, true, block, None, evaluations);
         };
-        self.pass(&m.coarse, &ray, t_c, false, block, Some(&mut w_coarse[..nc]), evaluations);
+        self.pass(
+            &m.coarse,
+            &ray,
+            t_c,
+            false,
+            block,
+            Some(&mut w_coarse[..nc]),
+            evaluations,
+        );
         let nf = self.opts.fine;
-        sample_pdf_f32(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key) as f32 / 65536.0, cdf, &mut t_fine[..nf]);
+        sample_pdf_f32(
+            t_c,
+            &w_coarse[..nc],
+            |j| fine_u_q16(j, nf, key) as f32 / 65536.0,
+            cdf,
+            &mut t_fine[..nf],
+        );
         let all = &mut t_all[..nc + nf];
         merge_sorted(t_c, &t_fine[..nf], all);
         self.pass(fine_net, &ray, all, true, block, None, evaluations)
@@ -351,7 +396,8 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
                 let i = start + k;
                 let delta = if i + 1 < n {
                     let dt = t[i + 1] as i64 - t[i] as i64;
-                    shr_round_i64(dt * ray.dir_len as i64, POS_FRAC).clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
+                    shr_round_i64(dt * ray.dir_len as i64, POS_FRAC)
+                        .clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
                 } else {
                     DELTA_INF_Q16
                 };
@@ -366,27 +412,64 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         comp.finish(m.scene.white_background, self.far)
     }
 
-    fn render<W: IntWeight, const B: usize>(&self, ray: &Ray, key: Option<u32>, s: &mut ScratchFixed<B>) -> FixedPixel {
+    fn render<W: IntWeight, const B: usize>(
+        &self,
+        ray: &Ray,
+        key: Option<u32>,
+        s: &mut ScratchFixed<B>,
+    ) -> FixedPixel {
         let m = self.model;
         let fr = FixedRay::new(ray);
         let nc = self.opts.coarse;
-        let ScratchFixed { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
+        let ScratchFixed {
+            t_coarse,
+            w_coarse,
+            cdf,
+            t_fine,
+            t_all,
+            block,
+            evaluations,
+        } = s;
         let t_c = &mut t_coarse[..nc];
         stratified_fixed(self.near, self.far, key, t_c);
-        let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
+        let fine = if self.opts.fine > 0 {
+            m.fine.as_ref()
+        } else {
+            None
+        };
         let Some(fine_net) = fine else {
             return self.pass::<W, B>(&m.coarse, &fr, t_c, true, block, None, evaluations);
         };
-        self.pass::<W, B>(&m.coarse, &fr, t_c, false, block, Some(&mut w_coarse[..nc]), evaluations);
+        self.pass::<W, B>(
+            &m.coarse,
+            &fr,
+            t_c,
+            false,
+            block,
+            Some(&mut w_coarse[..nc]),
+            evaluations,
+        );
         let nf = self.opts.fine;
-        sample_pdf_fixed(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key), cdf, &mut t_fine[..nf]);
+        sample_pdf_fixed(
+            t_c,
+            &w_coarse[..nc],
+            |j| fine_u_q16(j, nf, key),
+            cdf,
+            &mut t_fine[..nf],
+        );
         let all = &mut t_all[..nc + nf];
         merge_sorted(t_c, &t_fine[..nf], all);
         self.pass::<W, B>(fine_net, &fr, all, true, block, None, evaluations)
     }
 
     /// [`RayRenderer::render_ray`] with any block size `B`.
-    pub fn render_ray_in<const B: usize>(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), s: &mut ScratchFixed<B>) -> FixedPixel {
+    pub fn render_ray_in<const B: usize>(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        pixel: (u32, u32),
+        s: &mut ScratchFixed<B>,
+    ) -> FixedPixel {
         let m = self.model;
         let Some(ray) = Ray::new(&m.scene, origin, dir) else {
             return CompositorFixed::default().finish(m.scene.white_background, self.far);
@@ -407,7 +490,13 @@ impl<'m, 'a> RayRenderer for FixedRenderer<'m, 'a> {
         self.model
     }
 
-    fn render_ray(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), s: &mut ScratchFixed) -> FixedPixel {
+    fn render_ray(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        pixel: (u32, u32),
+        s: &mut ScratchFixed,
+    ) -> FixedPixel {
         self.render_ray_in(origin, dir, pixel, s)
     }
 }

@@ -39,8 +39,14 @@ pub fn render_tile<R: RayRenderer>(
     scratch: &mut R::Scratch,
     out: &mut [R::Pixel],
 ) -> Result<()> {
-    let inside = tile.x0.checked_add(tile.width).is_some_and(|x| x <= camera.width)
-        && tile.y0.checked_add(tile.height).is_some_and(|y| y <= camera.height);
+    let inside = tile
+        .x0
+        .checked_add(tile.width)
+        .is_some_and(|x| x <= camera.width)
+        && tile
+            .y0
+            .checked_add(tile.height)
+            .is_some_and(|y| y <= camera.height);
     if tile.is_empty() || !inside || out.len() < tile.len() {
         return Err(Error::InvalidTile);
     }

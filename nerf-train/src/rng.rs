@@ -1,0 +1,37 @@
+//! A small seeded generator (PCG-XSH-RR 32) so training is reproducible.
+
+/// PCG32 random number generator.
+#[derive(Clone, Debug)]
+pub struct Rng {
+    state: u64,
+}
+
+impl Rng {
+    /// A generator from a seed (any value).
+    pub fn new(seed: u64) -> Self {
+        let mut r = Self {
+            state: seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407),
+        };
+        r.u32();
+        r
+    }
+    /// Next 32 random bits.
+    pub fn u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        xorshifted.rotate_right((old >> 59) as u32)
+    }
+    /// Uniform in `[0, 1)` with 24 bits.
+    pub fn f32(&mut self) -> f32 {
+        (self.u32() >> 8) as f32 / (1u32 << 24) as f32
+    }
+    /// Uniform integer in `0..n` (`n > 0`).
+    pub fn below(&mut self, n: usize) -> usize {
+        ((self.u32() as u64 * n as u64) >> 32) as usize
+    }
+}
