@@ -1,1 +1,56 @@
-fn main() {}
+//! The `nerf` command: train, evaluate, render, export and inspect NeRF
+//! models, and run the whole path on the built-in scene (`nerf demo`).
+
+mod cmd;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "nerf", version, about = "Small-footprint NeRF: train on the CPU, render in f32 or integer fixed point")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Train a model on a dataset (Blender, LLFF or instant-ngp layout).
+    Train(cmd::train::Args),
+    /// Render a split and print PSNR, SSIM and cost as one JSON object.
+    Eval(cmd::eval::Args),
+    /// Render a split's views or an orbit to PNG (and GIF for orbits).
+    Render(cmd::render::Args),
+    /// Write the model with 32-, 16- or 8-bit weights.
+    Export(cmd::export::Args),
+    /// Describe a model file.
+    Info(cmd::info::Args),
+    /// Generate the built-in scene as Blender and LLFF datasets.
+    Scene(cmd::scene::Args),
+    /// The whole path on the built-in scene in a few minutes.
+    Demo(cmd::demo::Args),
+}
+
+/// Runs one subcommand.
+fn dispatch(command: Command) -> cmd::CmdResult {
+    match command {
+        Command::Train(a) => cmd::train::run(a),
+        Command::Eval(a) => cmd::eval::run(a),
+        Command::Render(a) => cmd::render::run(a),
+        Command::Export(a) => cmd::export::run(a),
+        Command::Info(a) => cmd::info::run(a),
+        Command::Scene(a) => cmd::scene::run(a),
+        Command::Demo(a) => cmd::demo::run(a),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dispatch(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

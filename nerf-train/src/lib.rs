@@ -1,8 +1,21 @@
 //! `nerf-train`: trains NeRF models in f32 on the CPU and exports them in
 //! `nerf-infer`'s model format.
+//!
+//! Modules follow the pipeline: [`dataset`] (posed images) → [`mlp`] (the
+//! network, forward and backward) and [`volume`] (the quadrature, forward
+//! and backward) → [`train`] (batches, Adam) → [`export`] (model files,
+//! quantisation) → [`eval`] (rendering views through `nerf-infer`, PSNR,
+//! SSIM).
 #![deny(missing_docs)]
 
+pub mod adam;
+pub mod config;
+pub mod dataset;
+pub mod eval;
+pub mod export;
 pub mod gemm;
+pub mod metrics;
 pub mod mlp;
 pub mod rng;
+pub mod train;
 pub mod volume;

@@ -375,6 +375,21 @@ impl Mlp {
         a.dtmp = dtmp;
     }
 
+    /// Raises `max[l]` to the largest |output| of layer `l` in `a` (trunk,
+    /// density head, and on the view branch feature and view layers).
+    pub fn record_max_abs(&self, a: &Acts, max: &mut [f32]) {
+        let m = |v: &[f32]| v.iter().fold(0.0f32, |m, x| m.max(x.abs()));
+        let d = self.topo.depth as usize;
+        for i in 0..d {
+            max[i] = max[i].max(m(&a.h[i]));
+        }
+        max[d] = max[d].max(m(&a.sigma));
+        if self.topo.view_dependent && !a.feat.is_empty() {
+            max[d + 1] = max[d + 1].max(m(&a.feat));
+            max[d + 2] = max[d + 2].max(m(&a.view));
+        }
+    }
+
     /// Multiply-accumulates of one forward evaluation (per sample), with
     /// the view layer's direction part counted per sample.
     pub fn macs_per_sample(&self) -> usize {

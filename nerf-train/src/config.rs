@@ -1,0 +1,170 @@
+//! Training configuration: the model's shape (as the paper and its
+//! ablations vary it) and the optimiser's settings, with named presets.
+
+use nerf_infer::format::{Encoding, Samples, Topology};
+use serde::{Deserialize, Serialize};
+
+/// Everything that defines a training run except the data.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrainConfig {
+    /// Frequencies `L` of the position encoding (0 = no encoding, raw xyz).
+    pub pos_freqs: u8,
+    /// Frequencies `L` of the direction encoding.
+    pub dir_freqs: u8,
+    /// Include the raw coordinate in γ (always on when `pos_freqs = 0`).
+    pub include_input: bool,
+    /// Trunk layers.
+    pub depth: u8,
+    /// Trunk width.
+    pub width: u16,
+    /// Trunk layers (≥ 1) that also take γ(x) as input (the paper: `[5]`).
+    pub skips: Vec<u8>,
+    /// View-dependent colour branch (the paper: on).
+    pub view_dependent: bool,
+    /// Width of the view layer (the paper: 128).
+    pub view_width: u16,
+    /// Coarse samples per ray `N_c`.
+    pub n_coarse: u16,
+    /// Fine samples per ray `N_f` (0: one network, no hierarchical sampling).
+    pub n_fine: u16,
+    /// Rays per optimisation step.
+    pub batch_rays: usize,
+    /// Rays per parallel work item (memory vs. scheduling granularity).
+    pub chunk_rays: usize,
+    /// Initial Adam learning rate.
+    pub lr: f32,
+    /// Final learning rate as a fraction of `lr`; the rate decays
+    /// exponentially over the run (the paper: 5e-4 → 5e-5 over 250k steps).
+    pub lr_final_ratio: f32,
+    /// Steps over which the exponential decay reaches `lr_final_ratio`
+    /// (0: the length of the run, from `--iters` or `--minutes`).
+    pub lr_decay_steps: usize,
+    /// Adam β₁.
+    pub beta1: f32,
+    /// Adam β₂.
+    pub beta2: f32,
+    /// Adam ε (the paper: 1e-7).
+    pub eps: f32,
+}
+
+impl Default for TrainConfig {
+    fn default() -> Self {
+        Self::fast()
+    }
+}
+
+impl TrainConfig {
+    /// The paper's model: 8×256, skip at layer 5, L = 10/4, 64 + 128
+    /// samples, 4096 rays per batch, lr 5e-4 decaying 10× over 250k steps.
+    pub fn paper() -> Self {
+        Self {
+            pos_freqs: 10,
+            dir_freqs: 4,
+            include_input: true,
+            depth: 8,
+            width: 256,
+            skips: vec![5],
+            view_dependent: true,
+            view_width: 128,
+            n_coarse: 64,
+            n_fine: 128,
+            batch_rays: 4096,
+            chunk_rays: 32,
+            lr: 5e-4,
+            lr_final_ratio: 0.1,
+            lr_decay_steps: 250_000,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-7,
+        }
+    }
+
+    /// The CPU preset: the configuration with the best validation PSNR in
+    /// 10 minutes on a 2-core workstation (see the README for the sweep).
+    pub fn fast() -> Self {
+        Self {
+            pos_freqs: 8,
+            dir_freqs: 2,
+            include_input: true,
+            depth: 4,
+            width: 64,
+            skips: vec![],
+            view_dependent: true,
+            view_width: 32,
+            n_coarse: 48,
+            n_fine: 48,
+            batch_rays: 1024,
+            chunk_rays: 32,
+            lr: 5e-3,
+            lr_final_ratio: 0.1,
+            lr_decay_steps: 0,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-7,
+        }
+    }
+
+    /// A preset by name (`paper`, `fast`).
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Self::paper()),
+            "fast" => Some(Self::fast()),
+            _ => None,
+        }
+    }
+
+    /// The encoding this config trains.
+    pub fn encoding(&self) -> Encoding {
+        Encoding {
+            pos_freqs: self.pos_freqs,
+            dir_freqs: self.dir_freqs,
+            include_input: self.include_input || self.pos_freqs == 0,
+            raw_frac_bits: 12,
+        }
+    }
+
+    /// The network shape this config trains.
+    pub fn topology(&self) -> Topology {
+        Topology {
+            depth: self.depth,
+            width: self.width,
+            skip_mask: self.skips.iter().fold(0u16, |m, &s| m | 1u16.checked_shl(s as u32).unwrap_or(0)),
+            view_dependent: self.view_dependent,
+            view_width: if self.view_dependent { self.view_width } else { 0 },
+        }
+    }
+
+    /// Default sample counts recorded in the model.
+    pub fn samples(&self) -> Samples {
+        Samples { coarse: self.n_coarse, fine: self.n_fine }
+    }
+
+    /// Checks ranges; the message names the offending field.
+    pub fn validate(&self) -> Result<(), String> {
+        let t = self.topology();
+        if self.depth == 0 || self.width == 0 || self.width > 256 || t.layer_count() > 24 {
+            return Err("depth must be 1..=20 and width 1..=256".into());
+        }
+        if self.view_dependent && (self.view_width == 0 || self.view_width > 256) {
+            return Err("view_width must be 1..=256".into());
+        }
+        if self.pos_freqs > 16 || self.dir_freqs > 16 {
+            return Err("pos_freqs and dir_freqs must be at most 16".into());
+        }
+        if self.skips.iter().any(|&s| s == 0 || s >= self.depth) {
+            return Err("skips must name trunk layers 1..depth".into());
+        }
+        if !(2..=256).contains(&self.n_coarse) || self.n_fine > 256 {
+            return Err("n_coarse must be 2..=256 and n_fine at most 256".into());
+        }
+        if self.batch_rays == 0 || self.chunk_rays == 0 {
+            return Err("batch_rays and chunk_rays must be positive".into());
+        }
+        let pos = |v: f32| v.is_finite() && v > 0.0;
+        if !pos(self.lr) || !pos(self.lr_final_ratio) || !pos(self.eps) || !(0.0..1.0).contains(&self.beta1) || !(0.0..1.0).contains(&self.beta2) {
+            return Err("lr, lr_final_ratio, eps must be positive and betas in [0, 1)".into());
+        }
+        Ok(())
+    }
+}

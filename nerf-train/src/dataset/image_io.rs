@@ -1,0 +1,49 @@
+//! PNG reading with compositing and area downscaling, and PNG writing.
+
+use super::DataError;
+use std::path::Path;
+
+/// Loads an image as RGB in `[0, 1]`: RGBA is composited on white if
+/// `white_bg` (the Blender convention) or black; then each `n × n` block is
+/// averaged (`n = downscale`; a remainder at the right/bottom is cropped).
+/// Returns (width, height, pixels).
+pub fn load_rgb(path: &Path, downscale: u32, white_bg: bool) -> Result<(u32, u32, Vec<[f32; 3]>), DataError> {
+    let img = image::open(path).map_err(|e| DataError::new(path, format!("cannot read image: {e}")))?;
+    let img = img.to_rgba32f();
+    let (w, h) = img.dimensions();
+    let n = downscale.max(1);
+    let (ow, oh) = (w / n, h / n);
+    if ow == 0 || oh == 0 {
+        return Err(DataError::new(path, format!("image {w}x{h} is smaller than the downscale factor {n}")));
+    }
+    let bg = if white_bg { 1.0 } else { 0.0 };
+    let mut out = vec![[0f32; 3]; (ow * oh) as usize];
+    let inv = 1.0 / (n * n) as f32;
+    for y in 0..oh {
+        for x in 0..ow {
+            let mut acc = [0f32; 3];
+            for dy in 0..n {
+                for dx in 0..n {
+                    let p = img.get_pixel(x * n + dx, y * n + dy).0;
+                    for c in 0..3 {
+                        acc[c] += p[c] * p[3] + bg * (1.0 - p[3]);
+                    }
+                }
+            }
+            out[(y * ow + x) as usize] = acc.map(|v| v * inv);
+        }
+    }
+    Ok((ow, oh, out))
+}
+
+/// Writes RGB in `[0, 1]` as an 8-bit PNG, atomically (temp file + rename).
+pub fn save_png_rgb(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<(), DataError> {
+    let mut buf = image::RgbImage::new(width, height);
+    for (p, c) in buf.pixels_mut().zip(rgb) {
+        p.0 = c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+    }
+    let tmp = path.with_extension("png.tmp");
+    buf.save_with_format(&tmp, image::ImageFormat::Png)
+        .map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))?;
+    std::fs::rename(&tmp, path).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
+}

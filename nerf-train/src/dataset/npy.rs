@@ -1,0 +1,74 @@
+//! Minimal NPY (NumPy array file) reading and writing for 2-D f64/f32 arrays.
+
+use super::DataError;
+use std::path::Path;
+
+/// Reads a C-order 2-D `<f8` or `<f4` array; returns (rows, cols, values).
+pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> {
+    let bytes = std::fs::read(path).map_err(|e| DataError::new(path, format!("cannot read: {e}")))?;
+    let bad = |m: &str| DataError::new(path, format!("malformed NPY: {m}"));
+    if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
+        return Err(bad("missing magic"));
+    }
+    let (hlen, start) = match bytes[6] {
+        1 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        2 | 3 if bytes.len() >= 12 => (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12),
+        _ => return Err(bad("unsupported version")),
+    };
+    let header = bytes.get(start..start + hlen).ok_or_else(|| bad("header truncated"))?;
+    let header = std::str::from_utf8(header).map_err(|_| bad("header is not text"))?;
+    let descr = if header.contains("'<f8'") {
+        8
+    } else if header.contains("'<f4'") {
+        4
+    } else {
+        return Err(bad("dtype must be little-endian float64 or float32"));
+    };
+    if header.contains("'fortran_order': True") {
+        return Err(bad("Fortran order is not supported"));
+    }
+    let shape = header
+        .split("'shape':")
+        .nth(1)
+        .and_then(|s| s.split('(').nth(1))
+        .and_then(|s| s.split(')').next())
+        .ok_or_else(|| bad("no shape"))?;
+    let dims: Vec<usize> = shape
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| bad("shape is not a tuple of integers"))?;
+    let (rows, cols) = match dims.as_slice() {
+        [r, c] => (*r, *c),
+        _ => return Err(bad("expected a 2-D array")),
+    };
+    let data = &bytes[start + hlen..];
+    let n = rows.checked_mul(cols).ok_or_else(|| bad("shape overflows"))?;
+    if data.len() != n * descr {
+        return Err(bad(&format!("expected {} data bytes, found {}", n * descr, data.len())));
+    }
+    let vals = if descr == 8 {
+        data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect()
+    } else {
+        data.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap()) as f64).collect()
+    };
+    Ok((rows, cols, vals))
+}
+
+/// Writes a C-order 2-D `<f8` array (NPY version 1.0).
+pub fn write_npy_f64(path: &Path, rows: usize, cols: usize, vals: &[f64]) -> std::io::Result<()> {
+    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({rows}, {cols}), }}");
+    while (10 + header.len() + 1) % 64 != 0 {
+        header.push(' ');
+    }
+    header.push('\n');
+    let mut out = b"\x93NUMPY\x01\x00".to_vec();
+    out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    for v in vals {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(path, out)
+}

@@ -1,0 +1,335 @@
+//! Writing model files: the f32 model of a training run, and its int16 /
+//! int8 quantisation for the kernel's fixed-point path.
+//!
+//! Quantisation of a layer `y = W·x + b` whose integer inputs `x_q[j]`
+//! stand for `x_q[j]·s_j` (encoding features: `2⁻¹⁵`, raw coordinates:
+//! `2^−raw_frac_bits`, hidden activations: `act_max/32767` measured on
+//! training rays): the input scales are folded into the weights,
+//! `W'[j][c] = W[j][c]·s_j`; each output channel gets its own scale
+//! `S[c] = max(maxⱼ|W'[j][c]|/qmax, |b[c]|/2²⁹)`; weights round to
+//! `q = round(W'/S)` (ties away from zero) within `±qmax` (32767 or 127)
+//! and the bias to `round(b/S)` in i32. The accumulator then holds
+//! `y/S[c]`, and the requantisation factor `S[c]/s_out` (or `S[c]·2¹⁰` for
+//! the density head, `S[c]·2¹²` for the colour head) becomes a Q0.31
+//! multiplier and a shift. The `2²⁹` bias bound keeps int8 layers with up
+//! to 355 inputs inside i32: `355·127·2¹⁵ + 2²⁹ < 2³¹`.
+
+use crate::mlp::Mlp;
+use crate::train::Trainer;
+use nerf_infer::fixed::{Requant, ENC_FRAC, LOGIT_FRAC, SIGMA_FRAC};
+use nerf_infer::format::{self, read_f32, sigma_layer, Encoding, Layer, Meta, Model, Network, Samples, Scene, Scheme, Topology};
+
+/// A layer owning its tensor bytes (see [`nerf_infer::format::Layer`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnedLayer {
+    /// Input width.
+    pub in_dim: u16,
+    /// Output width.
+    pub out_dim: u16,
+    /// Largest |output| on calibration rays.
+    pub act_max: f32,
+    /// Weight bytes.
+    pub weights: Vec<u8>,
+    /// Bias bytes.
+    pub bias: Vec<u8>,
+    /// Scale bytes.
+    pub scales: Vec<u8>,
+    /// Requantisation bytes.
+    pub requant: Vec<u8>,
+}
+
+/// A network owning its layers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnedNetwork {
+    /// Weight scheme.
+    pub scheme: Scheme,
+    /// Activation bits.
+    pub act_bits: u8,
+    /// Layers.
+    pub layers: Vec<OwnedLayer>,
+}
+
+/// A model owning its tensors; [`OwnedModel::to_bytes`] writes the file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnedModel {
+    /// Scene.
+    pub scene: Scene,
+    /// Encoding.
+    pub encoding: Encoding,
+    /// Topology.
+    pub topology: Topology,
+    /// Default samples.
+    pub samples: Samples,
+    /// Provenance.
+    pub meta: Meta,
+    /// Coarse network.
+    pub coarse: OwnedNetwork,
+    /// Fine network.
+    pub fine: Option<OwnedNetwork>,
+}
+
+impl OwnedNetwork {
+    fn view(&self) -> Network<'_> {
+        let mut layers = heapless::Vec::new();
+        for l in &self.layers {
+            let _ = layers.push(Layer {
+                in_dim: l.in_dim,
+                out_dim: l.out_dim,
+                act_max: l.act_max,
+                weights: &l.weights,
+                bias: &l.bias,
+                scales: &l.scales,
+                requant: &l.requant,
+            });
+        }
+        Network { scheme: self.scheme, act_bits: self.act_bits, layers }
+    }
+
+    fn from_view(n: &Network<'_>) -> Self {
+        let layers = n
+            .layers
+            .iter()
+            .map(|l| OwnedLayer {
+                in_dim: l.in_dim,
+                out_dim: l.out_dim,
+                act_max: l.act_max,
+                weights: l.weights.to_vec(),
+                bias: l.bias.to_vec(),
+                scales: l.scales.to_vec(),
+                requant: l.requant.to_vec(),
+            })
+            .collect();
+        Self { scheme: n.scheme, act_bits: n.act_bits, layers }
+    }
+}
+
+impl OwnedModel {
+    /// The file bytes (validated by the same code that loads them).
+    pub fn to_bytes(&self) -> Result<Vec<u8>, nerf_infer::Error> {
+        if self.coarse.layers.len() > format::MAX_LAYERS {
+            return Err(nerf_infer::Error::Capacity("more than 24 layers"));
+        }
+        let m = Model {
+            scene: self.scene,
+            encoding: self.encoding,
+            topology: self.topology,
+            samples: self.samples,
+            meta: self.meta,
+            coarse: self.coarse.view(),
+            fine: self.fine.as_ref().map(|f| f.view()),
+        };
+        format::to_bytes(&m)
+    }
+
+    /// An owned copy of a decoded model.
+    pub fn from_model(m: &Model<'_>) -> Self {
+        Self {
+            scene: m.scene,
+            encoding: m.encoding,
+            topology: m.topology,
+            samples: m.samples,
+            meta: m.meta,
+            coarse: OwnedNetwork::from_view(&m.coarse),
+            fine: m.fine.as_ref().map(OwnedNetwork::from_view),
+        }
+    }
+}
+
+fn f32_bytes(v: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    v.into_iter().flat_map(f32::to_le_bytes).collect()
+}
+
+/// The f32 network of a parameter vector laid out by `mlp`.
+pub fn f32_network(mlp: &Mlp, params: &[f32], act_max: &[f32]) -> OwnedNetwork {
+    let layers = mlp
+        .slots
+        .iter()
+        .enumerate()
+        .map(|(i, s)| OwnedLayer {
+            in_dim: s.din as u16,
+            out_dim: s.dout as u16,
+            act_max: act_max.get(i).copied().unwrap_or(0.0),
+            weights: f32_bytes(params[s.w..s.b].iter().copied()),
+            bias: f32_bytes(params[s.b..s.b + s.dout].iter().copied()),
+            scales: Vec::new(),
+            requant: Vec::new(),
+        })
+        .collect();
+    OwnedNetwork { scheme: Scheme::F32, act_bits: 32, layers }
+}
+
+/// Fractional bits for raw coordinates whose magnitude reaches `max_abs`
+/// (with 5 % headroom), in `0..=14`.
+pub fn raw_frac_bits_for(max_abs: f32) -> u8 {
+    let m = (max_abs.abs() * 1.05).max(1e-3) as f64;
+    (32767.0 / m).log2().floor().clamp(0.0, 14.0) as u8
+}
+
+/// The f32 model of a run, with activation ranges from `calibration`
+/// rays (drawn from the training views).
+pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample]) -> OwnedModel {
+    let mlp = tr.mlp();
+    let (max_c, max_f, max_pos) = tr.calibrate(calibration);
+    let mut encoding = tr.cfg.encoding();
+    encoding.raw_frac_bits = raw_frac_bits_for(max_pos);
+    OwnedModel {
+        scene: tr.scene,
+        encoding,
+        topology: tr.cfg.topology(),
+        samples: tr.cfg.samples(),
+        meta: Meta { train_downscale: tr.downscale as u16, iterations: tr.step as u32 },
+        coarse: f32_network(&mlp, tr.coarse_params(), &max_c),
+        fine: tr.fine_params().map(|p| f32_network(&mlp, p, max_f.as_deref().unwrap_or(&[]))),
+    }
+}
+
+/// Input scale of every column of layer `i`, and the output target factor.
+fn layer_scales(t: &Topology, e: &Encoding, net: &Network<'_>, i: usize) -> (Vec<f64>, f64) {
+    let act = |l: usize| (net.layers[l].act_max.max(1e-6) as f64) / 32767.0;
+    let enc = |freqs: u8| {
+        let mut v = Vec::new();
+        if e.include_input {
+            v.extend([2f64.powi(-(e.raw_frac_bits as i32)); 3]);
+        }
+        v.extend(std::iter::repeat_n(2f64.powi(-(ENC_FRAC as i32)), 6 * freqs as usize));
+        v
+    };
+    let w = t.width as usize;
+    let d = t.depth as usize;
+    let si = sigma_layer(t);
+    let hidden = |l: usize, n: usize| vec![act(l); n];
+    if i < d {
+        let mut cols = Vec::new();
+        if i == 0 || t.is_skip(i) {
+            cols.extend(enc(e.pos_freqs));
+        }
+        if i > 0 {
+            cols.extend(hidden(i - 1, w));
+        }
+        return (cols, 1.0 / act(i));
+    }
+    match (i - si, t.view_dependent) {
+        (0, _) => (hidden(d - 1, w), 2f64.powi(SIGMA_FRAC as i32)),
+        (1, true) => (hidden(d - 1, w), 1.0 / act(i)),
+        (2, true) => {
+            let mut cols = hidden(si + 1, w);
+            cols.extend(enc(e.dir_freqs));
+            (cols, 1.0 / act(i))
+        }
+        (3, true) => (hidden(si + 2, t.view_width as usize), 2f64.powi(LOGIT_FRAC as i32)),
+        _ => (hidden(d - 1, w), 2f64.powi(LOGIT_FRAC as i32)),
+    }
+}
+
+fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme) -> Result<OwnedNetwork, String> {
+    let qmax = match scheme {
+        Scheme::I16 => 32767.0,
+        Scheme::I8 => 127.0,
+        Scheme::F32 => return Err("quantise to int16 or int8".into()),
+    };
+    let mut layers = Vec::new();
+    for (i, l) in net.layers.iter().enumerate() {
+        let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i);
+        let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
+        debug_assert_eq!(cols.len(), din);
+        let mut q = vec![0i32; din * dout];
+        let (mut bias, mut scales, mut requant) = (Vec::new(), Vec::new(), Vec::new());
+        for c in 0..dout {
+            let w = |j: usize| read_f32(l.weights, j * dout + c) as f64 * cols[j];
+            let b = read_f32(l.bias, c) as f64;
+            let amax = (0..din).map(|j| w(j).abs()).fold(0.0, f64::max);
+            let mut s = (amax / qmax).max(b.abs() / 2f64.powi(29));
+            if s == 0.0 {
+                s = 1.0;
+            }
+            let s = s as f32 as f64; // stored as f32: quantise against the stored value
+            for j in 0..din {
+                q[j * dout + c] = (w(j) / s).round().clamp(-qmax, qmax) as i32;
+            }
+            bias.extend(((b / s).round() as i32).to_le_bytes());
+            scales.extend((s as f32).to_le_bytes());
+            let r = Requant::from_f64(s * target).ok_or_else(|| format!("layer {i} channel {c}: requantisation factor {:e} out of range", s * target))?;
+            requant.extend(r.multiplier.to_le_bytes());
+            requant.extend(r.shift.to_le_bytes());
+        }
+        let weights = match scheme {
+            Scheme::I16 => q.iter().flat_map(|&v| (v as i16).to_le_bytes()).collect(),
+            _ => q.iter().map(|&v| v as i8 as u8).collect(),
+        };
+        layers.push(OwnedLayer { in_dim: l.in_dim, out_dim: l.out_dim, act_max: l.act_max, weights, bias, scales, requant });
+    }
+    Ok(OwnedNetwork { scheme, act_bits: 16, layers })
+}
+
+/// Quantises an f32 model to `scheme` (int16 or int8 weights, 16-bit
+/// activations), using the activation ranges stored in the model.
+pub fn quantise(m: &Model<'_>, scheme: Scheme) -> Result<OwnedModel, String> {
+    if m.scheme() != Scheme::F32 {
+        return Err("the model is already quantised; export from the f32 model".into());
+    }
+    let mut out = OwnedModel::from_model(m);
+    out.coarse = quantise_network(m, &m.coarse, scheme)?;
+    out.fine = match &m.fine {
+        Some(f) => Some(quantise_network(m, f, scheme)?),
+        None => None,
+    };
+    Ok(out)
+}
+
+/// A model with random weights for tests and benchmarks: He-uniform
+/// weights (PyTorch's default scaled by √6, so activations keep their
+/// magnitude through the layers and the image has structure), the density
+/// head further scaled by `sigma_gain`; activation ranges calibrated on
+/// rays of an orbit around the scene.
+pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, sigma_gain: f32) -> OwnedModel {
+    let mut tr = Trainer::new(cfg.clone(), scene, 1, seed);
+    let mlp = tr.mlp();
+    let si = sigma_layer(&mlp.topo);
+    let nets = if cfg.n_fine > 0 { 2 } else { 1 };
+    for k in 0..nets {
+        let off = k * mlp.n_params;
+        for (i, s) in mlp.slots.iter().enumerate() {
+            let gain = if i == si { 6f32.sqrt() * sigma_gain } else { 6f32.sqrt() };
+            for v in &mut tr.params[off + s.w..off + s.b] {
+                *v *= gain;
+            }
+        }
+    }
+    let rays = orbit_rays(&scene, 8, 24);
+    trainer_model(&tr, &rays)
+}
+
+/// Rays of `views` cameras on a circle around the scene centre, `size`²
+/// pixels each, with zero ground truth (for calibration).
+pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::Sample> {
+    let mut out = Vec::new();
+    for k in 0..views {
+        let cam = orbit_camera(scene, k as f32 / views as f32, size, size);
+        for y in 0..size {
+            for x in 0..size {
+                let (o, d) = cam.ray(x, y);
+                if let Some(r) = nerf_infer::Ray::new(scene, o, d) {
+                    out.push((r, [0.0; 3]));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A camera at 30° elevation on a circle around the scene centre at the
+/// middle of the near..far range, looking at the centre, turned by
+/// `turn` (fraction of a full circle); field of view 0.69 rad as lego's.
+pub fn orbit_camera(scene: &Scene, turn: f32, width: u32, height: u32) -> nerf_infer::Camera {
+    let lo = glam::Vec3::from(scene.bounds_min);
+    let hi = glam::Vec3::from(scene.bounds_max);
+    let centre = 0.5 * (lo + hi);
+    let radius = 0.5 * (scene.near + scene.far);
+    let (az, el) = (turn * std::f32::consts::TAU, 30f32.to_radians());
+    let eye = centre + radius * glam::Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    let mut m = crate::dataset::synthetic::look_at(eye - centre);
+    for (r, c) in m.iter_mut().zip(eye.to_array()) {
+        r[3] = c;
+    }
+    nerf_infer::Camera::from_fov(width, height, 0.691_111_2, m).expect("orbit camera is rigid")
+}

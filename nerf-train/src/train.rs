@@ -1,0 +1,317 @@
+//! The training loop: random ray batches across all training images,
+//! stratified coarse samples, hierarchical fine samples, loss = coarse MSE
+//! + fine MSE, hand-written backward, Adam with exponential decay.
+//!
+//! Work is split into chunks of `chunk_rays` rays processed in parallel by
+//! rayon; each chunk draws its jitter from a hash of (seed, step, chunk), so
+//! a run is reproducible whatever the thread count.
+
+use crate::adam::Adam;
+use crate::config::TrainConfig;
+use crate::dataset::Dataset;
+use crate::mlp::{Acts, Mlp};
+use crate::rng::Rng;
+use crate::volume::{composite, composite_back};
+use nerf_infer::camera::Ray;
+use nerf_infer::format::Scene;
+use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32, stratified_f32};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Statistics of one optimisation step.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepStats {
+    /// Mean of coarse MSE + fine MSE over the batch.
+    pub loss: f32,
+    /// PSNR (dB) of the final (fine, or coarse) colours against the batch.
+    pub psnr: f32,
+    /// Rays in the batch.
+    pub rays: usize,
+    /// Network evaluations (samples) in the step, both networks.
+    pub samples: usize,
+    /// The step was skipped because the loss or a gradient was not finite.
+    pub skipped: bool,
+}
+
+/// A training run's state: everything a checkpoint holds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Trainer {
+    /// The configuration.
+    pub cfg: TrainConfig,
+    /// The scene (bounds, near/far, background).
+    pub scene: Scene,
+    /// Dataset downscale the run trains at.
+    pub downscale: u32,
+    /// Coarse then fine parameters, concatenated.
+    pub params: Vec<f32>,
+    /// Optimiser state.
+    pub adam: Adam,
+    /// Steps taken.
+    pub step: u64,
+    /// Seconds of training so far (across resumes).
+    pub elapsed: f64,
+    /// Run seed.
+    pub seed: u64,
+    /// Steps skipped for non-finite loss or gradients.
+    pub skipped: u64,
+}
+
+/// Per-chunk working memory.
+#[derive(Default)]
+struct Workspace {
+    pos: Vec<[f32; 3]>,
+    dirs: Vec<[f32; 3]>,
+    t_c: Vec<f32>,
+    w_c: Vec<f32>,
+    t_f: Vec<f32>,
+    t_all: Vec<f32>,
+    w_f: Vec<f32>,
+    cdf: Vec<f32>,
+    acts_c: Acts,
+    acts_f: Acts,
+    dsig: Vec<f32>,
+    drgb: Vec<f32>,
+}
+
+/// A training ray and its ground-truth colour.
+pub type Sample = (Ray, [f32; 3]);
+
+impl Trainer {
+    /// A new run with freshly initialised networks.
+    pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
+        let net = Mlp::new(cfg.topology(), cfg.encoding());
+        let mut params = net.init(seed);
+        if cfg.n_fine > 0 {
+            params.extend(net.init(seed ^ 0x5EED_F1E0));
+        }
+        let adam = Adam::new(params.len());
+        Self { cfg, scene, downscale, params, adam, step: 0, elapsed: 0.0, seed, skipped: 0 }
+    }
+
+    /// The network shape (both networks share it).
+    pub fn mlp(&self) -> Mlp {
+        Mlp::new(self.cfg.topology(), self.cfg.encoding())
+    }
+
+    /// Coarse parameters.
+    pub fn coarse_params(&self) -> &[f32] {
+        &self.params[..self.mlp().n_params]
+    }
+
+    /// Fine parameters, if the run has a fine network.
+    pub fn fine_params(&self) -> Option<&[f32]> {
+        let n = self.mlp().n_params;
+        (self.cfg.n_fine > 0).then(|| &self.params[n..])
+    }
+
+    /// Learning rate at training progress `p ∈ [0, 1]` of the decay horizon.
+    pub fn learning_rate(&self, progress: f64) -> f32 {
+        let p = if self.cfg.lr_decay_steps > 0 { self.step as f64 / self.cfg.lr_decay_steps as f64 } else { progress };
+        self.cfg.lr * (self.cfg.lr_final_ratio as f64).powf(p.clamp(0.0, 1.0)) as f32
+    }
+
+    /// Draws `n` training rays uniformly over all pixels of `data`.
+    pub fn draw_batch(data: &Dataset, n: usize, rng: &mut Rng) -> Vec<Sample> {
+        let per_view = data.views[0].rgb.len();
+        let total = per_view * data.views.len();
+        let mut out = Vec::with_capacity(n);
+        while out.len() < n {
+            let k = rng.below(total);
+            let v = &data.views[k / per_view];
+            let px = k % per_view;
+            let (x, y) = ((px % v.camera.width as usize) as u32, (px / v.camera.width as usize) as u32);
+            let (o, d) = v.camera.ray(x, y);
+            if let Some(r) = Ray::new(&data.scene, o, d) {
+                out.push((r, v.rgb[px]));
+            }
+        }
+        out
+    }
+
+    /// One optimisation step on a batch drawn from `data`; `progress` is
+    /// the fraction of the run done (for the learning-rate decay).
+    pub fn train_step(&mut self, data: &Dataset, progress: f64) -> StepStats {
+        let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+        let batch = Self::draw_batch(data, self.cfg.batch_rays, &mut rng);
+        let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
+        let (grad, sq_c, sq_f, samples) = self.gradients(&batch, step_key);
+        let n = batch.len() as f64 * 3.0;
+        let mse_f = if self.cfg.n_fine > 0 { sq_f / n } else { sq_c / n };
+        let loss = (sq_c + sq_f) / n;
+        let mut stats = StepStats {
+            loss: loss as f32,
+            psnr: (-10.0 * mse_f.max(1e-12).log10()) as f32,
+            rays: batch.len(),
+            samples,
+            skipped: false,
+        };
+        if !loss.is_finite() || grad.iter().any(|g| !g.is_finite()) {
+            self.skipped += 1;
+            stats.skipped = true;
+        } else {
+            let lr = self.learning_rate(progress);
+            let c = &self.cfg;
+            self.adam.update(&mut self.params, &grad, lr, c.beta1, c.beta2, c.eps);
+        }
+        self.step += 1;
+        stats
+    }
+
+    /// Gradient of (coarse MSE + fine MSE) over `batch`, with the summed
+    /// squared errors and the number of network evaluations.
+    pub fn gradients(&self, batch: &[Sample], step_key: u32) -> (Vec<f32>, f64, f64, usize) {
+        let net = self.mlp();
+        let np = self.params.len();
+        let scale = 2.0 / (3.0 * batch.len() as f32);
+        let chunk = self.cfg.chunk_rays;
+        let (grad, sq_c, sq_f) = batch
+            .par_chunks(chunk)
+            .enumerate()
+            .fold(
+                || (vec![0.0f32; np], 0.0f64, 0.0f64, Workspace::default()),
+                |(mut g, mut c, mut f, mut ws), (ci, rays)| {
+                    let key = hash32(step_key ^ hash32(ci as u32));
+                    let (a, b) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g);
+                    c += a;
+                    f += b;
+                    (g, c, f, ws)
+                },
+            )
+            .map(|(g, c, f, _)| (g, c, f))
+            .reduce(
+                || (vec![0.0f32; np], 0.0, 0.0),
+                |(mut g1, c1, f1), (g2, c2, f2)| {
+                    g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
+                    (g1, c1 + c2, f1 + f2)
+                },
+            );
+        let nc = self.cfg.n_coarse as usize;
+        let nf = self.cfg.n_fine as usize;
+        let samples = batch.len() * if nf > 0 { 2 * nc + nf } else { nc };
+        (grad, sq_c, sq_f, samples)
+    }
+
+    /// Forward and backward of one chunk; accumulates into `g` and returns
+    /// the squared errors (coarse, fine) summed over rays and channels.
+    fn chunk_gradient(&self, net: &Mlp, rays: &[Sample], key: u32, scale: f32, ws: &mut Workspace, g: &mut [f32]) -> (f64, f64) {
+        let r = rays.len();
+        let nc = self.cfg.n_coarse as usize;
+        let nf = self.cfg.n_fine as usize;
+        let bg = if self.scene.white_background { 1.0 } else { 0.0 };
+        let np = net.n_params;
+        let (pc, pf) = self.params.split_at(np);
+        let (gc, gf) = g.split_at_mut(np);
+        ws.t_c.resize(r * nc, 0.0);
+        ws.w_c.resize(r * nc, 0.0);
+        ws.pos.clear();
+        ws.dirs.clear();
+        for (i, (ray, _)) in rays.iter().enumerate() {
+            let t = &mut ws.t_c[i * nc..(i + 1) * nc];
+            stratified_f32(ray.near, ray.far, Some(hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B))), t);
+            ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
+            ws.dirs.push(ray.viewdir.to_array());
+        }
+        net.forward(pc, &ws.pos, &ws.dirs, true, &mut ws.acts_c);
+        let mut sq_c = 0.0f64;
+        ws.dsig.resize(r * nc, 0.0);
+        ws.drgb.resize(r * nc * 3, 0.0);
+        for (i, (ray, gt)) in rays.iter().enumerate() {
+            let s = i * nc..(i + 1) * nc;
+            let (sig, rgb) = (&ws.acts_c.sigma[s.clone()], &ws.acts_c.rgb[3 * s.start..3 * s.end]);
+            let col = composite(sig, rgb, &ws.t_c[s.clone()], ray.dir_len, bg, &mut ws.w_c[s.clone()]);
+            let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
+            sq_c += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
+            composite_back(sig, rgb, &ws.t_c[s.clone()], ray.dir_len, bg, &ws.w_c[s.clone()], dc, &mut ws.dsig[s.clone()], &mut ws.drgb[3 * s.start..3 * s.end]);
+        }
+        net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
+        if nf == 0 {
+            return (sq_c, 0.0);
+        }
+        let na = nc + nf;
+        ws.t_f.resize(nf, 0.0);
+        ws.cdf.resize(nc, 0.0);
+        ws.t_all.resize(r * na, 0.0);
+        ws.w_f.resize(r * na, 0.0);
+        ws.pos.clear();
+        for (i, (ray, _)) in rays.iter().enumerate() {
+            let s = i * nc..(i + 1) * nc;
+            let rk = hash32(key ^ 0xF1AE ^ (i as u32).wrapping_mul(0x27D4_EB2F));
+            sample_pdf_f32(&ws.t_c[s.clone()], &ws.w_c[s.clone()], |j| (j as f32 + jitter_q16(rk, j) as f32 / 65536.0) / nf as f32, &mut ws.cdf, &mut ws.t_f);
+            let all = &mut ws.t_all[i * na..(i + 1) * na];
+            merge_sorted(&ws.t_c[s], &ws.t_f, all);
+            ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
+        }
+        net.forward(pf, &ws.pos, &ws.dirs, true, &mut ws.acts_f);
+        let mut sq_f = 0.0f64;
+        ws.dsig.resize(r * na, 0.0);
+        ws.drgb.resize(r * na * 3, 0.0);
+        for (i, (ray, gt)) in rays.iter().enumerate() {
+            let s = i * na..(i + 1) * na;
+            let (sig, rgb) = (&ws.acts_f.sigma[s.clone()], &ws.acts_f.rgb[3 * s.start..3 * s.end]);
+            let col = composite(sig, rgb, &ws.t_all[s.clone()], ray.dir_len, bg, &mut ws.w_f[s.clone()]);
+            let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
+            sq_f += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
+            composite_back(sig, rgb, &ws.t_all[s.clone()], ray.dir_len, bg, &ws.w_f[s.clone()], dc, &mut ws.dsig[s.clone()], &mut ws.drgb[3 * s.start..3 * s.end]);
+        }
+        net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf);
+        (sq_c, sq_f)
+    }
+
+    /// Largest |activation| of every layer of each network, measured on
+    /// `batch` with the training-time sampling (for quantisation), and the
+    /// largest |normalised coordinate| met.
+    pub fn calibrate(&self, batch: &[Sample]) -> (Vec<f32>, Option<Vec<f32>>, f32) {
+        let net = self.mlp();
+        let nc = self.cfg.n_coarse as usize;
+        let nf = self.cfg.n_fine as usize;
+        let bg = if self.scene.white_background { 1.0 } else { 0.0 };
+        let (pc, pf) = self.params.split_at(net.n_params);
+        let mut max_c = vec![0.0f32; net.slots.len()];
+        let mut max_f = vec![0.0f32; net.slots.len()];
+        let mut max_pos = 0.0f32;
+        let mut acts = Acts::default();
+        for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
+            let mut pos = Vec::new();
+            let mut dirs = Vec::new();
+            let mut ts = Vec::new();
+            for (i, (ray, _)) in rays.iter().enumerate() {
+                let mut t = vec![0.0; nc];
+                stratified_f32(ray.near, ray.far, Some(hash32((ci * 7919 + i) as u32)), &mut t);
+                pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
+                dirs.push(ray.viewdir.to_array());
+                ts.push(t);
+            }
+            net.forward(pc, &pos, &dirs, true, &mut acts);
+            net.record_max_abs(&acts, &mut max_c);
+            max_pos = pos.iter().flatten().fold(max_pos, |m, v| m.max(v.abs()));
+            if nf == 0 {
+                continue;
+            }
+            let mut pos_f = Vec::new();
+            for (i, (ray, _)) in rays.iter().enumerate() {
+                let s = i * nc..(i + 1) * nc;
+                let mut w = vec![0.0; nc];
+                composite(&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end], &ts[i], ray.dir_len, bg, &mut w);
+                let (mut cdf, mut tf, mut all) = (vec![0.0; nc], vec![0.0; nf], vec![0.0; nc + nf]);
+                sample_pdf_f32(&ts[i], &w, |j| (j as f32 + 0.5) / nf as f32, &mut cdf, &mut tf);
+                merge_sorted(&ts[i], &tf, &mut all);
+                pos_f.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
+            }
+            let mut acts_f = Acts::default();
+            net.forward(pf, &pos_f, &dirs, true, &mut acts_f);
+            net.record_max_abs(&acts_f, &mut max_f);
+        }
+        (max_c, (nf > 0).then_some(max_f), max_pos)
+    }
+
+    /// Serialises the run (postcard) for a checkpoint.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        postcard::to_stdvec(self).expect("trainer state serialises")
+    }
+
+    /// Restores a run from [`Trainer::to_bytes`].
+    pub fn from_bytes(b: &[u8]) -> Option<Self> {
+        let t: Self = postcard::from_bytes(b).ok()?;
+        (t.params.len() == t.adam.m.len() && t.cfg.validate().is_ok()).then_some(t)
+    }
+}

@@ -1,0 +1,93 @@
+//! `nerf eval`: renders a split through nerf-infer and prints one JSON
+//! object with PSNR, SSIM, per-view scores, µs per ray and model size.
+
+use super::{create_dir, decode, load_split, read_model, with_threads, CmdResult, FormatArg, SplitArg};
+use clap::Parser;
+use nerf_infer::RenderOptions;
+use nerf_train::dataset::save_png_rgb;
+use nerf_train::eval::score_view;
+use std::path::PathBuf;
+
+/// Arguments of `nerf eval`.
+#[derive(Parser)]
+pub struct Args {
+    /// Model file (.nerf).
+    model: PathBuf,
+    /// Dataset directory.
+    #[arg(long)]
+    data: PathBuf,
+    /// Split to evaluate.
+    #[arg(long, value_enum, default_value = "test")]
+    split: SplitArg,
+    /// Dataset layout.
+    #[arg(long, value_enum, default_value = "auto")]
+    format: FormatArg,
+    /// Downscale factor (default: the one the model was trained at).
+    #[arg(long)]
+    downscale: Option<u32>,
+    /// Worker threads (0: all cores); µs per ray is per core either way.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Write each render and its ground truth as PNG into this directory.
+    #[arg(long)]
+    save: Option<PathBuf>,
+    /// Coarse samples per ray (default: the model's).
+    #[arg(long)]
+    coarse: Option<usize>,
+    /// Fine samples per ray (default: the model's).
+    #[arg(long)]
+    fine: Option<usize>,
+    /// Early ray termination threshold on transmittance (0: off).
+    #[arg(long, default_value_t = 0.0)]
+    early_stop: f32,
+}
+
+/// Runs `nerf eval`.
+pub fn run(a: Args) -> CmdResult {
+    println!("{}", evaluate(a)?);
+    Ok(())
+}
+
+/// Evaluates and returns the report `nerf eval` prints.
+pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
+    let bytes = read_model(&a.model)?;
+    let model = decode(&a.model, &bytes)?;
+    let downscale = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
+    let data = load_split(&a.data, a.split.into(), a.format, downscale)?;
+    let mut opts = RenderOptions::from_model(&model);
+    opts.coarse = a.coarse.unwrap_or(opts.coarse);
+    opts.fine = a.fine.unwrap_or(opts.fine);
+    opts.early_stop = a.early_stop;
+    if let Some(dir) = &a.save {
+        create_dir(dir)?;
+    }
+    let pb = super::progress(data.views.len() as u64, "{bar:30} {pos}/{len} views ({eta})");
+    let results = with_threads(a.threads, || -> Result<Vec<_>, String> {
+        let mut out = Vec::new();
+        for v in &data.views {
+            let (r, s) = score_view(&model, opts, v).map_err(|e| format!("{}: {e}", a.model.display()))?;
+            if let Some(dir) = &a.save {
+                save_png_rgb(&dir.join(format!("{}.png", v.name)), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
+                save_png_rgb(&dir.join(format!("{}_gt.png", v.name)), r.width, r.height, &v.rgb).map_err(|e| e.to_string())?;
+            }
+            pb.inc(1);
+            out.push((r, s));
+        }
+        Ok(out)
+    })??;
+    pb.finish_and_clear();
+    let n = results.len() as f64;
+    let mut us: Vec<f64> = results.iter().map(|(r, _)| r.secs_per_ray * 1e6).collect();
+    us.sort_by(f64::total_cmp);
+    let report = serde_json::json!({
+        "psnr": results.iter().map(|(_, s)| s.psnr).sum::<f64>() / n,
+        "ssim": results.iter().map(|(_, s)| s.ssim).sum::<f64>() / n,
+        "views": results.iter().map(|(_, s)| s).collect::<Vec<_>>(),
+        "us_per_ray": us[us.len() / 2],
+        "samples_per_ray": results.iter().map(|(r, _)| r.samples_per_ray).sum::<f64>() / n,
+        "model_bytes": bytes.len(),
+        "scheme": format!("{:?}", model.scheme()),
+        "downscale": downscale,
+    });
+    Ok(report)
+}

@@ -1,0 +1,62 @@
+//! `nerf info`: what a model file holds.
+
+use super::{decode, read_model, CmdResult};
+use std::path::PathBuf;
+
+/// Arguments of `nerf info`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Model file (.nerf).
+    model: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `nerf info`.
+pub fn run(a: Args) -> CmdResult {
+    let bytes = read_model(&a.model)?;
+    let m = decode(&a.model, &bytes)?;
+    let net = |n: &nerf_infer::format::Network<'_>| {
+        serde_json::json!({
+            "scheme": format!("{:?}", n.scheme),
+            "activation_bits": n.act_bits,
+            "layers": n.layers.iter().map(|l| serde_json::json!({
+                "in": l.in_dim, "out": l.out_dim, "act_max": l.act_max,
+                "bytes": l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len(),
+            })).collect::<Vec<_>>(),
+            "parameters": n.layers.iter().map(|l| (l.in_dim as usize + 1) * l.out_dim as usize).sum::<usize>(),
+        })
+    };
+    let info = serde_json::json!({
+        "file": a.model.display().to_string(),
+        "file_bytes": bytes.len(),
+        "tensor_bytes": m.tensor_bytes(),
+        "format_version": nerf_infer::format::FORMAT_VERSION,
+        "scheme": format!("{:?}", m.scheme()),
+        "scene": { "bounds_min": m.scene.bounds_min, "bounds_max": m.scene.bounds_max, "near": m.scene.near, "far": m.scene.far,
+                   "white_background": m.scene.white_background, "ndc": m.scene.ndc.is_some() },
+        "encoding": { "pos_freqs": m.encoding.pos_freqs, "dir_freqs": m.encoding.dir_freqs, "include_input": m.encoding.include_input, "raw_frac_bits": m.encoding.raw_frac_bits },
+        "topology": { "depth": m.topology.depth, "width": m.topology.width, "skips": (1..16).filter(|&i| m.topology.is_skip(i)).collect::<Vec<_>>(),
+                      "view_dependent": m.topology.view_dependent, "view_width": m.topology.view_width },
+        "samples": { "coarse": m.samples.coarse, "fine": m.samples.fine },
+        "trained": { "downscale": m.meta.train_downscale, "iterations": m.meta.iterations },
+        "coarse": net(&m.coarse),
+        "fine": m.fine.as_ref().map(net),
+    });
+    if a.json {
+        println!("{info}");
+        return Ok(());
+    }
+    let t = &m.topology;
+    println!("{}: NeRF model, format version {}, {} bytes ({} in tensors)", a.model.display(), nerf_infer::format::FORMAT_VERSION, bytes.len(), m.tensor_bytes());
+    println!("  numeric scheme: {:?} weights, {}-bit activations", m.scheme(), m.coarse.act_bits);
+    println!("  network: {}x{} trunk, skips {:?}, view branch {}", t.depth, t.width, info["topology"]["skips"], if t.view_dependent { format!("on ({} wide)", t.view_width) } else { "off".into() });
+    println!("  encoding: L = {} (position), {} (direction), raw input {}", m.encoding.pos_freqs, m.encoding.dir_freqs, if m.encoding.include_input { "included" } else { "excluded" });
+    println!("  samples: {} coarse + {} fine; fine network {}", m.samples.coarse, m.samples.fine, if m.fine.is_some() { "present" } else { "absent" });
+    println!("  scene: bounds {:?}..{:?}, near {}, far {}, {} background{}", m.scene.bounds_min, m.scene.bounds_max, m.scene.near, m.scene.far,
+        if m.scene.white_background { "white" } else { "black" }, if m.scene.ndc.is_some() { ", NDC rays" } else { "" });
+    println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);
+    println!("  parameters: {} per network", info["coarse"]["parameters"]);
+    Ok(())
+}

@@ -1,0 +1,214 @@
+//! `nerf train`: fits a model to a dataset, with a progress bar, periodic
+//! validation, atomic checkpoints and `--resume`.
+
+use super::{create_dir, load_split, progress, with_threads, write_atomic, CmdResult, FormatArg};
+use nerf_infer::{Model, RenderOptions};
+use nerf_train::config::TrainConfig;
+use nerf_train::dataset::{Dataset, Split};
+use nerf_train::eval::score_view;
+use nerf_train::export::trainer_model;
+use nerf_train::rng::Rng;
+use nerf_train::train::Trainer;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `nerf train`.
+#[derive(clap::Args)]
+#[command(group(clap::ArgGroup::new("budget").required(true).args(["iters", "minutes"])))]
+pub struct Args {
+    /// Dataset directory.
+    #[arg(long)]
+    data: PathBuf,
+    /// Dataset layout.
+    #[arg(long, value_enum, default_value = "auto")]
+    format: FormatArg,
+    /// Downscale images by this integer factor (area averaging).
+    #[arg(long, default_value_t = 1)]
+    downscale: u32,
+    /// Named configuration: `fast` (default, best in 10 CPU minutes) or `paper`.
+    #[arg(long, conflicts_with = "config")]
+    preset: Option<String>,
+    /// Configuration as JSON (fields of the preset to override; see README).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Train until this many steps in total.
+    #[arg(long)]
+    iters: Option<u64>,
+    /// Train until this many minutes of training in total.
+    #[arg(long)]
+    minutes: Option<f64>,
+    /// Run directory: model.nerf, train.jsonl, checkpoint.bin.
+    #[arg(long)]
+    out: PathBuf,
+    /// Continue from RUN_DIR/checkpoint.bin.
+    #[arg(long)]
+    resume: bool,
+    /// Seed of initialisation and ray sampling.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Seconds of training between checkpoints.
+    #[arg(long, default_value_t = 60.0)]
+    checkpoint_secs: f64,
+    /// Seconds of training between validation renders.
+    #[arg(long, default_value_t = 120.0)]
+    val_secs: f64,
+    /// Validation views rendered each time (0: no periodic validation).
+    #[arg(long, default_value_t = 2)]
+    val_views: usize,
+    /// Steps between lines of train.jsonl.
+    #[arg(long, default_value_t = 10)]
+    log_every: u64,
+}
+
+fn load_config(a: &Args) -> Result<TrainConfig, String> {
+    let cfg = match (&a.preset, &a.config) {
+        (Some(p), _) => TrainConfig::preset(p).ok_or_else(|| format!("unknown preset '{p}' (known: fast, paper)"))?,
+        (None, Some(path)) => {
+            let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+            serde_json::from_str(&text).map_err(|e| format!("{}: invalid configuration: {e}", path.display()))?
+        }
+        (None, None) => TrainConfig::fast(),
+    };
+    cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
+    Ok(cfg)
+}
+
+/// The validation views, or none if the dataset has no such split.
+fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
+    if a.val_views == 0 {
+        return None;
+    }
+    load_split(&a.data, Split::Val, a.format, downscale).ok()
+}
+
+/// Mean PSNR of the first `n` validation views rendered by the kernel's f32 path.
+fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::Sample]) -> Result<f64, String> {
+    let bytes = trainer_model(tr, calib).to_bytes().map_err(|e| e.to_string())?;
+    let model = Model::from_bytes(&bytes).map_err(|e| e.to_string())?;
+    let views = &val.views[..n.min(val.views.len())];
+    let mut sum = 0.0;
+    for v in views {
+        sum += score_view(&model, RenderOptions::from_model(&model), v).map_err(|e| e.to_string())?.1.psnr;
+    }
+    Ok(sum / views.len() as f64)
+}
+
+fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample]) -> Result<(), String> {
+    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes())?;
+    let bytes = trainer_model(tr, calib).to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
+    write_atomic(&out.join("model.nerf"), &bytes)
+}
+
+/// Runs `nerf train`.
+pub fn run(a: Args) -> CmdResult {
+    with_threads(a.threads, || train(a))?
+}
+
+fn train(a: Args) -> CmdResult {
+    create_dir(&a.out)?;
+    let ckpt = a.out.join("checkpoint.bin");
+    let mut tr = if a.resume && ckpt.is_file() {
+        let b = std::fs::read(&ckpt).map_err(|e| format!("{}: cannot read: {e}", ckpt.display()))?;
+        Trainer::from_bytes(&b).ok_or_else(|| format!("{}: not a valid checkpoint", ckpt.display()))?
+    } else if a.resume {
+        return Err(format!("{}: no checkpoint to resume from", ckpt.display()));
+    } else {
+        let cfg = load_config(&a)?;
+        let data = load_split(&a.data, Split::Train, a.format, a.downscale)?;
+        Trainer::new(cfg, data.scene, a.downscale, a.seed)
+    };
+    let data = load_split(&a.data, Split::Train, a.format, tr.downscale)?;
+    let val = load_val(&a, tr.downscale);
+    let calib = Trainer::draw_batch(&data, 4096, &mut Rng::new(tr.seed ^ 0xCA11));
+    let budget_secs = a.minutes.map(|m| m * 60.0);
+    let total = match (a.iters, budget_secs) {
+        (Some(n), _) => n,
+        (None, Some(s)) => (s * 1000.0) as u64,
+        _ => unreachable!("clap requires a budget"),
+    };
+    let progress_of = |tr: &Trainer| match (a.iters, budget_secs) {
+        (Some(n), _) => tr.step as f64 / n as f64,
+        (None, Some(s)) => tr.elapsed / s,
+        _ => 1.0,
+    };
+    let pb = progress(total, "{bar:30} {pos}/{len} ({eta}) {msg}");
+    let mut log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(a.out.join("train.jsonl"))
+        .map_err(|e| format!("{}: cannot open: {e}", a.out.join("train.jsonl").display()))?;
+    let mlp = tr.mlp();
+    let flops_per_sample = 6.0 * mlp.macs_per_sample() as f64;
+    let (mut last_ckpt, mut last_val) = (tr.elapsed, tr.elapsed);
+    let (mut win_rays, mut win_samples, mut win_secs) = (0usize, 0usize, 0.0f64);
+    let mut last_val_psnr = None;
+    let wall = Instant::now();
+    while progress_of(&tr) < 1.0 {
+        let t0 = Instant::now();
+        let st = tr.train_step(&data, progress_of(&tr));
+        let dt = t0.elapsed().as_secs_f64();
+        tr.elapsed += dt;
+        win_rays += st.rays;
+        win_samples += st.samples;
+        win_secs += dt;
+        if st.skipped {
+            pb.println(format!("step {}: loss or gradient not finite, step skipped", tr.step));
+        }
+        let mut val_psnr = None;
+        if val.is_some() && tr.elapsed - last_val >= a.val_secs {
+            val_psnr = Some(validate(&tr, val.as_ref().expect("checked"), a.val_views, &calib[..256])?);
+            last_val_psnr = val_psnr;
+            last_val = tr.elapsed;
+        }
+        if tr.step % a.log_every == 0 || val_psnr.is_some() {
+            let line = serde_json::json!({
+                "step": tr.step,
+                "train_secs": tr.elapsed,
+                "wall_secs": wall.elapsed().as_secs_f64(),
+                "loss": st.loss,
+                "psnr": st.psnr,
+                "lr": tr.learning_rate(progress_of(&tr)),
+                "rays_per_sec": win_rays as f64 / win_secs,
+                "samples_per_sec": win_samples as f64 / win_secs,
+                "gflops": win_samples as f64 * flops_per_sample / win_secs / 1e9,
+                "val_psnr": val_psnr,
+                "skipped_steps": tr.skipped,
+            });
+            writeln!(log, "{line}").map_err(|e| format!("train.jsonl: cannot write: {e}"))?;
+            pb.set_message(format!(
+                "loss {:.4} psnr {:.2} dB, {:.0} rays/s{}",
+                st.loss,
+                st.psnr,
+                win_rays as f64 / win_secs,
+                last_val_psnr.map(|v| format!(", val {v:.2} dB")).unwrap_or_default()
+            ));
+            (win_rays, win_samples, win_secs) = (0, 0, 0.0);
+        }
+        pb.set_position(match a.iters {
+            Some(_) => tr.step,
+            None => (tr.elapsed * 1000.0) as u64,
+        });
+        if tr.elapsed - last_ckpt >= a.checkpoint_secs {
+            save(&tr, &a.out, &calib)?;
+            last_ckpt = tr.elapsed;
+        }
+    }
+    pb.finish_and_clear();
+    save(&tr, &a.out, &calib)?;
+    let val_psnr = match &val {
+        Some(v) => Some(validate(&tr, v, a.val_views, &calib[..256])?),
+        None => None,
+    };
+    eprintln!(
+        "trained {} steps in {:.1} s; wrote {}{}",
+        tr.step,
+        tr.elapsed,
+        a.out.join("model.nerf").display(),
+        val_psnr.map(|v| format!("; validation PSNR {v:.2} dB on {} views", a.val_views)).unwrap_or_default()
+    );
+    Ok(())
+}

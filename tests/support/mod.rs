@@ -1,0 +1,35 @@
+//! Helpers shared by the workspace tests.
+#![allow(dead_code)]
+
+use nerf_infer::format::{CameraConvention, Scene};
+use nerf_infer::{Camera, Model, RenderOptions};
+use nerf_train::config::TrainConfig;
+use nerf_train::eval::render_view;
+
+/// The scene of the built-in dataset (bounds ±1, near 2, far 6, white).
+pub fn unit_scene() -> Scene {
+    Scene {
+        bounds_min: [-1.0; 3],
+        bounds_max: [1.0; 3],
+        near: 2.0,
+        far: 6.0,
+        white_background: true,
+        convention: CameraConvention::OpenGl,
+        ndc: None,
+    }
+}
+
+/// A small configuration for tests.
+pub fn small_config() -> TrainConfig {
+    TrainConfig { depth: 3, width: 32, skips: vec![2], view_width: 16, pos_freqs: 6, dir_freqs: 2, n_coarse: 24, n_fine: 24, ..TrainConfig::fast() }
+}
+
+/// PSNR between two renders, dB.
+pub fn psnr(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    nerf_train::metrics::psnr(a, b)
+}
+
+/// Renders `model` from `camera` with its default options.
+pub fn render(model: &Model<'_>, camera: &Camera) -> Vec<[f32; 3]> {
+    render_view(model, RenderOptions::from_model(model), camera).expect("render").rgb
+}
