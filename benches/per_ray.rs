@@ -1,1 +1,83 @@
-fn main() {}
+//! Per-ray cost of the kernel's f32 and fixed-point paths, for the paper's
+//! network (8×256, L = 10/4, 64 + 128 samples: 64 coarse evaluations of
+//! the trunk and density, 192 fine evaluations of the whole network) and
+//! the fast preset (4×64, L = 8/2, 48 + 48). Models have random weights
+//! (He-uniform, calibrated); the work per ray does not depend on them
+//! except through ReLU sparsity and early termination (off here).
+//!
+//! `cargo bench --bench per_ray` — prints MACs per ray so that MAC/s =
+//! MACs per ray / time per ray.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use nerf_infer::format::{CameraConvention, Scene};
+use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, Scheme, ScratchF32, ScratchFixed};
+use nerf_train::config::TrainConfig;
+use nerf_train::export::{orbit_camera, quantise, random_model};
+use std::hint::black_box;
+
+fn scene() -> Scene {
+    Scene {
+        bounds_min: [-1.5; 3],
+        bounds_max: [1.5; 3],
+        near: 2.0,
+        far: 6.0,
+        white_background: true,
+        convention: CameraConvention::OpenGl,
+        ndc: None,
+    }
+}
+
+/// Multiply-accumulates per ray: coarse pass (trunk + density head only)
+/// and fine pass (all layers, view-direction part once per ray).
+fn macs_per_ray(m: &Model<'_>) -> usize {
+    let net = &m.coarse;
+    let d = m.topology.depth as usize;
+    let trunk: usize = net.layers[..=d].iter().map(|l| l.in_dim as usize * l.out_dim as usize).sum();
+    let all: usize = net.layers.iter().map(|l| l.in_dim as usize * l.out_dim as usize).sum();
+    let (nc, nf) = (m.samples.coarse as usize, m.samples.fine as usize);
+    if nf > 0 {
+        nc * trunk + (nc + nf) * all
+    } else {
+        nc * all
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let cam = orbit_camera(&scene(), 0.2, 32, 32);
+    let rays: Vec<_> = (0..64u32).map(|k| (cam.ray(8 + k % 16, 8 + k / 4), (k, 0))).collect();
+    for (name, cfg) in [("paper", TrainConfig::paper()), ("fast", TrainConfig::fast())] {
+        let f = random_model(&cfg, scene(), 1, 4.0).to_bytes().unwrap();
+        let mf = Model::from_bytes(&f).unwrap();
+        let q16 = quantise(&mf, Scheme::I16).unwrap().to_bytes().unwrap();
+        let q8 = quantise(&mf, Scheme::I8).unwrap().to_bytes().unwrap();
+        println!("{name}: {} MACs per ray", macs_per_ray(&mf));
+        let mut g = c.benchmark_group(format!("per_ray/{name}"));
+        g.sample_size(if name == "paper" { 20 } else { 60 });
+        let rf = F32Renderer::new(&mf, RenderOptions::from_model(&mf)).unwrap();
+        let mut sf = Box::<ScratchF32>::default();
+        let mut k = 0;
+        g.bench_function("f32", |b| {
+            b.iter(|| {
+                let ((o, d), px) = rays[k % rays.len()];
+                k += 1;
+                black_box(rf.render_ray(o, d, px, &mut sf))
+            })
+        });
+        for (label, bytes) in [("int16", &q16), ("int8", &q8)] {
+            let mq = Model::from_bytes(bytes).unwrap();
+            let rq = FixedRenderer::new(&mq, RenderOptions::from_model(&mq)).unwrap();
+            let mut sq = Box::<ScratchFixed>::default();
+            g.bench_function(label, |b| {
+                b.iter(|| {
+                    let ((o, d), px) = rays[k % rays.len()];
+                    k += 1;
+                    black_box(rq.render_ray(o, d, px, &mut sq))
+                })
+            });
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

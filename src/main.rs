@@ -7,7 +7,11 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "nerf", version, about = "Small-footprint NeRF: train on the CPU, render in f32 or integer fixed point")]
+#[command(
+    name = "nerf",
+    version,
+    about = "Small-footprint NeRF: train on the CPU, render in f32 or integer fixed point"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -34,17 +34,8 @@ impl Camera {
     /// matrix `[R | t]`. Fails with [`Error::InvalidCamera`] if a value is
     /// not finite, a size or focal length is not positive, or `R` is not a
     /// rotation (orthonormal within 10⁻³, determinant +1).
-    pub fn new(
-        width: u32,
-        height: u32,
-        fx: f32,
-        fy: f32,
-        cx: f32,
-        cy: f32,
-        c2w: [[f32; 4]; 3],
-    ) -> Result<Self> {
-        let finite = [fx, fy, cx, cy].iter().all(|v| v.is_finite())
-            && c2w.iter().flatten().all(|v| v.is_finite());
+    pub fn new(width: u32, height: u32, fx: f32, fy: f32, cx: f32, cy: f32, c2w: [[f32; 4]; 3]) -> Result<Self> {
+        let finite = [fx, fy, cx, cy].iter().all(|v| v.is_finite()) && c2w.iter().flatten().all(|v| v.is_finite());
         if !finite || width == 0 || height == 0 || fx <= 0.0 || fy <= 0.0 {
             return Err(Error::InvalidCamera);
         }
@@ -56,31 +47,14 @@ impl Camera {
         if !is_rotation(&rotation) {
             return Err(Error::InvalidCamera);
         }
-        Ok(Self {
-            width,
-            height,
-            fx,
-            fy,
-            cx,
-            cy,
-            rotation,
-            position: Vec3::new(c2w[0][3], c2w[1][3], c2w[2][3]),
-        })
+        Ok(Self { width, height, fx, fy, cx, cy, rotation, position: Vec3::new(c2w[0][3], c2w[1][3], c2w[2][3]) })
     }
 
     /// A camera with square pixels, principal point at the centre, and the
     /// horizontal field of view `fov_x` in radians (Blender's `camera_angle_x`).
     pub fn from_fov(width: u32, height: u32, fov_x: f32, c2w: [[f32; 4]; 3]) -> Result<Self> {
         let f = 0.5 * width as f32 / libm::tanf(0.5 * fov_x);
-        Self::new(
-            width,
-            height,
-            f,
-            f,
-            0.5 * width as f32,
-            0.5 * height as f32,
-            c2w,
-        )
+        Self::new(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32, c2w)
     }
 
     /// Origin and (unnormalised, camera-space `z = −1`) direction of the ray
@@ -95,12 +69,7 @@ impl Camera {
 /// True if `m` is orthonormal within 10⁻³ with determinant +1.
 pub fn is_rotation(m: &Mat3) -> bool {
     let d = *m * m.transpose() - Mat3::IDENTITY;
-    let err = d
-        .x_axis
-        .abs()
-        .max_element()
-        .max(d.y_axis.abs().max_element())
-        .max(d.z_axis.abs().max_element());
+    let err = d.x_axis.abs().max_element().max(d.y_axis.abs().max_element()).max(d.z_axis.abs().max_element());
     err.is_finite() && err < 1e-3 && (m.determinant() - 1.0).abs() < 1e-3
 }
 
@@ -115,17 +84,20 @@ pub struct Ray {
     pub viewdir: Vec3,
     /// Length of the sampling direction: `δ = Δt · dir_len`, world units.
     pub dir_len: f32,
-    /// Near bound of `t`.
+    /// Near bound of `t`: the scene's near plane or the bounds' entry.
     pub near: f32,
-    /// Far bound of `t`.
+    /// Far bound of `t`: the scene's far plane or the bounds' exit.
     pub far: f32,
 }
 
 impl Ray {
     /// Prepares a world-space ray (`origin`, `dir` with `d.z = −1` in
     /// camera space) for `scene`, mapping to NDC first for forward-facing
-    /// scenes. Returns `None` if the ray is not finite or degenerate
-    /// (zero direction, or an NDC ray parallel to the image plane).
+    /// scenes, and clips `[near, far]` to the part of the ray inside the
+    /// scene bounds (nothing is sampled outside them). Returns `None` if
+    /// the ray is not finite or degenerate (zero direction, or an NDC ray
+    /// parallel to the image plane), or misses the bounds within
+    /// `[near, far]`: such a ray shows the background at depth `far`.
     pub fn new(scene: &Scene, origin: Vec3, dir: Vec3) -> Option<Self> {
         if !origin.is_finite() || !dir.is_finite() || dir.length_squared() == 0.0 {
             return None;
@@ -139,16 +111,18 @@ impl Ray {
         let hi = Vec3::from(scene.bounds_max);
         let centre = 0.5 * (lo + hi);
         let inv_half = 2.0 / (hi - lo);
-        let r = Self {
-            norm_origin: (o - centre) * inv_half,
-            norm_dir: d * inv_half,
-            viewdir,
-            dir_len: d.length(),
-            near: scene.near,
-            far: scene.far,
-        };
+        let norm_origin = (o - centre) * inv_half;
+        let norm_dir = d * inv_half;
+        // Slab test against [−1, 1]³ in normalised coordinates.
+        let inv = Vec3::ONE / norm_dir;
+        let t0 = (Vec3::NEG_ONE - norm_origin) * inv;
+        let t1 = (Vec3::ONE - norm_origin) * inv;
+        let enter = t0.min(t1).max_element();
+        let exit = t0.max(t1).min_element();
+        let (near, far) = (enter.max(scene.near), exit.min(scene.far));
+        let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far };
         let ok = r.norm_origin.is_finite() && r.norm_dir.is_finite() && r.dir_len.is_finite();
-        ok.then_some(r)
+        (ok && near < far).then_some(r)
     }
 
     /// Normalised position at parameter `t`.
@@ -173,11 +147,7 @@ pub fn ndc_ray(w: f32, h: f32, focal: f32, near: f32, o: Vec3, d: Vec3) -> Optio
     let ax = -1.0 / (w / (2.0 * focal));
     let ay = -1.0 / (h / (2.0 * focal));
     let o2 = Vec3::new(ax * o.x / o.z, ay * o.y / o.z, 1.0 + 2.0 * near / o.z);
-    let d2 = Vec3::new(
-        ax * (d.x / d.z - o.x / o.z),
-        ay * (d.y / d.z - o.y / o.z),
-        -2.0 * near / o.z,
-    );
+    let d2 = Vec3::new(ax * (d.x / d.z - o.x / o.z), ay * (d.y / d.z - o.y / o.z), -2.0 * near / o.z);
     (o2.is_finite() && d2.is_finite()).then_some((o2, d2))
 }
 
@@ -203,9 +173,6 @@ mod tests {
         m = IDENTITY;
         m[1][3] = f32::NAN;
         assert_eq!(Camera::from_fov(4, 4, 1.0, m), Err(Error::InvalidCamera));
-        assert_eq!(
-            Camera::from_fov(0, 4, 1.0, IDENTITY),
-            Err(Error::InvalidCamera)
-        );
+        assert_eq!(Camera::from_fov(0, 4, 1.0, IDENTITY), Err(Error::InvalidCamera));
     }
 }

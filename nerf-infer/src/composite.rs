@@ -57,12 +57,7 @@ pub struct CompositorF32 {
 
 impl Default for CompositorF32 {
     fn default() -> Self {
-        Self {
-            transmittance: 1.0,
-            rgb: [0.0; 3],
-            opacity: 0.0,
-            depth: 0.0,
-        }
+        Self { transmittance: 1.0, rgb: [0.0; 3], opacity: 0.0, depth: 0.0 }
     }
 }
 
@@ -123,12 +118,7 @@ pub struct CompositorFixed {
 
 impl Default for CompositorFixed {
     fn default() -> Self {
-        Self {
-            transmittance: T_ONE,
-            rgb: [0; 3],
-            opacity: 0,
-            depth: 0,
-        }
+        Self { transmittance: T_ONE, rgb: [0; 3], opacity: 0, depth: 0 }
     }
 }
 
@@ -173,20 +163,10 @@ impl CompositorFixed {
         let acc = self.opacity.min(T_ONE as u64);
         let rest = T_ONE as u64 - acc;
         let half = 1u64 << (T_FRAC - 1);
-        let bg = if white_background {
-            rest * COLOR_ONE as u64
-        } else {
-            0
-        };
-        let rgb = self
-            .rgb
-            .map(|c| (((c + bg + half) >> T_FRAC).min(COLOR_ONE as u64)) as u16);
+        let bg = if white_background { rest * COLOR_ONE as u64 } else { 0 };
+        let rgb = self.rgb.map(|c| (((c + bg + half) >> T_FRAC).min(COLOR_ONE as u64)) as u16);
         let depth = (self.depth + rest as i64 * far_q16 as i64 + half as i64) >> T_FRAC;
-        FixedPixel {
-            rgb,
-            opacity: ((acc + (1 << 14)) >> 15) as u16,
-            depth: depth.clamp(0, far_q16 as i64) as i32,
-        }
+        FixedPixel { rgb, opacity: ((acc + (1 << 14)) >> 15) as u16, depth: depth.clamp(0, far_q16 as i64) as i32 }
     }
 }
 
@@ -215,23 +195,9 @@ mod tests {
     #[test]
     fn empty_ray_shows_background_at_far() {
         let p = CompositorF32::default().finish(true, 6.0);
-        assert_eq!(
-            p,
-            Pixel {
-                rgb: [1.0; 3],
-                opacity: 0.0,
-                depth: 6.0
-            }
-        );
+        assert_eq!(p, Pixel { rgb: [1.0; 3], opacity: 0.0, depth: 6.0 });
         let q = CompositorFixed::default().finish(true, 6 << 16);
-        assert_eq!(
-            q,
-            FixedPixel {
-                rgb: [32768; 3],
-                opacity: 0,
-                depth: 6 << 16
-            }
-        );
+        assert_eq!(q, FixedPixel { rgb: [32768; 3], opacity: 0, depth: 6 << 16 });
     }
 
     #[test]

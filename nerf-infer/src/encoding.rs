@@ -31,10 +31,7 @@ pub fn sincospi_f32(x: f32) -> (f32, f32) {
     let f = x - 0.5 * q;
     let a = core::f32::consts::PI * f;
     let a2 = a * a;
-    let s = a
-        * (1.0
-            + a2 * (-1.0 / 6.0
-                + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 * (1.0 / 362880.0)))));
+    let s = a * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 * (1.0 / 362880.0)))));
     let c = 1.0 + a2 * (-0.5 + a2 * (1.0 / 24.0 + a2 * (-1.0 / 720.0 + a2 * (1.0 / 40320.0))));
     // q mod 4 via the integer (|q| ≤ 2^25 is exact; beyond, f32 x is even anyway).
     match (q as i64).rem_euclid(4) {
@@ -76,13 +73,7 @@ pub fn encode_f32(p: [f32; 3], freqs: usize, include_input: bool, out: &mut [f32
 /// frequency `k` is `p·2^{k−1}` turns, computed as a wrapping left shift of
 /// the Q24 integer into turns·2³² — exact for every `k` ≤ 16.
 #[inline]
-pub fn encode_fixed(
-    p: [i32; 3],
-    freqs: usize,
-    include_input: bool,
-    raw_frac_bits: u32,
-    out: &mut [i16],
-) -> usize {
+pub fn encode_fixed(p: [i32; 3], freqs: usize, include_input: bool, raw_frac_bits: u32, out: &mut [i16]) -> usize {
     let mut n = 0;
     if include_input {
         for c in 0..3 {
@@ -141,11 +132,7 @@ mod tests {
             for j in 3..n {
                 let want = f[j] * 32768.0;
                 // one Q15 LSB from the table, plus the f32 sinf error at 2^15π.
-                assert!(
-                    (q[j] as f32 - want).abs() <= 2.0,
-                    "feature {j}: {} vs {want}",
-                    q[j]
-                );
+                assert!((q[j] as f32 - want).abs() <= 2.0, "feature {j}: {} vs {want}", q[j]);
             }
             for j in 0..3 {
                 assert!((q[j] as f32 / 8192.0 - pr[j]).abs() <= 1.0 / 8192.0);

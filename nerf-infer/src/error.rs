@@ -67,10 +67,7 @@ impl fmt::Display for Error {
             Error::TensorLength(i) => {
                 write!(f, "layer {i}: tensor length does not match its shape")
             }
-            Error::InvalidScale(i) => write!(
-                f,
-                "layer {i}: scale or requantisation constant out of range"
-            ),
+            Error::InvalidScale(i) => write!(f, "layer {i}: scale or requantisation constant out of range"),
             Error::MixedScheme(i) => {
                 write!(f, "layer {i}: numeric scheme differs from the network's")
             }
@@ -81,10 +78,7 @@ impl fmt::Display for Error {
             Error::WrongNumericPath => {
                 write!(f, "the model's numeric scheme does not match this renderer")
             }
-            Error::InvalidCamera => write!(
-                f,
-                "camera parameters are not finite or the pose is not rigid"
-            ),
+            Error::InvalidCamera => write!(f, "camera parameters are not finite or the pose is not rigid"),
             Error::InvalidTile => write!(f, "tile outside the image or output buffer too small"),
             Error::BufferTooSmall => write!(f, "output buffer too small"),
         }

@@ -111,10 +111,7 @@ impl Requant {
             return None;
         }
         if factor == 0.0 {
-            return Some(Self {
-                multiplier: 0,
-                shift: 0,
-            });
+            return Some(Self { multiplier: 0, shift: 0 });
         }
         // factor = mant · 2^exp with mant in [0.5, 1).
         let mut exp = libm::ilogb(factor) + 1;
@@ -130,10 +127,7 @@ impl Requant {
         if !(Self::MIN_SHIFT..=Self::MAX_SHIFT).contains(&shift) {
             return None;
         }
-        Some(Self {
-            multiplier: m as i32,
-            shift,
-        })
+        Some(Self { multiplier: m as i32, shift })
     }
 
     /// True if the constants are in their documented ranges.
@@ -192,11 +186,7 @@ pub fn sin_turns_q15(phase: u32) -> i16 {
     let quadrant = phase >> 30;
     let within = phase & 0x3FFF_FFFF; // 30 bits within the quadrant
                                       // Mirror for quadrants 1 and 3: sin(π/2 + a) = sin(π/2 − a).
-    let pos = if quadrant & 1 == 1 {
-        (1u32 << 30) - within
-    } else {
-        within
-    };
+    let pos = if quadrant & 1 == 1 { (1u32 << 30) - within } else { within };
     let idx = (pos >> 22) as usize; // 0..=256
     let frac = (pos & 0x3F_FFFF) as i64; // 22 bits
     let a = SIN_TABLE[idx] as i64;
@@ -317,10 +307,7 @@ mod tests {
             let x = phase as f64 / 4294967296.0 * core::f64::consts::TAU;
             let want = libm::sin(x) * 32768.0;
             let got = sin_turns_q15(phase) as f64;
-            assert!(
-                (got - want.clamp(-32767.0, 32767.0)).abs() <= 1.0,
-                "phase {phase}: {got} vs {want}"
-            );
+            assert!((got - want.clamp(-32767.0, 32767.0)).abs() <= 1.0, "phase {phase}: {got} vs {want}");
             let wantc = (libm::cos(x) * 32768.0).clamp(-32767.0, 32767.0);
             assert!((cos_turns_q15(phase) as f64 - wantc).abs() <= 1.0);
         }
@@ -332,10 +319,7 @@ mod tests {
             let x = i * 97; // up to ~30 in Q16
             let want = libm::exp(-(x as f64) / 65536.0) * 1073741824.0;
             let got = exp_neg_q16_q30(x) as f64;
-            assert!(
-                (got - want).abs() <= 2.0 + want * 2e-7,
-                "x={x}: {got} vs {want}"
-            );
+            assert!((got - want).abs() <= 2.0 + want * 2e-7, "x={x}: {got} vs {want}");
         }
         assert_eq!(exp_neg_q16_q30(0), T_ONE);
         assert_eq!(exp_neg_q16_q30(-5), T_ONE);

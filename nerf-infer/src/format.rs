@@ -214,10 +214,7 @@ impl Layer<'_> {
     /// Requantisation constants of output channel `c` (integer schemes).
     #[inline(always)]
     pub fn requant(&self, c: usize) -> Requant {
-        Requant {
-            multiplier: read_i32(self.requant, 2 * c),
-            shift: read_i32(self.requant, 2 * c + 1),
-        }
+        Requant { multiplier: read_i32(self.requant, 2 * c), shift: read_i32(self.requant, 2 * c + 1) }
     }
 }
 
@@ -320,14 +317,11 @@ impl<'a> Model<'a> {
             return Err(Error::InvalidScene("need finite 0 <= near < far"));
         }
         if s.far > 30000.0 {
-            return Err(Error::InvalidScene(
-                "far exceeds the fixed-point range (30000)",
-            ));
+            return Err(Error::InvalidScene("far exceeds the fixed-point range (30000)"));
         }
         if let Some(n) = s.ndc {
-            if !(n.focal.is_finite() && n.focal > 0.0 && n.width >= 1.0 && n.height >= 1.0)
-                || !(n.width.is_finite() && n.height.is_finite())
-            {
+            let finite = n.focal.is_finite() && n.width.is_finite() && n.height.is_finite();
+            if !(finite && n.focal > 0.0 && n.width >= 1.0 && n.height >= 1.0) {
                 return Err(Error::InvalidScene("NDC parameters"));
             }
         }
@@ -352,18 +346,14 @@ impl<'a> Model<'a> {
             return Err(Error::Capacity("more than 24 layers"));
         }
         if t.skip_mask & 1 != 0 || (t.depth < 16 && t.skip_mask >> t.depth != 0) {
-            return Err(Error::InvalidTopology(
-                "skip mask names a layer outside 1..depth",
-            ));
+            return Err(Error::InvalidTopology("skip mask names a layer outside 1..depth"));
         }
         let sm = &self.samples;
         if sm.coarse < 2 || sm.coarse as usize > MAX_COARSE || sm.fine as usize > MAX_FINE {
             return Err(Error::InvalidSamples);
         }
         if (sm.fine > 0) != self.fine.is_some() {
-            return Err(Error::InvalidTopology(
-                "fine samples without a fine network or vice versa",
-            ));
+            return Err(Error::InvalidTopology("fine samples without a fine network or vice versa"));
         }
         self.validate_network(&self.coarse)?;
         if let Some(f) = &self.fine {
@@ -379,9 +369,7 @@ impl<'a> Model<'a> {
         let t = &self.topology;
         let e = &self.encoding;
         if n.layers.len() != t.layer_count() {
-            return Err(Error::InvalidTopology(
-                "layer count does not match the topology",
-            ));
+            return Err(Error::InvalidTopology("layer count does not match the topology"));
         }
         let want_act = if n.scheme.is_fixed() { 16 } else { 32 };
         if n.act_bits != want_act {
@@ -410,7 +398,7 @@ impl<'a> Model<'a> {
                 }
                 for c in 0..dout {
                     let sc = l.scale(c);
-                    if !(sc.is_finite() && sc > 0.0) || !l.requant(c).is_valid() {
+                    if !(sc.is_finite() && sc > 0.0 && l.requant(c).is_valid()) {
                         return Err(Error::InvalidScale(idx));
                     }
                 }
@@ -491,11 +479,7 @@ static CRC_TABLE: [u32; 256] = {
         let mut c = i as u32;
         let mut k = 0;
         while k < 8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
+            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
             k += 1;
         }
         t[i] = c;
@@ -540,16 +524,10 @@ mod tests {
     #[test]
     fn header_errors_are_typed() {
         assert_eq!(Model::from_bytes(b"NE").unwrap_err(), Error::Truncated);
-        assert_eq!(
-            Model::from_bytes(b"XXXXXXXXXXXXXXXXXX").unwrap_err(),
-            Error::BadMagic
-        );
+        assert_eq!(Model::from_bytes(b"XXXXXXXXXXXXXXXXXX").unwrap_err(), Error::BadMagic);
         let mut h = [0u8; 14];
         h[..4].copy_from_slice(&MAGIC);
         h[4] = 9;
-        assert_eq!(
-            Model::from_bytes(&h).unwrap_err(),
-            Error::UnsupportedVersion(9)
-        );
+        assert_eq!(Model::from_bytes(&h).unwrap_err(), Error::UnsupportedVersion(9));
     }
 }

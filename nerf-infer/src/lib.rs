@@ -16,7 +16,7 @@
 //! # Embedding example
 //!
 //! ```
-//! use nerf_infer::{render_tile, Camera, FixedRenderer, Model, RenderOptions, ScratchFixed, Tile, FixedPixel};
+//! use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchFixed, Tile};
 //!
 //! // The model can live in flash: decoding borrows, it never copies.
 //! static MODEL: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/golden.nerf"));
@@ -31,10 +31,10 @@
 //! for (k, px) in pixels.iter_mut().enumerate() {
 //!     let (x, y) = (tile.x0 + k as u32 % 4, tile.y0 + k as u32 / 4);
 //!     let (o, d) = camera.ray(x, y);
-//!     *px = renderer.render_ray_in(o, d, (x, y), &mut scratch);
+//!     *px = renderer.render_ray(o, d, (x, y), &mut scratch);
 //! }
-//! // Or the whole tile at once with the default block size:
-//! let mut scratch = ScratchFixed::default();
+//! // Or the whole tile at once (here with the default block size, 8):
+//! let mut scratch: ScratchFixed = ScratchFixed::default();
 //! let mut tile_px = [FixedPixel::default(); 8];
 //! render_tile(&renderer, &camera, tile, &mut scratch, &mut tile_px).unwrap();
 //! assert_eq!(pixels, tile_px);
@@ -43,6 +43,9 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
+// Numeric kernels index several arrays by the same sample/channel index;
+// iterator chains would hide that symmetry.
+#![allow(clippy::needless_range_loop)]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;
@@ -62,7 +65,5 @@ pub use camera::{Camera, Ray};
 pub use composite::{FixedPixel, Pixel};
 pub use error::{Error, Result};
 pub use format::{Model, Scheme};
-pub use render::{
-    F32Renderer, FixedRenderer, RayRenderer, RenderOptions, ScratchF32, ScratchFixed,
-};
+pub use render::{F32Renderer, FixedRenderer, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
 pub use tile::{render_tile, Tile};

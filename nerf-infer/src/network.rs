@@ -14,9 +14,7 @@
 use crate::encoding::{encode_f32, encode_fixed};
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i16, sat_i32, sigmoid_q12_q15};
-use crate::format::{
-    read_f32, read_i32, sigma_layer, Layer, Model, Network, Scheme, MAX_FREQS, MAX_WIDTH,
-};
+use crate::format::{read_f32, read_i32, sigma_layer, Layer, Model, Network, Scheme, MAX_FREQS, MAX_WIDTH};
 
 /// Longest encoded position or direction: `3 + 6·16`.
 pub const ENC_MAX: usize = 3 + 6 * MAX_FREQS;
@@ -136,11 +134,7 @@ impl<const B: usize> BlockF32<B> {
         relu_f32(w, n, &mut self.h);
         let mut in_h = true;
         for (i, l) in layers.iter().enumerate().take(t.depth as usize).skip(1) {
-            let (src, dst) = if in_h {
-                (&self.h, &mut self.g)
-            } else {
-                (&self.g, &mut self.h)
-            };
+            let (src, dst) = if in_h { (&self.h, &mut self.g) } else { (&self.g, &mut self.h) };
             init_f32(|c| read_f32(l.bias, c), w, n, dst);
             let mut row0 = 0;
             if t.is_skip(i) {
@@ -151,11 +145,7 @@ impl<const B: usize> BlockF32<B> {
             relu_f32(w, n, dst);
             in_h = !in_h;
         }
-        let (trunk, spare) = if in_h {
-            (&mut self.h, &mut self.g)
-        } else {
-            (&mut self.g, &mut self.h)
-        };
+        let (trunk, spare) = if in_h { (&mut self.h, &mut self.g) } else { (&mut self.g, &mut self.h) };
         let ls = &layers[sigma_layer(t)];
         for s in 0..n {
             let mut acc = read_f32(ls.bias, 0);
@@ -329,12 +319,7 @@ fn accumulate_int<W: IntWeight, const N: usize>(
 }
 
 /// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
-fn init_int<W: IntWeight>(
-    l: &Layer<'_>,
-    view: Option<&[i64; MAX_WIDTH]>,
-    n: usize,
-    acc: &mut [[W::Acc; MAX_WIDTH]],
-) {
+fn init_int<W: IntWeight>(l: &Layer<'_>, view: Option<&[i64; MAX_WIDTH]>, n: usize, acc: &mut [[W::Acc; MAX_WIDTH]]) {
     let od = l.out_dim as usize;
     for row in acc[..n].iter_mut() {
         for (c, y) in row[..od].iter_mut().enumerate() {
@@ -368,12 +353,7 @@ fn requant_each<W: IntWeight, T>(
 impl<const B: usize> BlockFixed<B> {
     /// Per-ray setup: folds the encoded direction (Q24 unit vector) into the
     /// view layer's accumulator bias. No-op without the view branch.
-    pub fn prepare_ray<W: IntWeight>(
-        &mut self,
-        model: &Model<'_>,
-        net: &Network<'_>,
-        viewdir_q24: [i32; 3],
-    ) {
+    pub fn prepare_ray<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, viewdir_q24: [i32; 3]) {
         let t = &model.topology;
         if !t.view_dependent {
             return;
@@ -381,13 +361,7 @@ impl<const B: usize> BlockFixed<B> {
         let e = &model.encoding;
         let l = &net.layers[sigma_layer(t) + 2];
         let mut enc = [0i16; ENC_MAX];
-        let nd = encode_fixed(
-            viewdir_q24,
-            e.dir_freqs as usize,
-            e.include_input,
-            e.raw_frac_bits as u32,
-            &mut enc,
-        );
+        let nd = encode_fixed(viewdir_q24, e.dir_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc);
         let od = l.out_dim as usize;
         let w = t.width as usize;
         for c in 0..od {
@@ -402,36 +376,15 @@ impl<const B: usize> BlockFixed<B> {
 
     /// Evaluates `net` at Q24 normalised positions `pos` (≤ `B`), filling
     /// `sigma` (Q10) and, if `need_rgb`, `rgb` (Q15). Integer only.
-    pub fn eval<W: IntWeight>(
-        &mut self,
-        model: &Model<'_>,
-        net: &Network<'_>,
-        pos: &[[i32; 3]],
-        need_rgb: bool,
-    ) {
+    pub fn eval<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[i32; 3]], need_rgb: bool) {
         let n = pos.len();
         let t = &model.topology;
         let e = &model.encoding;
-        let Self {
-            enc,
-            h,
-            g,
-            acc64,
-            acc32,
-            view_acc,
-            sigma,
-            rgb,
-        } = self;
+        let Self { enc, h, g, acc64, acc32, view_acc, sigma, rgb } = self;
         let acc = W::pick(acc64, acc32);
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
-            pd = encode_fixed(
-                *p,
-                e.pos_freqs as usize,
-                e.include_input,
-                e.raw_frac_bits as u32,
-                &mut enc[s],
-            );
+            pd = encode_fixed(*p, e.pos_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc[s]);
         }
         let w = t.width as usize;
         let layers = &net.layers;
@@ -469,7 +422,7 @@ impl<const B: usize> BlockFixed<B> {
             let lf = &layers[si + 1];
             init_int::<W>(lf, None, n, acc);
             accumulate_int::<W, MAX_WIDTH>(lf, 0, trunk, w, n, acc);
-            requant_each::<W, i16>(lf, n, acc, spare, |v| sat_i16(v));
+            requant_each::<W, i16>(lf, n, acc, spare, sat_i16);
             let lv = &layers[si + 2];
             init_int::<W>(lv, Some(view_acc), n, acc);
             accumulate_int::<W, MAX_WIDTH>(lv, 0, spare, w, n, acc);

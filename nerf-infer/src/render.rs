@@ -15,8 +15,7 @@ use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
 use crate::format::{Model, Network, Scheme, MAX_COARSE, MAX_FINE};
 use crate::network::{check_i8_headroom, BlockF32, BlockFixed, IntWeight, W16, W8};
 use crate::sampling::{
-    jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_f32,
-    stratified_fixed,
+    jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_f32, stratified_fixed,
 };
 use glam::Vec3;
 
@@ -39,12 +38,7 @@ pub struct RenderOptions {
 impl RenderOptions {
     /// The model's default sample counts, no early termination, no jitter.
     pub fn from_model(model: &Model<'_>) -> Self {
-        Self {
-            coarse: model.samples.coarse as usize,
-            fine: model.samples.fine as usize,
-            early_stop: 0.0,
-            seed: None,
-        }
+        Self { coarse: model.samples.coarse as usize, fine: model.samples.fine as usize, early_stop: 0.0, seed: None }
     }
 
     fn validate(&self, model: &Model<'_>) -> Result<()> {
@@ -61,25 +55,18 @@ impl RenderOptions {
     }
 }
 
-/// What both numeric paths offer: a pixel type, a scratch type and a
-/// per-ray entry point.
-pub trait RayRenderer {
+/// What both numeric paths offer: a pixel type and a per-ray entry point
+/// that works in caller-provided scratch memory `S` (of any block size).
+pub trait RayRenderer<S> {
     /// The pixel this path produces.
     type Pixel: Copy + Default;
-    /// Caller-provided working memory (see the type's size note).
-    type Scratch;
     /// The model being rendered.
     fn model(&self) -> &Model<'_>;
     /// Renders the world-space ray `origin + t·dir` (`dir` with camera-space
     /// `z = −1`, as [`crate::Camera::ray`] gives); `pixel` keys the jitter.
-    /// A non-finite or degenerate ray renders as the background at `far`.
-    fn render_ray(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        pixel: (u32, u32),
-        scratch: &mut Self::Scratch,
-    ) -> Self::Pixel;
+    /// A non-finite or degenerate ray, or one that misses the scene bounds,
+    /// renders as the background at `far`.
+    fn render_ray(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), scratch: &mut S) -> Self::Pixel;
 }
 
 /// Working memory of [`F32Renderer`] for blocks of `B` samples:
@@ -144,6 +131,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         &self.opts
     }
 
+    #[allow(clippy::too_many_arguments)]
     /// One pass of `net` over the sorted `t`; returns the composited pixel
     /// and writes each sample's weight to `weights` if given.
     fn pass<const B: usize>(
@@ -177,11 +165,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             *evaluations += len as u64;
             for k in 0..len {
                 let i = start + k;
-                let delta = if i + 1 < n {
-                    (t[i + 1] - t[i]) * ray.dir_len
-                } else {
-                    f32::INFINITY
-                };
+                let delta = if i + 1 < n { (t[i + 1] - t[i]) * ray.dir_len } else { f32::INFINITY };
                 let rgb = if need_rgb { block.rgb[k] } else { [0.0; 3] };
                 let w = comp.add(block.sigma[k], delta, rgb, t[i]);
                 if let Some(ws) = weights.as_deref_mut() {
@@ -198,21 +182,20 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
     }
 }
 
-impl<'m, 'a> RayRenderer for F32Renderer<'m, 'a> {
+impl<'m, 'a, const B: usize> RayRenderer<ScratchF32<B>> for F32Renderer<'m, 'a> {
     type Pixel = Pixel;
-    type Scratch = ScratchF32;
 
     fn model(&self) -> &Model<'_> {
         self.model
     }
 
-    fn render_ray(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), s: &mut ScratchF32) -> Pixel {
+    fn render_ray(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), s: &mut ScratchF32<B>) -> Pixel {
         self.render_ray_in(origin, dir, pixel, s)
     }
 }
 
 impl<'m, 'a> F32Renderer<'m, 'a> {
-    /// [`RayRenderer::render_ray`] with any block size `B`.
+    /// The per-ray entry point ([`RayRenderer::render_ray`]).
     pub fn render_ray_in<const B: usize>(
         &self,
         origin: Vec3,
@@ -226,42 +209,16 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         };
         let key = self.opts.key(pixel);
         let nc = self.opts.coarse;
-        let ScratchF32 {
-            t_coarse,
-            w_coarse,
-            cdf,
-            t_fine,
-            t_all,
-            block,
-            evaluations,
-        } = s;
+        let ScratchF32 { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
         let t_c = &mut t_coarse[..nc];
         stratified_f32(ray.near, ray.far, key, t_c);
-        let fine = if self.opts.fine > 0 {
-            m.fine.as_ref()
-        } else {
-            None
-        };
+        let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
         let Some(fine_net) = fine else {
             return self.pass(&m.coarse, &ray, t_c, true, block, None, evaluations);
         };
-        self.pass(
-            &m.coarse,
-            &ray,
-            t_c,
-            false,
-            block,
-            Some(&mut w_coarse[..nc]),
-            evaluations,
-        );
+        self.pass(&m.coarse, &ray, t_c, false, block, Some(&mut w_coarse[..nc]), evaluations);
         let nf = self.opts.fine;
-        sample_pdf_f32(
-            t_c,
-            &w_coarse[..nc],
-            |j| fine_u_q16(j, nf, key) as f32 / 65536.0,
-            cdf,
-            &mut t_fine[..nf],
-        );
+        sample_pdf_f32(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key) as f32 / 65536.0, cdf, &mut t_fine[..nf]);
         let all = &mut t_all[..nc + nf];
         merge_sorted(t_c, &t_fine[..nf], all);
         self.pass(fine_net, &ray, all, true, block, None, evaluations)
@@ -302,6 +259,8 @@ struct FixedRay {
     dir: [i32; 3],    // Q24 normalised per unit t
     viewdir: [i32; 3],
     dir_len: i32, // Q16
+    near: i32,    // Q16
+    far: i32,     // Q16
 }
 
 impl FixedRay {
@@ -312,6 +271,8 @@ impl FixedRay {
             dir: q24(r.norm_dir),
             viewdir: q24(r.viewdir),
             dir_len: to_fixed(r.dir_len, POS_FRAC),
+            near: to_fixed(r.near, POS_FRAC),
+            far: to_fixed(r.far, POS_FRAC),
         }
     }
 
@@ -331,7 +292,6 @@ pub struct FixedRenderer<'m, 'a> {
     model: &'m Model<'a>,
     opts: RenderOptions,
     early_stop_q30: u32,
-    near: i32,
     far: i32,
 }
 
@@ -352,7 +312,6 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             model,
             opts,
             early_stop_q30: (opts.early_stop as f64 * T_ONE as f64) as u32,
-            near: to_fixed(model.scene.near, POS_FRAC),
             far: to_fixed(model.scene.far, POS_FRAC),
         })
     }
@@ -396,8 +355,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
                 let i = start + k;
                 let delta = if i + 1 < n {
                     let dt = t[i + 1] as i64 - t[i] as i64;
-                    shr_round_i64(dt * ray.dir_len as i64, POS_FRAC)
-                        .clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
+                    shr_round_i64(dt * ray.dir_len as i64, POS_FRAC).clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
                 } else {
                     DELTA_INF_Q16
                 };
@@ -409,60 +367,29 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             }
             start += len;
         }
-        comp.finish(m.scene.white_background, self.far)
+        comp.finish(m.scene.white_background, ray.far)
     }
 
-    fn render<W: IntWeight, const B: usize>(
-        &self,
-        ray: &Ray,
-        key: Option<u32>,
-        s: &mut ScratchFixed<B>,
-    ) -> FixedPixel {
+    fn render<W: IntWeight, const B: usize>(&self, ray: &Ray, key: Option<u32>, s: &mut ScratchFixed<B>) -> FixedPixel {
         let m = self.model;
         let fr = FixedRay::new(ray);
         let nc = self.opts.coarse;
-        let ScratchFixed {
-            t_coarse,
-            w_coarse,
-            cdf,
-            t_fine,
-            t_all,
-            block,
-            evaluations,
-        } = s;
+        let ScratchFixed { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
         let t_c = &mut t_coarse[..nc];
-        stratified_fixed(self.near, self.far, key, t_c);
-        let fine = if self.opts.fine > 0 {
-            m.fine.as_ref()
-        } else {
-            None
-        };
+        stratified_fixed(fr.near, fr.far, key, t_c);
+        let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
         let Some(fine_net) = fine else {
             return self.pass::<W, B>(&m.coarse, &fr, t_c, true, block, None, evaluations);
         };
-        self.pass::<W, B>(
-            &m.coarse,
-            &fr,
-            t_c,
-            false,
-            block,
-            Some(&mut w_coarse[..nc]),
-            evaluations,
-        );
+        self.pass::<W, B>(&m.coarse, &fr, t_c, false, block, Some(&mut w_coarse[..nc]), evaluations);
         let nf = self.opts.fine;
-        sample_pdf_fixed(
-            t_c,
-            &w_coarse[..nc],
-            |j| fine_u_q16(j, nf, key),
-            cdf,
-            &mut t_fine[..nf],
-        );
+        sample_pdf_fixed(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key), cdf, &mut t_fine[..nf]);
         let all = &mut t_all[..nc + nf];
         merge_sorted(t_c, &t_fine[..nf], all);
         self.pass::<W, B>(fine_net, &fr, all, true, block, None, evaluations)
     }
 
-    /// [`RayRenderer::render_ray`] with any block size `B`.
+    /// The per-ray entry point ([`RayRenderer::render_ray`]).
     pub fn render_ray_in<const B: usize>(
         &self,
         origin: Vec3,
@@ -482,21 +409,14 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
     }
 }
 
-impl<'m, 'a> RayRenderer for FixedRenderer<'m, 'a> {
+impl<'m, 'a, const B: usize> RayRenderer<ScratchFixed<B>> for FixedRenderer<'m, 'a> {
     type Pixel = FixedPixel;
-    type Scratch = ScratchFixed;
 
     fn model(&self) -> &Model<'_> {
         self.model
     }
 
-    fn render_ray(
-        &self,
-        origin: Vec3,
-        dir: Vec3,
-        pixel: (u32, u32),
-        s: &mut ScratchFixed,
-    ) -> FixedPixel {
+    fn render_ray(&self, origin: Vec3, dir: Vec3, pixel: (u32, u32), s: &mut ScratchFixed<B>) -> FixedPixel {
         self.render_ray_in(origin, dir, pixel, s)
     }
 }

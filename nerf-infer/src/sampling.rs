@@ -45,16 +45,8 @@ pub fn stratified_f32(near: f32, far: f32, jitter: Option<u32>, out: &mut [f32])
     }
     if let Some(key) = jitter {
         for i in 0..n {
-            let lo = if i == 0 {
-                lin(0)
-            } else {
-                0.5 * (lin(i - 1) + lin(i))
-            };
-            let hi = if i + 1 == n {
-                lin(i)
-            } else {
-                0.5 * (lin(i) + lin(i + 1))
-            };
+            let lo = if i == 0 { lin(0) } else { 0.5 * (lin(i - 1) + lin(i)) };
+            let hi = if i + 1 == n { lin(i) } else { 0.5 * (lin(i) + lin(i + 1)) };
             let u = jitter_q16(key, i) as f32 / 65536.0;
             out[i] = lo + (hi - lo) * u;
         }
@@ -71,16 +63,8 @@ pub fn stratified_fixed(near: i32, far: i32, jitter: Option<u32>, out: &mut [i32
     }
     if let Some(key) = jitter {
         for i in 0..n {
-            let lo = if i == 0 {
-                lin(0) as i64
-            } else {
-                (lin(i - 1) as i64 + lin(i) as i64) >> 1
-            };
-            let hi = if i + 1 == n {
-                lin(i) as i64
-            } else {
-                (lin(i) as i64 + lin(i + 1) as i64) >> 1
-            };
+            let lo = if i == 0 { lin(0) as i64 } else { (lin(i - 1) as i64 + lin(i) as i64) >> 1 };
+            let hi = if i + 1 == n { lin(i) as i64 } else { (lin(i) as i64 + lin(i + 1) as i64) >> 1 };
             let u = jitter_q16(key, i as usize) as i64;
             out[i as usize] = (lo + (((hi - lo) * u) >> 16)) as i32;
         }
@@ -94,13 +78,7 @@ pub fn stratified_fixed(near: i32, far: i32, jitter: Option<u32>, out: &mut [i32
 /// plus [`PDF_EPS`] as their mass. `u(j)` gives the CDF level of sample `j`
 /// in `[0, 1]`, non-decreasing in `j`. `cdf` is scratch of length ≥ `n_c − 1`.
 /// The `out.len()` samples are written in non-decreasing order.
-pub fn sample_pdf_f32(
-    t: &[f32],
-    w: &[f32],
-    u: impl Fn(usize) -> f32,
-    cdf: &mut [f32],
-    out: &mut [f32],
-) {
+pub fn sample_pdf_f32(t: &[f32], w: &[f32], u: impl Fn(usize) -> f32, cdf: &mut [f32], out: &mut [f32]) {
     let nc = t.len();
     let nb = nc - 1; // bins = cdf entries
     let mut total = 0.0f32;
@@ -134,13 +112,7 @@ pub fn sample_pdf_f32(
 
 /// Fixed-point [`sample_pdf_f32`]: `t` and `out` in Q16, weights in Q30,
 /// `u_q16(j)` in Q16 `[0, 65536]`; `cdf` holds unnormalised Q30 prefix sums.
-pub fn sample_pdf_fixed(
-    t: &[i32],
-    w: &[u32],
-    u_q16: impl Fn(usize) -> u32,
-    cdf: &mut [u64],
-    out: &mut [i32],
-) {
+pub fn sample_pdf_fixed(t: &[i32], w: &[u32], u_q16: impl Fn(usize) -> u32, cdf: &mut [u64], out: &mut [i32]) {
     let nc = t.len();
     let nb = nc - 1;
     let mut total = 0u64;
@@ -224,19 +196,9 @@ mod tests {
         let wq = w.map(|x| (x * 1073741824.0) as u32);
         let mut cq = [0u64; 16];
         let mut oq = [0i32; 32];
-        sample_pdf_fixed(
-            &tq,
-            &wq,
-            |j| ((j as u64 * 65536) / 31) as u32,
-            &mut cq,
-            &mut oq,
-        );
+        sample_pdf_fixed(&tq, &wq, |j| ((j as u64 * 65536) / 31) as u32, &mut cq, &mut oq);
         for (a, b) in out.iter().zip(oq.iter()) {
-            assert!(
-                (a - *b as f32 / 65536.0).abs() < 1e-3,
-                "{a} vs {}",
-                *b as f32 / 65536.0
-            );
+            assert!((a - *b as f32 / 65536.0).abs() < 1e-3, "{a} vs {}", *b as f32 / 65536.0);
         }
     }
 }

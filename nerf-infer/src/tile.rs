@@ -32,21 +32,15 @@ impl Tile {
 /// pixels per row; `out.len() ≥ tile.len()`). Fails with
 /// [`Error::InvalidTile`] if the tile is empty, leaves the image, or `out`
 /// is too small; no pixel is written then.
-pub fn render_tile<R: RayRenderer>(
+pub fn render_tile<S, R: RayRenderer<S>>(
     renderer: &R,
     camera: &Camera,
     tile: Tile,
-    scratch: &mut R::Scratch,
+    scratch: &mut S,
     out: &mut [R::Pixel],
 ) -> Result<()> {
-    let inside = tile
-        .x0
-        .checked_add(tile.width)
-        .is_some_and(|x| x <= camera.width)
-        && tile
-            .y0
-            .checked_add(tile.height)
-            .is_some_and(|y| y <= camera.height);
+    let inside = tile.x0.checked_add(tile.width).is_some_and(|x| x <= camera.width)
+        && tile.y0.checked_add(tile.height).is_some_and(|y| y <= camera.height);
     if tile.is_empty() || !inside || out.len() < tile.len() {
         return Err(Error::InvalidTile);
     }

@@ -162,7 +162,12 @@ impl TrainConfig {
             return Err("batch_rays and chunk_rays must be positive".into());
         }
         let pos = |v: f32| v.is_finite() && v > 0.0;
-        if !pos(self.lr) || !pos(self.lr_final_ratio) || !pos(self.eps) || !(0.0..1.0).contains(&self.beta1) || !(0.0..1.0).contains(&self.beta2) {
+        if !pos(self.lr)
+            || !pos(self.lr_final_ratio)
+            || !pos(self.eps)
+            || !(0.0..1.0).contains(&self.beta1)
+            || !(0.0..1.0).contains(&self.beta2)
+        {
             return Err("lr, lr_final_ratio, eps must be positive and betas in [0, 1)".into());
         }
         Ok(())

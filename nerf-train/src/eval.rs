@@ -29,20 +29,31 @@ pub struct Rendered {
 /// rayon pool.
 pub fn render_view(model: &Model<'_>, opts: RenderOptions, camera: &Camera) -> Result<Rendered, nerf_infer::Error> {
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let rows: Vec<(Vec<[f32; 3]>, Vec<f32>, f64, u64)> = if model.scheme().is_fixed() {
+    let rows: Vec<Row> = if model.scheme().is_fixed() {
         let r = FixedRenderer::new(model, opts)?;
         (0..h)
             .into_par_iter()
-            .map_init(|| Box::<ScratchFixed>::default(), |s, y| render_row(&r, camera, y as u32, w, s, |p| p.to_pixel(), |s| s.evaluations))
+            .map_init(Box::<ScratchFixed>::default, |s, y| {
+                render_row(&r, camera, y as u32, w, &mut **s, |p| p.to_pixel(), |s| s.evaluations)
+            })
             .collect()
     } else {
         let r = F32Renderer::new(model, opts)?;
         (0..h)
             .into_par_iter()
-            .map_init(|| Box::<ScratchF32>::default(), |s, y| render_row(&r, camera, y as u32, w, s, |p| p, |s| s.evaluations))
+            .map_init(Box::<ScratchF32>::default, |s, y| {
+                render_row(&r, camera, y as u32, w, &mut **s, |p| p, |s| s.evaluations)
+            })
             .collect()
     };
-    let mut out = Rendered { width: w as u32, height: h as u32, rgb: Vec::with_capacity(w * h), depth: Vec::with_capacity(w * h), secs_per_ray: 0.0, samples_per_ray: 0.0 };
+    let mut out = Rendered {
+        width: w as u32,
+        height: h as u32,
+        rgb: Vec::with_capacity(w * h),
+        depth: Vec::with_capacity(w * h),
+        secs_per_ray: 0.0,
+        samples_per_ray: 0.0,
+    };
     let (mut secs, mut evals) = (0.0, 0u64);
     for (rgb, depth, t, e) in rows {
         out.rgb.extend(rgb);
@@ -55,15 +66,18 @@ pub fn render_view(model: &Model<'_>, opts: RenderOptions, camera: &Camera) -> R
     Ok(out)
 }
 
-fn render_row<R: RayRenderer>(
+/// One rendered row: colours, depths, busy seconds, network evaluations.
+type Row = (Vec<[f32; 3]>, Vec<f32>, f64, u64);
+
+fn render_row<S, R: RayRenderer<S>>(
     r: &R,
     camera: &Camera,
     y: u32,
     w: usize,
-    scratch: &mut Box<R::Scratch>,
+    scratch: &mut S,
     to_pixel: impl Fn(R::Pixel) -> nerf_infer::Pixel,
-    evals: impl Fn(&R::Scratch) -> u64,
-) -> (Vec<[f32; 3]>, Vec<f32>, f64, u64) {
+    evals: impl Fn(&S) -> u64,
+) -> Row {
     let e0 = evals(scratch);
     let start = Instant::now();
     let px: Vec<nerf_infer::Pixel> = (0..w as u32)
@@ -88,7 +102,11 @@ pub struct ViewScore {
 }
 
 /// Renders `view` and scores it against its ground truth.
-pub fn score_view(model: &Model<'_>, opts: RenderOptions, view: &View) -> Result<(Rendered, ViewScore), nerf_infer::Error> {
+pub fn score_view(
+    model: &Model<'_>,
+    opts: RenderOptions,
+    view: &View,
+) -> Result<(Rendered, ViewScore), nerf_infer::Error> {
     let r = render_view(model, opts, &view.camera)?;
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
     let s = ViewScore { name: view.name.clone(), psnr: psnr(&r.rgb, &view.rgb), ssim: ssim(&r.rgb, &view.rgb, w, h) };

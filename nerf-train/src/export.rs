@@ -17,7 +17,9 @@
 use crate::mlp::Mlp;
 use crate::train::Trainer;
 use nerf_infer::fixed::{Requant, ENC_FRAC, LOGIT_FRAC, SIGMA_FRAC};
-use nerf_infer::format::{self, read_f32, sigma_layer, Encoding, Layer, Meta, Model, Network, Samples, Scene, Scheme, Topology};
+use nerf_infer::format::{
+    self, read_f32, sigma_layer, Encoding, Layer, Meta, Model, Network, Samples, Scene, Scheme, Topology,
+};
 
 /// A layer owning its tensor bytes (see [`nerf_infer::format::Layer`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -248,7 +250,8 @@ fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme) -> Result<
             }
             bias.extend(((b / s).round() as i32).to_le_bytes());
             scales.extend((s as f32).to_le_bytes());
-            let r = Requant::from_f64(s * target).ok_or_else(|| format!("layer {i} channel {c}: requantisation factor {:e} out of range", s * target))?;
+            let r = Requant::from_f64(s * target)
+                .ok_or_else(|| format!("layer {i} channel {c}: requantisation factor {:e} out of range", s * target))?;
             requant.extend(r.multiplier.to_le_bytes());
             requant.extend(r.shift.to_le_bytes());
         }
@@ -256,7 +259,15 @@ fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme) -> Result<
             Scheme::I16 => q.iter().flat_map(|&v| (v as i16).to_le_bytes()).collect(),
             _ => q.iter().map(|&v| v as i8 as u8).collect(),
         };
-        layers.push(OwnedLayer { in_dim: l.in_dim, out_dim: l.out_dim, act_max: l.act_max, weights, bias, scales, requant });
+        layers.push(OwnedLayer {
+            in_dim: l.in_dim,
+            out_dim: l.out_dim,
+            act_max: l.act_max,
+            weights,
+            bias,
+            scales,
+            requant,
+        });
     }
     Ok(OwnedNetwork { scheme, act_bits: 16, layers })
 }

@@ -14,19 +14,11 @@ pub struct View<'a> {
 impl<'a> View<'a> {
     /// Row-major `rows × cols` matrix.
     pub fn rows(data: &'a [f32], cols: usize) -> Self {
-        Self {
-            data,
-            rs: cols,
-            cs: 1,
-        }
+        Self { data, rs: cols, cs: 1 }
     }
     /// The transpose of a row-major matrix with `cols` columns.
     pub fn t(data: &'a [f32], cols: usize) -> Self {
-        Self {
-            data,
-            rs: 1,
-            cs: cols,
-        }
+        Self { data, rs: 1, cs: cols }
     }
     fn check(&self, r: usize, c: usize) {
         if r > 0 && c > 0 {
@@ -38,6 +30,7 @@ impl<'a> View<'a> {
 
 /// `dst[m×n] (+)= a[m×k] · b[k×n]`; `dst` is row-major with row stride
 /// `dst_rs`; accumulates when `accumulate`, otherwise overwrites.
+#[allow(clippy::too_many_arguments)]
 pub fn matmul(
     m: usize,
     n: usize,
@@ -51,10 +44,7 @@ pub fn matmul(
     if m == 0 || n == 0 {
         return;
     }
-    assert!(
-        (m - 1) * dst_rs + n <= dst.len(),
-        "destination out of bounds"
-    );
+    assert!((m - 1) * dst_rs + n <= dst.len(), "destination out of bounds");
     if k == 0 {
         if !accumulate {
             for r in 0..m {
@@ -102,16 +92,7 @@ mod tests {
         let a: Vec<f32> = (0..m * k).map(|i| i as f32 * 0.5 - 3.0).collect();
         let b: Vec<f32> = (0..k * n).map(|i| (i as f32).sin()).collect();
         let mut c = vec![1.0; m * n];
-        matmul(
-            m,
-            n,
-            k,
-            &mut c,
-            n,
-            true,
-            View::rows(&a, k),
-            View::rows(&b, n),
-        );
+        matmul(m, n, k, &mut c, n, true, View::rows(&a, k), View::rows(&b, n));
         for i in 0..m {
             for j in 0..n {
                 let want: f32 = 1.0 + (0..k).map(|p| a[i * k + p] * b[p * n + j]).sum::<f32>();

@@ -7,6 +7,8 @@
 //! quantisation) → [`eval`] (rendering views through `nerf-infer`, PSNR,
 //! SSIM).
 #![deny(missing_docs)]
+// Numeric code indexes several arrays by the same index on purpose.
+#![allow(clippy::needless_range_loop)]
 
 pub mod adam;
 pub mod config;

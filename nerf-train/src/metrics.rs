@@ -57,7 +57,8 @@ pub fn ssim(a: &[[f32; 3]], b: &[[f32; 3]], width: usize, height: usize) -> f64 
         let mut s = 0.0;
         for i in 0..ow * oh {
             let (vx, vy, cxy) = (sxx[i] - mx[i] * mx[i], syy[i] - my[i] * my[i], sxy[i] - mx[i] * my[i]);
-            s += ((2.0 * mx[i] * my[i] + c1) * (2.0 * cxy + c2)) / ((mx[i].powi(2) + my[i].powi(2) + c1) * (vx + vy + c2));
+            s += ((2.0 * mx[i] * my[i] + c1) * (2.0 * cxy + c2))
+                / ((mx[i].powi(2) + my[i].powi(2) + c1) * (vx + vy + c2));
         }
         total += s / (ow * oh) as f64;
     }

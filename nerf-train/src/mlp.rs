@@ -73,20 +73,10 @@ impl Mlp {
         let mut off = 0;
         for i in 0..topo.layer_count() {
             let (din, dout) = expected_shape(&topo, &enc, i);
-            slots.push(LayerSlot {
-                din,
-                dout,
-                w: off,
-                b: off + din * dout,
-            });
+            slots.push(LayerSlot { din, dout, w: off, b: off + din * dout });
             off += din * dout + dout;
         }
-        Self {
-            topo,
-            enc,
-            slots,
-            n_params: off,
-        }
+        Self { topo, enc, slots, n_params: off }
     }
 
     /// Width of the encoded position.
@@ -113,30 +103,14 @@ impl Mlp {
     }
 
     /// `out = bias + Σ parts · W[row0..]` for `rows` rows.
-    fn linear(
-        &self,
-        p: &[f32],
-        l: usize,
-        parts: &[(&[f32], usize, usize)],
-        rows: usize,
-        out: &mut [f32],
-    ) {
+    fn linear(&self, p: &[f32], l: usize, parts: &[(&[f32], usize, usize)], rows: usize, out: &mut [f32]) {
         let s = self.slots[l];
         for r in 0..rows {
             out[r * s.dout..(r + 1) * s.dout].copy_from_slice(&p[s.b..s.b + s.dout]);
         }
         for &(x, cols, row0) in parts {
             let w = &p[s.w + row0 * s.dout..s.w + (row0 + cols) * s.dout];
-            matmul(
-                rows,
-                s.dout,
-                cols,
-                out,
-                s.dout,
-                true,
-                View::rows(x, cols),
-                View::rows(w, s.dout),
-            );
+            matmul(rows, s.dout, cols, out, s.dout, true, View::rows(x, cols), View::rows(w, s.dout));
         }
     }
 
@@ -158,28 +132,10 @@ impl Mlp {
     ) {
         let s = self.slots[l];
         let gw = &mut g[s.w + row0 * s.dout..s.w + (row0 + cols) * s.dout];
-        matmul(
-            cols,
-            s.dout,
-            rows,
-            gw,
-            s.dout,
-            true,
-            View::t(x, cols),
-            View::rows(dy, s.dout),
-        );
+        matmul(cols, s.dout, rows, gw, s.dout, true, View::t(x, cols), View::rows(dy, s.dout));
         if let Some(dx) = dx {
             let w = &p[s.w + row0 * s.dout..s.w + (row0 + cols) * s.dout];
-            matmul(
-                rows,
-                cols,
-                s.dout,
-                dx,
-                cols,
-                false,
-                View::rows(dy, s.dout),
-                View::t(w, s.dout),
-            );
+            matmul(rows, cols, s.dout, dx, cols, false, View::rows(dy, s.dout), View::t(w, s.dout));
         }
     }
 
@@ -196,14 +152,7 @@ impl Mlp {
     /// Forward pass on normalised positions `pos` (`S`) and unit view
     /// directions `dirs` (`R`, one per `S/R` consecutive samples). Fills
     /// `acts.sigma` and, if `need_rgb`, `acts.rgb`.
-    pub fn forward(
-        &self,
-        p: &[f32],
-        pos: &[[f32; 3]],
-        dirs: &[[f32; 3]],
-        need_rgb: bool,
-        a: &mut Acts,
-    ) {
+    pub fn forward(&self, p: &[f32], pos: &[[f32; 3]], dirs: &[[f32; 3]], need_rgb: bool, a: &mut Acts) {
         let (s, r) = (pos.len(), dirs.len());
         let (pd, dd) = (self.enc.pos_dim(), self.enc.dir_dim());
         let w = self.topo.width as usize;
@@ -212,12 +161,7 @@ impl Mlp {
         a.r = r;
         resize(&mut a.enc, s * pd);
         for (i, x) in pos.iter().enumerate() {
-            encode_f32(
-                *x,
-                self.enc.pos_freqs as usize,
-                self.enc.include_input,
-                &mut a.enc[i * pd..(i + 1) * pd],
-            );
+            encode_f32(*x, self.enc.pos_freqs as usize, self.enc.include_input, &mut a.enc[i * pd..(i + 1) * pd]);
         }
         a.h.resize(d, Vec::new());
         for i in 0..d {
@@ -247,26 +191,12 @@ impl Mlp {
             self.linear(p, si + 1, &[(trunk, w, 0)], s, &mut a.feat);
             resize(&mut a.denc, r * dd);
             for (i, v) in dirs.iter().enumerate() {
-                encode_f32(
-                    *v,
-                    self.enc.dir_freqs as usize,
-                    self.enc.include_input,
-                    &mut a.denc[i * dd..(i + 1) * dd],
-                );
+                encode_f32(*v, self.enc.dir_freqs as usize, self.enc.include_input, &mut a.denc[i * dd..(i + 1) * dd]);
             }
             let sl = self.slots[si + 2];
             resize(&mut a.dirpart, r * vw);
             let wd = &p[sl.w + w * vw..sl.w + (w + dd) * vw];
-            matmul(
-                r,
-                vw,
-                dd,
-                &mut a.dirpart,
-                vw,
-                false,
-                View::rows(&a.denc, dd),
-                View::rows(wd, vw),
-            );
+            matmul(r, vw, dd, &mut a.dirpart, vw, false, View::rows(&a.denc, dd), View::rows(wd, vw));
             resize(&mut a.view, s * vw);
             self.linear(p, si + 2, &[(&a.feat, w, 0)], s, &mut a.view);
             let spr = s / r;
@@ -280,9 +210,7 @@ impl Mlp {
         } else {
             self.linear(p, si + 1, &[(trunk, w, 0)], s, &mut a.rgb);
         }
-        a.rgb
-            .iter_mut()
-            .for_each(|v| *v = 1.0 / (1.0 + (-*v).exp()));
+        a.rgb.iter_mut().for_each(|v| *v = 1.0 / (1.0 + (-*v).exp()));
     }
 
     /// Backward pass: given `dsigma` (`S`) and `drgb` (`3S`, or empty if the
@@ -303,11 +231,7 @@ impl Mlp {
         if drgb.is_empty() {
             dh.fill(0.0);
         } else {
-            let dz: Vec<f32> = drgb
-                .iter()
-                .zip(&a.rgb)
-                .map(|(g, y)| g * y * (1.0 - y))
-                .collect();
+            let dz: Vec<f32> = drgb.iter().zip(&a.rgb).map(|(g, y)| g * y * (1.0 - y)).collect();
             if self.topo.view_dependent {
                 let vw = self.topo.view_width as usize;
                 let mut dview = std::mem::take(&mut a.dview);
@@ -403,18 +327,8 @@ mod tests {
 
     fn loss(m: &Mlp, p: &[f32], pos: &[[f32; 3]], dirs: &[[f32; 3]], a: &mut Acts) -> f64 {
         m.forward(p, pos, dirs, true, a);
-        let ls: f64 = a
-            .sigma
-            .iter()
-            .enumerate()
-            .map(|(i, v)| (*v as f64) * (0.3 + i as f64 * 0.1))
-            .sum();
-        let lc: f64 = a
-            .rgb
-            .iter()
-            .enumerate()
-            .map(|(i, v)| (*v as f64) * ((i % 5) as f64 - 2.0))
-            .sum();
+        let ls: f64 = a.sigma.iter().enumerate().map(|(i, v)| (*v as f64) * (0.3 + i as f64 * 0.1)).sum();
+        let lc: f64 = a.rgb.iter().enumerate().map(|(i, v)| (*v as f64) * ((i % 5) as f64 - 2.0)).sum();
         ls + lc
     }
 
@@ -427,9 +341,7 @@ mod tests {
                 *v += 0.05;
             }
         }
-        let pos: Vec<[f32; 3]> = (0..6)
-            .map(|i| [0.1 * i as f32, -0.2, 0.05 * i as f32 - 0.1])
-            .collect();
+        let pos: Vec<[f32; 3]> = (0..6).map(|i| [0.1 * i as f32, -0.2, 0.05 * i as f32 - 0.1]).collect();
         let dirs = vec![[0.0, 0.6, -0.8], [0.8, 0.0, -0.6]];
         let mut a = Acts::default();
         m.forward(&p, &pos, &dirs, true, &mut a);
@@ -453,11 +365,7 @@ mod tests {
                 kinks += 1; // a ReLU switches inside the step: not differentiable there
                 continue;
             }
-            assert!(
-                (f1 - g[k] as f64).abs() <= tol,
-                "param {k}: fd {f1} vs analytic {}",
-                g[k]
-            );
+            assert!((f1 - g[k] as f64).abs() <= tol, "param {k}: fd {f1} vs analytic {}", g[k]);
             checked += 1;
         }
         assert!(kinks * 20 < checked, "{kinks} kinks of {checked}");
@@ -465,37 +373,15 @@ mod tests {
 
     #[test]
     fn gradients_match_finite_differences_view_branch_and_skip() {
-        let topo = Topology {
-            depth: 3,
-            width: 8,
-            skip_mask: 1 << 2,
-            view_dependent: true,
-            view_width: 4,
-        };
-        let enc = Encoding {
-            pos_freqs: 2,
-            dir_freqs: 1,
-            include_input: true,
-            raw_frac_bits: 12,
-        };
+        let topo = Topology { depth: 3, width: 8, skip_mask: 1 << 2, view_dependent: true, view_width: 4 };
+        let enc = Encoding { pos_freqs: 2, dir_freqs: 1, include_input: true, raw_frac_bits: 12 };
         check_gradients(topo, enc);
     }
 
     #[test]
     fn gradients_match_finite_differences_plain() {
-        let topo = Topology {
-            depth: 2,
-            width: 6,
-            skip_mask: 0,
-            view_dependent: false,
-            view_width: 0,
-        };
-        let enc = Encoding {
-            pos_freqs: 3,
-            dir_freqs: 0,
-            include_input: false,
-            raw_frac_bits: 12,
-        };
+        let topo = Topology { depth: 2, width: 6, skip_mask: 0, view_dependent: false, view_width: 0 };
+        let enc = Encoding { pos_freqs: 3, dir_freqs: 0, include_input: false, raw_frac_bits: 12 };
         check_gradients(topo, enc);
     }
 }

@@ -9,20 +9,14 @@ pub struct Rng {
 impl Rng {
     /// A generator from a seed (any value).
     pub fn new(seed: u64) -> Self {
-        let mut r = Self {
-            state: seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407),
-        };
+        let mut r = Self { state: seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407) };
         r.u32();
         r
     }
     /// Next 32 random bits.
     pub fn u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
+        self.state = old.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
         let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
         xorshifted.rotate_right((old >> 59) as u32)
     }

@@ -193,7 +193,15 @@ impl Trainer {
 
     /// Forward and backward of one chunk; accumulates into `g` and returns
     /// the squared errors (coarse, fine) summed over rays and channels.
-    fn chunk_gradient(&self, net: &Mlp, rays: &[Sample], key: u32, scale: f32, ws: &mut Workspace, g: &mut [f32]) -> (f64, f64) {
+    fn chunk_gradient(
+        &self,
+        net: &Mlp,
+        rays: &[Sample],
+        key: u32,
+        scale: f32,
+        ws: &mut Workspace,
+        g: &mut [f32],
+    ) -> (f64, f64) {
         let r = rays.len();
         let nc = self.cfg.n_coarse as usize;
         let nf = self.cfg.n_fine as usize;
@@ -221,7 +229,17 @@ impl Trainer {
             let col = composite(sig, rgb, &ws.t_c[s.clone()], ray.dir_len, bg, &mut ws.w_c[s.clone()]);
             let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
             sq_c += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
-            composite_back(sig, rgb, &ws.t_c[s.clone()], ray.dir_len, bg, &ws.w_c[s.clone()], dc, &mut ws.dsig[s.clone()], &mut ws.drgb[3 * s.start..3 * s.end]);
+            composite_back(
+                sig,
+                rgb,
+                &ws.t_c[s.clone()],
+                ray.dir_len,
+                bg,
+                &ws.w_c[s.clone()],
+                dc,
+                &mut ws.dsig[s.clone()],
+                &mut ws.drgb[3 * s.start..3 * s.end],
+            );
         }
         net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
         if nf == 0 {
@@ -236,7 +254,13 @@ impl Trainer {
         for (i, (ray, _)) in rays.iter().enumerate() {
             let s = i * nc..(i + 1) * nc;
             let rk = hash32(key ^ 0xF1AE ^ (i as u32).wrapping_mul(0x27D4_EB2F));
-            sample_pdf_f32(&ws.t_c[s.clone()], &ws.w_c[s.clone()], |j| (j as f32 + jitter_q16(rk, j) as f32 / 65536.0) / nf as f32, &mut ws.cdf, &mut ws.t_f);
+            sample_pdf_f32(
+                &ws.t_c[s.clone()],
+                &ws.w_c[s.clone()],
+                |j| (j as f32 + jitter_q16(rk, j) as f32 / 65536.0) / nf as f32,
+                &mut ws.cdf,
+                &mut ws.t_f,
+            );
             let all = &mut ws.t_all[i * na..(i + 1) * na];
             merge_sorted(&ws.t_c[s], &ws.t_f, all);
             ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
@@ -251,7 +275,17 @@ impl Trainer {
             let col = composite(sig, rgb, &ws.t_all[s.clone()], ray.dir_len, bg, &mut ws.w_f[s.clone()]);
             let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
             sq_f += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
-            composite_back(sig, rgb, &ws.t_all[s.clone()], ray.dir_len, bg, &ws.w_f[s.clone()], dc, &mut ws.dsig[s.clone()], &mut ws.drgb[3 * s.start..3 * s.end]);
+            composite_back(
+                sig,
+                rgb,
+                &ws.t_all[s.clone()],
+                ray.dir_len,
+                bg,
+                &ws.w_f[s.clone()],
+                dc,
+                &mut ws.dsig[s.clone()],
+                &mut ws.drgb[3 * s.start..3 * s.end],
+            );
         }
         net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf);
         (sq_c, sq_f)

@@ -10,24 +10,13 @@ pub const LAST_DELTA: f32 = 1e10;
 
 /// Forward of one ray: writes each sample's weight into `w` and returns the
 /// composited colour. `t` sorted, `dir_len` = |d| (δ = Δt·|d|).
-pub fn composite(
-    sigma: &[f32],
-    rgb: &[f32],
-    t: &[f32],
-    dir_len: f32,
-    bg: f32,
-    w: &mut [f32],
-) -> [f32; 3] {
+pub fn composite(sigma: &[f32], rgb: &[f32], t: &[f32], dir_len: f32, bg: f32, w: &mut [f32]) -> [f32; 3] {
     let n = t.len();
     let mut trans = 1.0f32;
     let mut c = [0.0f32; 3];
     let mut acc = 0.0f32;
     for i in 0..n {
-        let delta = if i + 1 < n {
-            (t[i + 1] - t[i]) * dir_len
-        } else {
-            LAST_DELTA
-        };
+        let delta = if i + 1 < n { (t[i + 1] - t[i]) * dir_len } else { LAST_DELTA };
         let alpha = nerf_infer::composite::alpha_f32(sigma[i], delta);
         let wi = trans * alpha;
         trans *= 1.0 - alpha;
@@ -66,16 +55,8 @@ pub fn composite_back(
         }
         let t_next = (1.0 - prefix).max(0.0);
         let ds = t_next * ck - suffix;
-        let delta = if k + 1 < n {
-            (t[k + 1] - t[k]) * dir_len
-        } else {
-            LAST_DELTA
-        };
-        dsigma[k] = if sigma[k] > 0.0 && k + 1 < n {
-            ds * delta
-        } else {
-            0.0
-        };
+        let delta = if k + 1 < n { (t[k + 1] - t[k]) * dir_len } else { LAST_DELTA };
+        dsigma[k] = if sigma[k] > 0.0 && k + 1 < n { ds * delta } else { 0.0 };
         suffix += w[k] * ck;
         prefix -= w[k];
     }
@@ -109,43 +90,28 @@ mod tests {
             a[k] += h;
             b[k] -= h;
             let fd = (loss(&a, &rgb) - loss(&b, &rgb)) / (2.0 * h as f64);
-            assert!(
-                (fd - ds[k] as f64).abs() < 2e-3,
-                "σ{k}: fd {fd} vs {}",
-                ds[k]
-            );
+            assert!((fd - ds[k] as f64).abs() < 2e-3, "σ{k}: fd {fd} vs {}", ds[k]);
         }
         for k in 0..18 {
             let (mut a, mut b) = (rgb.clone(), rgb.clone());
             a[k] += h;
             b[k] -= h;
             let fd = (loss(&sigma, &a) - loss(&sigma, &b)) / (2.0 * h as f64);
-            assert!(
-                (fd - dr[k] as f64).abs() < 2e-3,
-                "c{k}: fd {fd} vs {}",
-                dr[k]
-            );
+            assert!((fd - dr[k] as f64).abs() < 2e-3, "c{k}: fd {fd} vs {}", dr[k]);
         }
     }
 
     #[test]
     fn matches_the_kernel_compositor() {
         let sigma = [0.5f32, 3.0, 0.0, 7.0];
-        let rgb = [
-            0.1f32, 0.2, 0.3, 0.9, 0.8, 0.7, 0.5, 0.5, 0.5, 0.0, 1.0, 0.0,
-        ];
+        let rgb = [0.1f32, 0.2, 0.3, 0.9, 0.8, 0.7, 0.5, 0.5, 0.5, 0.0, 1.0, 0.0];
         let t = [1.0f32, 1.5, 2.5, 3.0];
         let mut w = [0.0; 4];
         let c = composite(&sigma, &rgb, &t, 1.0, 0.0, &mut w);
         let mut k = nerf_infer::composite::CompositorF32::default();
         for i in 0..4 {
             let d = if i < 3 { t[i + 1] - t[i] } else { LAST_DELTA };
-            k.add(
-                sigma[i],
-                d,
-                [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]],
-                t[i],
-            );
+            k.add(sigma[i], d, [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]], t[i]);
         }
         let p = k.finish(false, 3.0);
         for j in 0..3 {

@@ -43,13 +43,30 @@ pub fn run(a: Args) -> CmdResult {
     for (name, file) in [("f32", "model.nerf"), ("int16", "model_int16.nerf"), ("int8", "model_int8.nerf")] {
         let save = format!("{out}/renders/{name}");
         let path = format!("{run_dir}/{file}");
-        let args = super::eval::Args::try_parse_from(["eval", path.as_str(), "--data", &data, "--split", "test", "--save", &save]).map_err(|e| e.to_string())?;
+        let args = super::eval::Args::try_parse_from([
+            "eval",
+            path.as_str(),
+            "--data",
+            &data,
+            "--split",
+            "test",
+            "--save",
+            &save,
+        ])
+        .map_err(|e| e.to_string())?;
         let r = super::eval::evaluate(args)?;
         rows.push((name, r));
     }
     println!("{:<6} {:>9} {:>7} {:>10} {:>12}", "model", "PSNR dB", "SSIM", "µs/ray", "bytes");
     for (name, r) in &rows {
-        println!("{:<6} {:>9.2} {:>7.4} {:>10.1} {:>12}", name, r["psnr"].as_f64().unwrap_or(0.0), r["ssim"].as_f64().unwrap_or(0.0), r["us_per_ray"].as_f64().unwrap_or(0.0), r["model_bytes"]);
+        println!(
+            "{:<6} {:>9.2} {:>7.4} {:>10.1} {:>12}",
+            name,
+            r["psnr"].as_f64().unwrap_or(0.0),
+            r["ssim"].as_f64().unwrap_or(0.0),
+            r["us_per_ray"].as_f64().unwrap_or(0.0),
+            r["model_bytes"]
+        );
     }
     println!("images: {out}/renders/{{f32,int16,int8}}/ (render beside *_gt.png ground truth)");
     Ok(())

@@ -67,8 +67,10 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
         for v in &data.views {
             let (r, s) = score_view(&model, opts, v).map_err(|e| format!("{}: {e}", a.model.display()))?;
             if let Some(dir) = &a.save {
-                save_png_rgb(&dir.join(format!("{}.png", v.name)), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
-                save_png_rgb(&dir.join(format!("{}_gt.png", v.name)), r.width, r.height, &v.rgb).map_err(|e| e.to_string())?;
+                save_png_rgb(&dir.join(format!("{}.png", v.name)), r.width, r.height, &r.rgb)
+                    .map_err(|e| e.to_string())?;
+                save_png_rgb(&dir.join(format!("{}_gt.png", v.name)), r.width, r.height, &v.rgb)
+                    .map_err(|e| e.to_string())?;
             }
             pb.inc(1);
             out.push((r, s));

@@ -49,13 +49,42 @@ pub fn run(a: Args) -> CmdResult {
         return Ok(());
     }
     let t = &m.topology;
-    println!("{}: NeRF model, format version {}, {} bytes ({} in tensors)", a.model.display(), nerf_infer::format::FORMAT_VERSION, bytes.len(), m.tensor_bytes());
+    println!(
+        "{}: NeRF model, format version {}, {} bytes ({} in tensors)",
+        a.model.display(),
+        nerf_infer::format::FORMAT_VERSION,
+        bytes.len(),
+        m.tensor_bytes()
+    );
     println!("  numeric scheme: {:?} weights, {}-bit activations", m.scheme(), m.coarse.act_bits);
-    println!("  network: {}x{} trunk, skips {:?}, view branch {}", t.depth, t.width, info["topology"]["skips"], if t.view_dependent { format!("on ({} wide)", t.view_width) } else { "off".into() });
-    println!("  encoding: L = {} (position), {} (direction), raw input {}", m.encoding.pos_freqs, m.encoding.dir_freqs, if m.encoding.include_input { "included" } else { "excluded" });
-    println!("  samples: {} coarse + {} fine; fine network {}", m.samples.coarse, m.samples.fine, if m.fine.is_some() { "present" } else { "absent" });
-    println!("  scene: bounds {:?}..{:?}, near {}, far {}, {} background{}", m.scene.bounds_min, m.scene.bounds_max, m.scene.near, m.scene.far,
-        if m.scene.white_background { "white" } else { "black" }, if m.scene.ndc.is_some() { ", NDC rays" } else { "" });
+    println!(
+        "  network: {}x{} trunk, skips {:?}, view branch {}",
+        t.depth,
+        t.width,
+        info["topology"]["skips"],
+        if t.view_dependent { format!("on ({} wide)", t.view_width) } else { "off".into() }
+    );
+    println!(
+        "  encoding: L = {} (position), {} (direction), raw input {}",
+        m.encoding.pos_freqs,
+        m.encoding.dir_freqs,
+        if m.encoding.include_input { "included" } else { "excluded" }
+    );
+    println!(
+        "  samples: {} coarse + {} fine; fine network {}",
+        m.samples.coarse,
+        m.samples.fine,
+        if m.fine.is_some() { "present" } else { "absent" }
+    );
+    println!(
+        "  scene: bounds {:?}..{:?}, near {}, far {}, {} background{}",
+        m.scene.bounds_min,
+        m.scene.bounds_max,
+        m.scene.near,
+        m.scene.far,
+        if m.scene.white_background { "white" } else { "black" },
+        if m.scene.ndc.is_some() { ", NDC rays" } else { "" }
+    );
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);
     println!("  parameters: {} per network", info["coarse"]["parameters"]);
     Ok(())

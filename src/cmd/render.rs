@@ -55,7 +55,9 @@ pub fn run(a: Args) -> CmdResult {
             let ds = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
             load_split(dir, split.into(), a.format, ds)?.views.into_iter().map(|v| (v.name, v.camera)).collect()
         }
-        (_, _, Some(n)) => (0..n).map(|k| (format!("orbit_{k:03}"), orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size))).collect(),
+        (_, _, Some(n)) => (0..n)
+            .map(|k| (format!("orbit_{k:03}"), orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size)))
+            .collect(),
         _ => return Err("give --data DIR --split S, or --orbit N".into()),
     };
     let opts = RenderOptions::from_model(&model);
@@ -63,7 +65,8 @@ pub fn run(a: Args) -> CmdResult {
     let pb = super::progress(cams.len() as u64, "{bar:30} {pos}/{len} views ({eta})");
     let mut frames = Vec::new();
     for (name, cam) in &cams {
-        let r = with_threads(a.threads, || render_view(&model, opts, cam))?.map_err(|e| format!("{}: {e}", a.model.display()))?;
+        let r = with_threads(a.threads, || render_view(&model, opts, cam))?
+            .map_err(|e| format!("{}: {e}", a.model.display()))?;
         save_png_rgb(&a.out.join(format!("{name}.png")), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
         save_depth(&a.out.join(format!("{name}_depth.png")), &r, near, far)?;
         frames.push(r);

@@ -159,8 +159,8 @@ fn train(a: Args) -> CmdResult {
             pb.println(format!("step {}: loss or gradient not finite, step skipped", tr.step));
         }
         let mut val_psnr = None;
-        if val.is_some() && tr.elapsed - last_val >= a.val_secs {
-            val_psnr = Some(validate(&tr, val.as_ref().expect("checked"), a.val_views, &calib[..256])?);
+        if let Some(v) = val.as_ref().filter(|_| tr.elapsed - last_val >= a.val_secs) {
+            val_psnr = Some(validate(&tr, v, a.val_views, &calib[..256])?);
             last_val_psnr = val_psnr;
             last_val = tr.elapsed;
         }

@@ -21,7 +21,17 @@ pub fn unit_scene() -> Scene {
 
 /// A small configuration for tests.
 pub fn small_config() -> TrainConfig {
-    TrainConfig { depth: 3, width: 32, skips: vec![2], view_width: 16, pos_freqs: 6, dir_freqs: 2, n_coarse: 24, n_fine: 24, ..TrainConfig::fast() }
+    TrainConfig {
+        depth: 3,
+        width: 32,
+        skips: vec![2],
+        view_width: 16,
+        pos_freqs: 6,
+        dir_freqs: 2,
+        n_coarse: 24,
+        n_fine: 24,
+        ..TrainConfig::fast()
+    }
 }
 
 /// PSNR between two renders, dB.

@@ -46,7 +46,8 @@ struct Transforms {
 
 fn read_transforms(path: &Path) -> Result<Transforms, DataError> {
     let text = std::fs::read_to_string(path).map_err(|e| DataError::new(path, format!("cannot read: {e}")))?;
-    let t: Transforms = serde_json::from_str(&text).map_err(|e| DataError::new(path, format!("malformed JSON: {e}")))?;
+    let t: Transforms =
+        serde_json::from_str(&text).map_err(|e| DataError::new(path, format!("malformed JSON: {e}")))?;
     if t.frames.is_empty() {
         return Err(DataError::new(path, "no frames"));
     }
@@ -85,7 +86,8 @@ fn scene_from(path: &Path, t: &Transforms, d: SceneDefaults) -> Result<Scene, Da
         convention: CameraConvention::OpenGl,
         ndc: None,
     };
-    let ok = s.near.is_finite() && s.far.is_finite() && s.near >= 0.0 && s.near < s.far && (0..3).all(|i| lo[i] < hi[i]);
+    let ok =
+        s.near.is_finite() && s.far.is_finite() && s.near >= 0.0 && s.near < s.far && (0..3).all(|i| lo[i] < hi[i]);
     if !ok {
         return Err(DataError::new(path, "invalid near/far or aabb"));
     }
@@ -111,7 +113,10 @@ fn load_frames(
             if (w, h) != (v0.camera.width, v0.camera.height) {
                 return Err(DataError::new(
                     &img,
-                    format!("image size {w}x{h} differs from the first image's {}x{}", v0.camera.width, v0.camera.height),
+                    format!(
+                        "image size {w}x{h} differs from the first image's {}x{}",
+                        v0.camera.width, v0.camera.height
+                    ),
                 ));
             }
         }
@@ -159,7 +164,11 @@ pub fn load_ngp(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Res
     let r = t
         .frames
         .iter()
-        .filter_map(|f| f.transform_matrix.get(..3).map(|m| m.iter().map(|row| row.get(3).copied().unwrap_or(0.0).powi(2)).sum::<f64>().sqrt()))
+        .filter_map(|f| {
+            f.transform_matrix
+                .get(..3)
+                .map(|m| m.iter().map(|row| row.get(3).copied().unwrap_or(0.0).powi(2)).sum::<f64>().sqrt())
+        })
         .fold(0.0f64, f64::max)
         .max(1e-3);
     let scene = scene_from(&path, &t, SceneDefaults { near: 0.05 * r, far: 2.0 * r, half: r, white: false })?;

@@ -34,7 +34,12 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
     let mut files: Vec<_> = std::fs::read_dir(&img_dir)
         .map_err(|e| DataError::new(&img_dir, format!("cannot list images: {e}")))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| matches!(p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(), Some("png" | "jpg" | "jpeg")))
+        .filter(|p| {
+            matches!(
+                p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref(),
+                Some("png" | "jpg" | "jpeg")
+            )
+        })
         .collect();
     files.sort();
     if files.len() != rows {
@@ -77,7 +82,10 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
         let (w, h, rgb) = load_rgb(file, downscale, false)?;
         if let Some(v0) = views.first() {
             if (w, h) != (v0.camera.width, v0.camera.height) {
-                return Err(DataError::new(file, format!("image size {w}x{h} differs from {}x{}", v0.camera.width, v0.camera.height)));
+                return Err(DataError::new(
+                    file,
+                    format!("image size {w}x{h} differs from {}x{}", v0.camera.width, v0.camera.height),
+                ));
             }
         }
         let f = (focal_full * w as f64 / w_full) as f32;
@@ -87,7 +95,8 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
             [rm.x_axis.y as f32, rm.y_axis.y as f32, rm.z_axis.y as f32, tm.y as f32],
             [rm.x_axis.z as f32, rm.y_axis.z as f32, rm.z_axis.z as f32, tm.z as f32],
         ];
-        let camera = Camera::new(w, h, f, fy, w as f32 / 2.0, h as f32 / 2.0, c2w).map_err(|_| DataError::new(&npy, format!("pose {i}: invalid camera")))?;
+        let camera = Camera::new(w, h, f, fy, w as f32 / 2.0, h as f32 / 2.0, c2w)
+            .map_err(|_| DataError::new(&npy, format!("pose {i}: invalid camera")))?;
         let name = file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         views.push(View { name, camera, rgb });
     }

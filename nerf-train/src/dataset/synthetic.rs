@@ -114,11 +114,7 @@ pub fn look_at(eye: Vec3) -> [[f32; 4]; 3] {
     let right = f.cross(Vec3::Z).normalize();
     let up = right.cross(f);
     let back = -f;
-    [
-        [right.x, up.x, back.x, eye.x],
-        [right.y, up.y, back.y, eye.y],
-        [right.z, up.z, back.z, eye.z],
-    ]
+    [[right.x, up.x, back.x, eye.x], [right.y, up.y, back.y, eye.y], [right.z, up.z, back.z, eye.z]]
 }
 
 /// Renders the scene: RGBA (straight alpha) and camera-space depth (0 = none).

@@ -1,0 +1,39 @@
+//! Golden vectors: the fixed-point path must reproduce these pixels bit for
+//! bit (also on Cortex-M). Regenerate with the workspace's
+//! `cargo test --release --test golden -- --ignored bless`.
+
+use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RenderOptions, ScratchFixed, Tile};
+
+#[allow(dead_code)]
+mod expected {
+    include!("data/golden_expected.rs");
+}
+
+const POSE: [[f32; 4]; 3] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 3.0]];
+
+fn check<const B: usize>(blob: &[u8], want: &[(u16, u16, u16, u16, i32); 256]) {
+    let model = Model::from_bytes(blob).unwrap();
+    let r = FixedRenderer::new(&model, RenderOptions::from_model(&model)).unwrap();
+    let cam = Camera::from_fov(16, 16, 0.7, POSE).unwrap();
+    let mut px = [FixedPixel::default(); 256];
+    let mut scratch = Box::new(ScratchFixed::<B>::default());
+    render_tile(&r, &cam, Tile { x0: 0, y0: 0, width: 16, height: 16 }, &mut *scratch, &mut px).unwrap();
+    for (k, (p, w)) in px.iter().zip(want).enumerate() {
+        let got = (p.rgb[0], p.rgb[1], p.rgb[2], p.opacity, p.depth);
+        assert_eq!(got, *w, "pixel {k} (x {}, y {})", k % 16, k / 16);
+    }
+}
+
+#[test]
+fn int16_golden_pixels_are_bit_exact_for_every_block_size() {
+    let blob = include_bytes!("data/golden.nerf");
+    check::<8>(blob, &expected::GOLDEN16);
+    check::<1>(blob, &expected::GOLDEN16);
+    check::<3>(blob, &expected::GOLDEN16);
+}
+
+#[test]
+fn int8_golden_pixels_are_bit_exact() {
+    check::<8>(include_bytes!("data/golden8.nerf"), &expected::GOLDEN8);
+    check::<2>(include_bytes!("data/golden8.nerf"), &expected::GOLDEN8);
+}

@@ -1,0 +1,143 @@
+//! The `nerf` binary end to end, as a user runs it, on tiny data.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn nerf(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nerf")).args(args).output().expect("run nerf")
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = nerf(args);
+    assert!(o.status.success(), "nerf {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8(o.stdout).unwrap()
+}
+
+fn fails(args: &[&str]) -> String {
+    let o = nerf(args);
+    assert!(!o.status.success(), "nerf {args:?} should fail");
+    let e = String::from_utf8(o.stderr).unwrap();
+    assert_eq!(e.trim_end().lines().count(), 1, "not one line: {e}");
+    e
+}
+
+fn tmp() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("nerf-cli-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[test]
+fn scene_train_resume_eval_export_info_render() {
+    let d = tmp();
+    let scene = d.join("scene");
+    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
+    let data = scene.join("blender");
+    let cfg = d.join("tiny.json");
+    std::fs::write(
+        &cfg,
+        r#"{"depth": 2, "width": 16, "view_width": 8, "pos_freqs": 4, "n_coarse": 8, "n_fine": 8, "batch_rays": 64}"#,
+    )
+    .unwrap();
+    let run = d.join("run");
+    ok(&[
+        "train",
+        "--data",
+        s(&data),
+        "--config",
+        s(&cfg),
+        "--iters",
+        "12",
+        "--out",
+        s(&run),
+        "--val-secs",
+        "0",
+        "--val-views",
+        "1",
+        "--log-every",
+        "4",
+    ]);
+    for f in ["model.nerf", "checkpoint.bin", "train.jsonl"] {
+        assert!(run.join(f).is_file(), "{f} missing");
+    }
+    ok(&[
+        "train",
+        "--data",
+        s(&data),
+        "--iters",
+        "20",
+        "--out",
+        s(&run),
+        "--resume",
+        "--val-views",
+        "0",
+        "--log-every",
+        "4",
+    ]);
+    let log = std::fs::read_to_string(run.join("train.jsonl")).unwrap();
+    let last: serde_json::Value = serde_json::from_str(log.lines().last().unwrap()).unwrap();
+    assert_eq!(last["step"], 20);
+    assert!(log.lines().any(|l| l.contains("\"val_psnr\":") && !l.contains("\"val_psnr\":null")));
+
+    let model = run.join("model.nerf");
+    let report: serde_json::Value = serde_json::from_str(&ok(&[
+        "eval",
+        s(&model),
+        "--data",
+        s(&data),
+        "--split",
+        "test",
+        "--threads",
+        "1",
+        "--save",
+        s(&d.join("ev")),
+    ]))
+    .unwrap();
+    for key in ["psnr", "ssim", "views", "us_per_ray", "samples_per_ray", "model_bytes"] {
+        assert!(!report[key].is_null(), "{key} missing from {report}");
+    }
+    assert_eq!(report["views"].as_array().unwrap().len(), 6);
+    // 8 coarse + (8 + 8) fine per ray that meets the scene bounds, 0 for the others
+    let spr = report["samples_per_ray"].as_f64().unwrap();
+    assert!(spr > 8.0 && spr <= 24.0, "{spr}");
+    assert!(d.join("ev/r_0.png").is_file() && d.join("ev/r_0_gt.png").is_file());
+
+    for bits in ["16", "8"] {
+        let out = d.join(format!("m{bits}.nerf"));
+        ok(&["export", s(&model), "--bits", bits, "--out", s(&out)]);
+        let info: serde_json::Value = serde_json::from_str(&ok(&["info", s(&out), "--json"])).unwrap();
+        assert_eq!(info["scheme"], if bits == "16" { "I16" } else { "I8" });
+        let r: serde_json::Value =
+            serde_json::from_str(&ok(&["eval", s(&out), "--data", s(&data), "--split", "test"])).unwrap();
+        assert!(r["psnr"].as_f64().unwrap() > 5.0);
+    }
+    assert!(ok(&["info", s(&model)]).contains("numeric scheme: F32"));
+
+    let orbit = d.join("orbit");
+    ok(&["render", s(&model), "--orbit", "3", "--size", "12", "--out", s(&orbit)]);
+    for f in ["orbit_000.png", "orbit_002_depth.png", "orbit.gif"] {
+        assert!(orbit.join(f).is_file(), "{f} missing");
+    }
+    ok(&["render", s(&model), "--data", s(&data), "--split", "val", "--out", s(&d.join("val"))]);
+    assert!(d.join("val/r_1_depth.png").is_file());
+}
+
+#[test]
+fn bad_inputs_give_one_line_errors() {
+    let d = tmp().join("errs");
+    std::fs::create_dir_all(&d).unwrap();
+    let e = fails(&["info", s(&d.join("nope.nerf"))]);
+    assert!(e.contains("nope.nerf") && e.contains("cannot read"), "{e}");
+    std::fs::write(d.join("junk.nerf"), b"NERF\x07\x00junkjunkjunk").unwrap();
+    let e = fails(&["info", s(&d.join("junk.nerf"))]);
+    assert!(e.contains("junk.nerf") && e.contains("version 7"), "{e}");
+    let e = fails(&["train", "--data", s(&d.join("nodata")), "--iters", "1", "--out", s(&d.join("r"))]);
+    assert!(e.contains("nodata"), "{e}");
+    let e = fails(&["train", "--data", s(&d), "--iters", "1", "--out", s(&d.join("r")), "--preset", "huge"]);
+    assert!(e.contains("unknown preset"), "{e}");
+}

@@ -1,0 +1,119 @@
+//! Loaders on the built-in scene written in both layouts, and the errors
+//! that bad files give.
+
+use nerf_train::dataset::synthetic::{write_blender, write_llff, SceneSpec};
+use nerf_train::dataset::{load, Format, LoadOptions, Split};
+use std::path::{Path, PathBuf};
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("nerf-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn spec() -> SceneSpec {
+    SceneSpec { size: 16, train: 6, val: 2, test: 2 }
+}
+
+fn opts(format: Format, downscale: u32) -> LoadOptions {
+    LoadOptions { format, downscale, holdout: 4 }
+}
+
+#[test]
+fn blender_layout_round_trips_and_downscales() {
+    let d = tmp("blender");
+    write_blender(&d, spec()).unwrap();
+    let train = load(&d, Split::Train, opts(Format::Auto, 1)).unwrap();
+    assert_eq!(train.views.len(), 6);
+    assert_eq!((train.views[0].camera.width, train.views[0].camera.height), (16, 16));
+    assert!(train.scene.white_background && train.scene.near == 2.0 && train.scene.far == 6.0);
+    // the object covers part of the image: some pixels are not white
+    assert!(train.views[0].rgb.iter().any(|p| p[0] < 0.9));
+    let half = load(&d, Split::Val, opts(Format::Blender, 2)).unwrap();
+    assert_eq!((half.views[0].camera.width, half.views.len()), (8, 2));
+    // area averaging: the downscaled pixel is the mean of its 2×2 block
+    let full = load(&d, Split::Val, opts(Format::Blender, 1)).unwrap();
+    let mean: f32 = [0, 1, 16, 17].iter().map(|&i| full.views[0].rgb[i][1]).sum::<f32>() / 4.0;
+    assert!((half.views[0].rgb[0][1] - mean).abs() < 1e-6);
+    // focal length scales with the image
+    assert!((half.views[0].camera.fx * 2.0 - full.views[0].camera.fx).abs() < 1e-4);
+}
+
+#[test]
+fn llff_layout_loads_in_ndc_with_holdout() {
+    let d = tmp("llff");
+    write_llff(&d, spec()).unwrap();
+    let train = load(&d, Split::Train, opts(Format::Auto, 1)).unwrap();
+    let test = load(&d, Split::Test, opts(Format::Llff, 1)).unwrap();
+    assert_eq!(train.views.len() + test.views.len(), 8);
+    assert_eq!(test.views.len(), 2); // images 0 and 4 with holdout 4
+    assert!(train.scene.ndc.is_some() && train.scene.near == 0.0 && train.scene.far == 1.0);
+    // every training ray enters the NDC volume
+    let v = &train.views[0];
+    let (o, dir) = v.camera.ray(8, 6);
+    let r = nerf_infer::Ray::new(&train.scene, o, dir).unwrap();
+    let p = r.at(0.5);
+    assert!(p.abs().max_element() <= 1.01, "{p:?}");
+}
+
+#[test]
+fn ngp_layout_with_intrinsics() {
+    let d = tmp("ngp");
+    write_blender(&d, spec()).unwrap();
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("transforms_train.json")).unwrap()).unwrap();
+    let mut frames = t["frames"].clone();
+    for f in frames.as_array_mut().unwrap() {
+        let p = f["file_path"].as_str().unwrap().to_string() + ".png";
+        f["file_path"] = p.into();
+    }
+    let fl = 8.0 / (0.691_111_2f64 / 2.0).tan();
+    let ngp = serde_json::json!({ "fl_x": fl, "fl_y": fl, "cx": 8.0, "cy": 8.0, "w": 16, "h": 16, "frames": frames });
+    std::fs::remove_file(d.join("transforms_train.json")).unwrap();
+    std::fs::write(d.join("transforms.json"), ngp.to_string()).unwrap();
+    let train = load(&d, Split::Train, opts(Format::Auto, 1)).unwrap();
+    let val = load(&d, Split::Val, opts(Format::Ngp, 1)).unwrap(); // transforms_val.json exists: used
+    assert_eq!(train.views.len(), 4); // 6 frames, holdout 4 → frames 0 and 4 held out
+    assert_eq!(val.views.len(), 2);
+    assert!((train.views[0].camera.fx - fl as f32).abs() < 1e-3);
+}
+
+fn err(d: &Path, split: Split) -> String {
+    load(d, split, opts(Format::Auto, 1)).unwrap_err().to_string()
+}
+
+#[test]
+fn bad_files_give_one_line_errors_naming_the_file() {
+    let d = tmp("bad");
+    assert!(err(&d.join("missing"), Split::Train).contains("missing: no such directory"));
+    write_blender(&d, spec()).unwrap();
+    // corrupt PNG
+    std::fs::write(d.join("train/r_1.png"), b"not a png").unwrap();
+    let e = err(&d, Split::Train);
+    assert!(e.contains("r_1.png") && e.contains("cannot read image"), "{e}");
+    // images of different sizes
+    image::RgbaImage::new(8, 8).save(d.join("train/r_1.png")).unwrap();
+    let e = err(&d, Split::Train);
+    assert!(e.contains("r_1.png") && e.contains("differs"), "{e}");
+    // malformed JSON
+    std::fs::write(d.join("transforms_val.json"), "{ \"frames\": [ ").unwrap();
+    let e = err(&d, Split::Val);
+    assert!(e.contains("transforms_val.json") && e.contains("malformed JSON"), "{e}");
+    // a pose that is not rigid
+    let t = std::fs::read_to_string(d.join("transforms_test.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&t).unwrap();
+    v["frames"][0]["transform_matrix"][0][0] = 3.0.into();
+    std::fs::write(d.join("transforms_test.json"), v.to_string()).unwrap();
+    let e = err(&d, Split::Test);
+    assert!(e.contains("transforms_test.json") && e.contains("not a rigid transform"), "{e}");
+    for e in [err(&d, Split::Train), err(&d, Split::Val), err(&d, Split::Test)] {
+        assert!(!e.contains('\n'), "multi-line error: {e}");
+    }
+    // malformed NPY
+    let l = tmp("badnpy");
+    write_llff(&l, spec()).unwrap();
+    std::fs::write(l.join("poses_bounds.npy"), b"\x93NUMPY\x01\x00\x10\x00{'descr': '<i4'}").unwrap();
+    let e = load(&l, Split::Train, opts(Format::Auto, 1)).unwrap_err().to_string();
+    assert!(e.contains("poses_bounds.npy") && e.contains("malformed NPY"), "{e}");
+}

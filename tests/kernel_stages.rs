@@ -1,0 +1,227 @@
+//! Each fixed-point stage against the f32 path, with stated tolerances:
+//! encoding (in nerf-infer's unit tests), the MLP (one layer and whole),
+//! alpha and transmittance, and full rays, including edge cases; property
+//! tests over random inputs.
+
+mod support;
+
+use nerf_infer::composite::{CompositorF32, CompositorFixed, DELTA_INF_Q16};
+use nerf_infer::encoding::NPOS_FRAC;
+use nerf_infer::format::Scheme;
+use nerf_infer::network::{BlockF32, BlockFixed, W16, W8};
+use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
+use nerf_train::config::TrainConfig;
+use nerf_train::export::{orbit_camera, quantise, random_model};
+use proptest::prelude::*;
+use support::*;
+
+/// Tolerance tiers, in the units of each stage's output.
+mod tol {
+    /// Density σ: relative to the largest |σ| seen, plus two Q10 steps.
+    pub const SIGMA_REL: f32 = 0.01;
+    /// Colour after the sigmoid: absolute.
+    pub const RGB: f32 = 4e-3;
+    /// Alpha, transmittance, weights and colour from exact inputs: absolute.
+    pub const COMPOSITE: f32 = 2e-5;
+}
+
+fn models(cfg: &TrainConfig, seed: u64) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
+    let f = random_model(cfg, unit_scene(), seed, 6.0).to_bytes().unwrap();
+    let (q16, q8) = {
+        let m = Model::from_bytes(&f).unwrap();
+        (quantise(&m, Scheme::I16).unwrap().to_bytes().unwrap(), quantise(&m, Scheme::I8).unwrap().to_bytes().unwrap())
+    };
+    (f, q16, q8)
+}
+
+/// Positions exactly representable in Q24, inside and around the bounds.
+fn positions(n: usize, seed: u32) -> Vec<[i32; 3]> {
+    (0..n as u32)
+        .map(|i| {
+            let h = |k: u32| nerf_infer::sampling::hash32(seed ^ (i * 3 + k));
+            std::array::from_fn(|c| ((h(c as u32) as i32) >> 6).clamp(-(3 << 23), 3 << 23))
+        })
+        .collect()
+}
+
+fn compare_mlp(cfg: &TrainConfig, scheme: Scheme, sigma_tol: f32, rgb_tol: f32) {
+    let (f, q16, q8) = models(cfg, 11);
+    let q = if scheme == Scheme::I16 { q16 } else { q8 };
+    let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q).unwrap());
+    let mut bf = Box::<BlockF32<8>>::default();
+    let mut bq = Box::<BlockFixed<8>>::default();
+    let dir = [0.0f32, 0.6, -0.8];
+    let dir_q = dir.map(|v| (v * (1 << NPOS_FRAC) as f32).round() as i32);
+    let (nf, nq) = (mf.final_network(), mq.final_network());
+    bf.prepare_ray(&mf, nf, [dir_q[0] as f32 / 16777216.0, dir_q[1] as f32 / 16777216.0, dir_q[2] as f32 / 16777216.0]);
+    let mut sig_max = 0.0f32;
+    let mut errs = (0.0f32, 0.0f32);
+    for chunk in positions(400, 5).chunks(8) {
+        let pf: Vec<[f32; 3]> = chunk.iter().map(|p| p.map(|v| v as f32 / (1 << NPOS_FRAC) as f32)).collect();
+        bf.eval(&mf, nf, &pf, true);
+        match scheme {
+            Scheme::I16 => {
+                bq.prepare_ray::<W16>(&mq, nq, dir_q);
+                bq.eval::<W16>(&mq, nq, chunk, true)
+            }
+            _ => {
+                bq.prepare_ray::<W8>(&mq, nq, dir_q);
+                bq.eval::<W8>(&mq, nq, chunk, true)
+            }
+        }
+        for k in 0..chunk.len() {
+            sig_max = sig_max.max(bf.sigma[k].abs());
+            errs.0 = errs.0.max((bf.sigma[k] - bq.sigma[k] as f32 / 1024.0).abs());
+            for c in 0..3 {
+                errs.1 = errs.1.max((bf.rgb[k][c] - bq.rgb[k][c] as f32 / 32768.0).abs());
+            }
+        }
+    }
+    println!(
+        "{scheme:?} {}x{}: max |Δσ| = {:.4} (max |σ| {sig_max:.2}), max |Δrgb| = {:.5}",
+        cfg.depth, cfg.width, errs.0, errs.1
+    );
+    assert!(sig_max > 1.0, "test model has no density");
+    assert!(errs.0 <= sigma_tol * sig_max + 2.0 / 1024.0, "σ error {} over {}·{sig_max}", errs.0, sigma_tol);
+    assert!(errs.1 <= rgb_tol, "colour error {} over {rgb_tol}", errs.1);
+}
+
+#[test]
+fn one_dense_layer_then_heads_int16() {
+    // depth 1: a single hidden layer between the encoding and the heads
+    let cfg = TrainConfig { depth: 1, width: 48, skips: vec![], view_dependent: false, n_fine: 0, ..small_config() };
+    compare_mlp(&cfg, Scheme::I16, tol::SIGMA_REL, tol::RGB);
+}
+
+#[test]
+fn whole_mlp_int16_small_and_fast_preset() {
+    compare_mlp(&small_config(), Scheme::I16, tol::SIGMA_REL, tol::RGB);
+    compare_mlp(&TrainConfig::fast(), Scheme::I16, tol::SIGMA_REL, tol::RGB);
+}
+
+#[test]
+fn whole_mlp_int8_within_its_own_tier() {
+    // int8 weights: one weight step is 1/127 of a channel's range.
+    compare_mlp(&small_config(), Scheme::I8, 0.08, 0.04);
+}
+
+fn composite_both(
+    sig_q: &[i32],
+    delta_q: &[i32],
+    rgb_q: &[[u16; 3]],
+    white: bool,
+) -> (nerf_infer::Pixel, nerf_infer::Pixel, Vec<(f32, f32)>) {
+    let mut cf = CompositorF32::default();
+    let mut cq = CompositorFixed::default();
+    let mut ws = Vec::new();
+    for i in 0..sig_q.len() {
+        let t_q = (i as i32 + 2) << 16;
+        let d = if delta_q[i] == DELTA_INF_Q16 { 1e10 } else { delta_q[i] as f32 / 65536.0 };
+        let rgb = rgb_q[i].map(|c| c as f32 / 32768.0);
+        let wf = cf.add(sig_q[i] as f32 / 1024.0, d, rgb, t_q as f32 / 65536.0);
+        let wq = cq.add(sig_q[i], delta_q[i], rgb_q[i], t_q);
+        ws.push((wf, wq as f32 / (1u64 << 30) as f32));
+        assert!(
+            (cf.transmittance - cq.transmittance as f32 / (1u64 << 30) as f32).abs() <= tol::COMPOSITE,
+            "transmittance after sample {i}"
+        );
+    }
+    let far = (sig_q.len() as f32 + 2.0).max(2.0);
+    (cf.finish(white, far), cq.finish(white, (far * 65536.0) as i32).to_pixel(), ws)
+}
+
+#[test]
+fn compositing_edge_cases() {
+    // zero density everywhere: background, opacity 0, depth = far
+    let (f, q, _) = composite_both(&[0; 5], &[1 << 16; 5], &[[1000; 3]; 5], true);
+    assert_eq!((q.opacity, q.rgb), (0.0, [1.0; 3]));
+    assert_eq!((f.opacity, f.rgb), (0.0, [1.0; 3]));
+    assert_eq!(q.depth, 7.0);
+    // one opaque sample: all weight on it
+    let (f, q, w) = composite_both(&[0, 1 << 30, 0], &[1 << 16; 3], &[[0; 3], [32768, 0, 16384], [0; 3]], false);
+    assert!((w[1].0 - 1.0).abs() < 1e-6 && (w[1].1 - 1.0).abs() < 1e-6);
+    assert!((q.rgb[0] - 1.0).abs() < 1e-4 && (f.rgb[2] - 0.5).abs() < 1e-6 && (q.depth - 3.0).abs() < 1e-4);
+    // empty ray
+    let (f, q, _) = composite_both(&[], &[], &[], false);
+    assert_eq!((f.opacity, q.opacity, f.rgb, q.rgb), (0.0, 0.0, [0.0; 3], [0.0; 3]));
+    // the last interval is infinite: positive density there is opaque
+    let (_, q, _) = composite_both(&[0, 5], &[1 << 16, DELTA_INF_Q16], &[[0; 3], [32768; 3]], false);
+    assert_eq!(q.opacity, 1.0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn compositing_fixed_matches_f32(
+        n in 1usize..64,
+        seed in any::<u32>(),
+        white in any::<bool>(),
+    ) {
+        let h = |k: u32| nerf_infer::sampling::hash32(seed ^ k);
+        let sig: Vec<i32> = (0..n as u32).map(|i| (h(i) % 40000) as i32 - 5000).collect();
+        let delta: Vec<i32> = (0..n as u32).map(|i| if i as usize + 1 == n { DELTA_INF_Q16 } else { (h(i + 999) % 20000) as i32 }).collect();
+        let rgb: Vec<[u16; 3]> = (0..n as u32).map(|i| std::array::from_fn(|c| (h(i * 7 + c as u32 + 5000) % 32769) as u16)).collect();
+        let (f, q, ws) = composite_both(&sig, &delta, &rgb, white);
+        for (wf, wq) in ws {
+            prop_assert!((wf - wq).abs() <= tol::COMPOSITE);
+        }
+        for c in 0..3 {
+            prop_assert!((f.rgb[c] - q.rgb[c]).abs() <= tol::COMPOSITE * 4.0);
+            prop_assert!((0.0..=1.0).contains(&q.rgb[c]));
+        }
+        prop_assert!((f.opacity - q.opacity).abs() <= tol::COMPOSITE * 4.0);
+    }
+}
+
+#[test]
+fn full_rays_fixed_against_f32_and_degenerate_rays() {
+    let (f, q16, _) = models(&small_config(), 3);
+    let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
+    let rf = F32Renderer::new(&mf, RenderOptions::from_model(&mf)).unwrap();
+    let rq = FixedRenderer::new(&mq, RenderOptions::from_model(&mq)).unwrap();
+    let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
+    let cam = orbit_camera(&mf.scene, 0.3, 24, 24);
+    let mut worst = 0.0f32;
+    for y in 0..24 {
+        for x in 0..24 {
+            let (o, d) = cam.ray(x, y);
+            let a = rf.render_ray(o, d, (x, y), &mut sf);
+            let b = rq.render_ray(o, d, (x, y), &mut sq).to_pixel();
+            for c in 0..3 {
+                worst = worst.max((a.rgb[c] - b.rgb[c]).abs());
+            }
+            assert!((mf.scene.near..=mf.scene.far).contains(&b.depth));
+        }
+    }
+    println!("worst |Δrgb| over a 24×24 view: {worst:.5}");
+    assert!(worst < 0.02);
+    // degenerate rays render as background at far, in both paths
+    for (o, d) in [
+        (glam::Vec3::ZERO, glam::Vec3::ZERO),
+        (glam::Vec3::NAN, glam::Vec3::X),
+        (glam::Vec3::ZERO, glam::Vec3::new(f32::INFINITY, 0.0, 0.0)),
+    ] {
+        let a = rf.render_ray(o, d, (0, 0), &mut sf);
+        let b = rq.render_ray(o, d, (0, 0), &mut sq).to_pixel();
+        assert_eq!((a.rgb, a.opacity, a.depth), ([1.0; 3], 0.0, mf.scene.far));
+        assert_eq!((b.rgb, b.opacity, b.depth), ([1.0; 3], 0.0, mf.scene.far));
+    }
+}
+
+#[test]
+fn wrong_path_and_bad_options_are_typed_errors() {
+    let (f, q16, _) = models(&small_config(), 4);
+    let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
+    assert_eq!(
+        FixedRenderer::new(&mf, RenderOptions::from_model(&mf)).unwrap_err(),
+        nerf_infer::Error::WrongNumericPath
+    );
+    assert_eq!(F32Renderer::new(&mq, RenderOptions::from_model(&mq)).unwrap_err(), nerf_infer::Error::WrongNumericPath);
+    let mut o = RenderOptions::from_model(&mf);
+    o.coarse = 1;
+    assert_eq!(F32Renderer::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
+    o.coarse = 16;
+    o.early_stop = f32::NAN;
+    assert_eq!(F32Renderer::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
+}
