@@ -21,13 +21,13 @@ pub const NPOS_FRAC: u32 = 24;
 
 /// `sin(π·x)` and `cos(π·x)` for any finite f32 `x` with exact reduction.
 ///
-/// Method: `q = round(2x)` and `f = x − q/2 ∈ [−¼, ¼]` are exact in f32;
+/// Method: `q = round(2x)` (ties to even) and `f = x − q/2 ∈ [−¼, ¼]` are exact in f32;
 /// Taylor polynomials of degree 9 (sin) and 8 (cos) in `πf` (truncation
 /// < 3·10⁻⁸), then a rotation by `q` quarter turns. Maximum error
 /// ≈ 2·10⁻⁷ (a few f32 ulps); no libm call, branch-free.
 #[inline]
 pub fn sincospi_f32(x: f32) -> (f32, f32) {
-    let q = libm::roundf(2.0 * x);
+    let q = round_f32(2.0 * x);
     let f = x - 0.5 * q;
     let a = core::f32::consts::PI * f;
     let a2 = a * a;
@@ -39,6 +39,19 @@ pub fn sincospi_f32(x: f32) -> (f32, f32) {
         1 => (c, -s),
         2 => (-s, -c),
         _ => (-c, s),
+    }
+}
+
+/// Rounds to the nearest integer, ties to even, branch-light: adding and
+/// subtracting 1.5·2²³ leaves an integer for |v| < 2²³; larger f32 values
+/// are integers already.
+#[inline(always)]
+fn round_f32(v: f32) -> f32 {
+    const MAGIC: f32 = 12_582_912.0;
+    if v.abs() < 8_388_608.0 {
+        (v + MAGIC) - MAGIC
+    } else {
+        v
     }
 }
 

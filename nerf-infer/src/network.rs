@@ -54,7 +54,118 @@ fn init_f32(bias: impl Fn(usize) -> f32, out_dim: usize, n: usize, out: &mut [[f
     }
 }
 
-/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n` samples.
+/// Element arithmetic of a dense layer: input activations `X`, decoded
+/// weights `Wd`, accumulators `A` (f32; or exact integers).
+pub trait Mac {
+    /// Input activation type.
+    type X: Copy + Default + PartialEq;
+    /// Weight decoded from its bytes.
+    type Wd: Copy + Default;
+    /// Accumulator type.
+    type A: Copy + Default;
+    /// Bytes per stored weight.
+    const BYTES: usize;
+    /// Decodes one little-endian weight.
+    fn decode(b: &[u8]) -> Self::Wd;
+    /// `acc += x · w`.
+    fn mac(acc: &mut Self::A, x: Self::X, w: Self::Wd);
+}
+
+/// f32 activations and weights.
+pub struct MacF32;
+
+impl Mac for MacF32 {
+    type X = f32;
+    type Wd = f32;
+    type A = f32;
+    const BYTES: usize = 4;
+    #[inline(always)]
+    fn decode(b: &[u8]) -> f32 {
+        f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+    }
+    #[inline(always)]
+    fn mac(acc: &mut f32, x: f32, w: f32) {
+        *acc += x * w;
+    }
+}
+
+/// Samples per register tile.
+const TILE_S: usize = 4;
+/// Outputs per register tile.
+const TILE_C: usize = 32;
+
+/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
+/// samples, `W` being `weights` with `od` outputs per row.
+///
+/// Register-tiled: a tile of 4 samples × 32 outputs stays in registers
+/// while the inputs stream past, each weight row segment loaded once for 4
+/// samples. Inputs that are zero for the whole tile (ReLU) are skipped. Per
+/// output the sum runs over `j` in ascending order, so results do not depend
+/// on the tiling.
+#[inline]
+fn accumulate<M: Mac, const N: usize>(
+    weights: &[u8],
+    od: usize,
+    row0: usize,
+    input: &[[M::X; N]],
+    in_dim: usize,
+    n: usize,
+    out: &mut [[M::A; MAX_WIDTH]],
+) {
+    let zero = M::X::default();
+    let mut s0 = 0;
+    while s0 < n {
+        let sn = (n - s0).min(TILE_S);
+        let rows = &input[s0..s0 + sn];
+        let mut c0 = 0;
+        while c0 + TILE_C <= od {
+            let mut acc = [[M::A::default(); TILE_C]; TILE_S];
+            for s in 0..sn {
+                acc[s].copy_from_slice(&out[s0 + s][c0..c0 + TILE_C]);
+            }
+            let [a0, a1, a2, a3] = &mut acc;
+            for j in 0..in_dim {
+                let x0 = rows[0][j];
+                let x1 = if sn > 1 { rows[1][j] } else { zero };
+                let x2 = if sn > 2 { rows[2][j] } else { zero };
+                let x3 = if sn > 3 { rows[3][j] } else { zero };
+                if x0 == zero && x1 == zero && x2 == zero && x3 == zero {
+                    continue;
+                }
+                let base = ((row0 + j) * od + c0) * M::BYTES;
+                let wrow = &weights[base..base + TILE_C * M::BYTES];
+                for k in 0..TILE_C {
+                    let w = M::decode(&wrow[k * M::BYTES..(k + 1) * M::BYTES]);
+                    M::mac(&mut a0[k], x0, w);
+                    M::mac(&mut a1[k], x1, w);
+                    M::mac(&mut a2[k], x2, w);
+                    M::mac(&mut a3[k], x3, w);
+                }
+            }
+            for s in 0..sn {
+                out[s0 + s][c0..c0 + TILE_C].copy_from_slice(&acc[s]);
+            }
+            c0 += TILE_C;
+        }
+        if c0 < od {
+            for s in 0..sn {
+                for j in 0..in_dim {
+                    let x = rows[s][j];
+                    if x == zero {
+                        continue;
+                    }
+                    let base = ((row0 + j) * od) * M::BYTES;
+                    for c in c0..od {
+                        let w = M::decode(&weights[base + c * M::BYTES..base + (c + 1) * M::BYTES]);
+                        M::mac(&mut out[s0 + s][c], x, w);
+                    }
+                }
+            }
+        }
+        s0 += TILE_S;
+    }
+}
+
 #[inline]
 fn accumulate_f32<const N: usize>(
     l: &Layer<'_>,
@@ -64,19 +175,7 @@ fn accumulate_f32<const N: usize>(
     n: usize,
     out: &mut [[f32; MAX_WIDTH]],
 ) {
-    let od = l.out_dim as usize;
-    for j in 0..in_dim {
-        let row = &l.weights[(row0 + j) * od * 4..(row0 + j + 1) * od * 4];
-        for s in 0..n {
-            let a = input[s][j];
-            if a == 0.0 {
-                continue;
-            }
-            for (y, w) in out[s][..od].iter_mut().zip(row.chunks_exact(4)) {
-                *y += a * f32::from_le_bytes([w[0], w[1], w[2], w[3]]);
-            }
-        }
-    }
+    accumulate::<MacF32, N>(l.weights, l.out_dim as usize, row0, input, in_dim, n, out);
 }
 
 fn relu_f32(out_dim: usize, n: usize, buf: &mut [[f32; MAX_WIDTH]]) {
@@ -191,6 +290,10 @@ pub trait IntWeight {
     const BYTES: usize;
     /// `a · w` in the accumulator type (`w` is the weight's bytes).
     fn mul(a: i16, w: &[u8]) -> Self::Acc;
+    /// The weight stored in `b`, sign-extended.
+    fn decode(b: &[u8]) -> i32;
+    /// An exact i32 product in the accumulator type.
+    fn widen(p: i32) -> Self::Acc;
     /// A bias or partial sum (checked at load to fit the accumulator).
     fn from_i64(b: i64) -> Self::Acc;
     /// Picks this type's accumulator buffer.
@@ -215,6 +318,14 @@ impl IntWeight for W16 {
     fn from_i64(b: i64) -> i64 {
         b
     }
+    #[inline(always)]
+    fn decode(b: &[u8]) -> i32 {
+        i16::from_le_bytes([b[0], b[1]]) as i32
+    }
+    #[inline(always)]
+    fn widen(p: i32) -> i64 {
+        p as i64
+    }
     fn pick<'a, const B: usize>(
         a64: &'a mut [[i64; MAX_WIDTH]; B],
         _: &'a mut [[i32; MAX_WIDTH]; B],
@@ -232,6 +343,14 @@ impl IntWeight for W8 {
     }
     fn from_i64(b: i64) -> i32 {
         b as i32
+    }
+    #[inline(always)]
+    fn decode(b: &[u8]) -> i32 {
+        b[0] as i8 as i32
+    }
+    #[inline(always)]
+    fn widen(p: i32) -> i32 {
+        p
     }
     fn pick<'a, const B: usize>(
         _: &'a mut [[i64; MAX_WIDTH]; B],
@@ -292,7 +411,25 @@ impl<const B: usize> Default for BlockFixed<B> {
     }
 }
 
-/// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` (integer weights).
+/// The [`Mac`] of an integer weight type: i16 inputs, i32 products.
+pub struct MacInt<W>(core::marker::PhantomData<W>);
+
+impl<W: IntWeight> Mac for MacInt<W> {
+    type X = i16;
+    type Wd = i32;
+    type A = W::Acc;
+    const BYTES: usize = W::BYTES;
+    #[inline(always)]
+    fn decode(b: &[u8]) -> i32 {
+        W::decode(b)
+    }
+    #[inline(always)]
+    fn mac(acc: &mut W::Acc, x: i16, w: i32) {
+        *acc += W::widen(x as i32 * w);
+    }
+}
+
+/// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` (integer weights, exact).
 #[inline]
 fn accumulate_int<W: IntWeight, const N: usize>(
     l: &Layer<'_>,
@@ -302,20 +439,7 @@ fn accumulate_int<W: IntWeight, const N: usize>(
     n: usize,
     acc: &mut [[W::Acc; MAX_WIDTH]],
 ) {
-    let od = l.out_dim as usize;
-    let rb = od * W::BYTES;
-    for j in 0..in_dim {
-        let row = &l.weights[(row0 + j) * rb..(row0 + j + 1) * rb];
-        for s in 0..n {
-            let a = input[s][j];
-            if a == 0 {
-                continue;
-            }
-            for (y, w) in acc[s][..od].iter_mut().zip(row.chunks_exact(W::BYTES)) {
-                *y += W::mul(a, w);
-            }
-        }
-    }
+    accumulate::<MacInt<W>, N>(l.weights, l.out_dim as usize, row0, input, in_dim, n, acc);
 }
 
 /// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
