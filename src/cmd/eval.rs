@@ -5,7 +5,8 @@ use super::{create_dir, decode, load_split, read_model, with_threads, CmdResult,
 use clap::Parser;
 use nerf_infer::RenderOptions;
 use nerf_train::dataset::save_png_rgb;
-use nerf_train::eval::score_view;
+use nerf_train::eval::{render_view, score_view};
+use nerf_train::metrics::psnr;
 use std::path::PathBuf;
 
 /// Arguments of `nerf eval`.
@@ -40,6 +41,10 @@ pub struct Args {
     /// Early ray termination threshold on transmittance (0: off).
     #[arg(long, default_value_t = 0.0)]
     early_stop: f32,
+    /// Also render with this model (e.g. the f32 original of a quantised
+    /// model) and report `psnr_vs_reference`, the mean PSNR between the two.
+    #[arg(long)]
+    reference: Option<PathBuf>,
 }
 
 /// Runs `nerf eval`.
@@ -61,8 +66,13 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
     if let Some(dir) = &a.save {
         create_dir(dir)?;
     }
+    let ref_bytes = a.reference.as_ref().map(|p| read_model(p)).transpose()?;
+    let reference = match (&a.reference, &ref_bytes) {
+        (Some(p), Some(b)) => Some(decode(p, b)?),
+        _ => None,
+    };
     let pb = super::progress(data.views.len() as u64, "{bar:30} {pos}/{len} views ({eta})");
-    let results = with_threads(a.threads, || -> Result<Vec<_>, String> {
+    let results = with_threads(a.threads, || -> Result<Vec<(_, _, Option<f64>)>, String> {
         let mut out = Vec::new();
         for v in &data.views {
             let (r, s) = score_view(&model, opts, v).map_err(|e| format!("{}: {e}", a.model.display()))?;
@@ -72,21 +82,30 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
                 save_png_rgb(&dir.join(format!("{}_gt.png", v.name)), r.width, r.height, &v.rgb)
                     .map_err(|e| e.to_string())?;
             }
+            let vs_ref = match &reference {
+                Some(m) => {
+                    let rr = render_view(m, RenderOptions::from_model(m), &v.camera)
+                        .map_err(|e| format!("reference: {e}"))?;
+                    Some(psnr(&r.rgb, &rr.rgb))
+                }
+                None => None,
+            };
             pb.inc(1);
-            out.push((r, s));
+            out.push((r, s, vs_ref));
         }
         Ok(out)
     })??;
     pb.finish_and_clear();
     let n = results.len() as f64;
-    let mut us: Vec<f64> = results.iter().map(|(r, _)| r.secs_per_ray * 1e6).collect();
+    let mut us: Vec<f64> = results.iter().map(|(r, _, _)| r.secs_per_ray * 1e6).collect();
     us.sort_by(f64::total_cmp);
     let report = serde_json::json!({
-        "psnr": results.iter().map(|(_, s)| s.psnr).sum::<f64>() / n,
-        "ssim": results.iter().map(|(_, s)| s.ssim).sum::<f64>() / n,
-        "views": results.iter().map(|(_, s)| s).collect::<Vec<_>>(),
+        "psnr": results.iter().map(|(_, s, _)| s.psnr).sum::<f64>() / n,
+        "ssim": results.iter().map(|(_, s, _)| s.ssim).sum::<f64>() / n,
+        "views": results.iter().map(|(_, s, _)| s).collect::<Vec<_>>(),
+        "psnr_vs_reference": reference.as_ref().map(|_| results.iter().filter_map(|(_, _, p)| *p).sum::<f64>() / n),
         "us_per_ray": us[us.len() / 2],
-        "samples_per_ray": results.iter().map(|(r, _)| r.samples_per_ray).sum::<f64>() / n,
+        "samples_per_ray": results.iter().map(|(r, _, _)| r.samples_per_ray).sum::<f64>() / n,
         "model_bytes": bytes.len(),
         "scheme": format!("{:?}", model.scheme()),
         "downscale": downscale,
