@@ -27,6 +27,8 @@ enum Command {
     Render(cmd::render::Args),
     /// Write the model with 32-, 16- or 8-bit weights.
     Export(cmd::export::Args),
+    /// Sweep weight bits, samples and early termination: PSNR against µs/ray.
+    Tradeoff(cmd::tradeoff::Args),
     /// Describe a model file.
     Info(cmd::info::Args),
     /// Generate the built-in scene as Blender and LLFF datasets.
@@ -43,6 +45,7 @@ fn dispatch(command: Command) -> cmd::CmdResult {
         Command::Render(a) => cmd::render::run(a),
         Command::Export(a) => cmd::export::run(a),
         Command::Info(a) => cmd::info::run(a),
+        Command::Tradeoff(a) => cmd::tradeoff::run(a),
         Command::Scene(a) => cmd::scene::run(a),
         Command::Demo(a) => cmd::demo::run(a),
     }

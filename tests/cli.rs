@@ -21,8 +21,8 @@ fn fails(args: &[&str]) -> String {
     e
 }
 
-fn tmp() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("nerf-cli-{}", std::process::id()));
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("nerf-cli-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -34,7 +34,7 @@ fn s(p: &Path) -> &str {
 
 #[test]
 fn scene_train_resume_eval_export_info_render() {
-    let d = tmp();
+    let d = tmp("e2e");
     let scene = d.join("scene");
     ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
     let data = scene.join("blender");
@@ -129,7 +129,7 @@ fn scene_train_resume_eval_export_info_render() {
 
 #[test]
 fn bad_inputs_give_one_line_errors() {
-    let d = tmp().join("errs");
+    let d = tmp("errs");
     std::fs::create_dir_all(&d).unwrap();
     let e = fails(&["info", s(&d.join("nope.nerf"))]);
     assert!(e.contains("nope.nerf") && e.contains("cannot read"), "{e}");

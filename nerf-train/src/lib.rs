@@ -18,6 +18,7 @@ pub mod export;
 pub mod gemm;
 pub mod metrics;
 pub mod mlp;
+pub mod plot;
 pub mod rng;
 pub mod train;
 pub mod volume;

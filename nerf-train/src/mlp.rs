@@ -89,7 +89,15 @@ impl Mlp {
     }
 
     /// Initial parameters: PyTorch's default for `nn.Linear`, weights and
-    /// biases uniform in `±1/√in`, from a seeded generator.
+    /// biases uniform in `±1/√in`, from a seeded generator — except the
+    /// density bias, set to [`Mlp::SIGMA_BIAS_INIT`].
+    ///
+    /// Why: trunk activations are ReLU outputs that vary little around their
+    /// mean at initialisation, so a random density head is often negative
+    /// at every point; the compositor's ReLU then passes no gradient and the
+    /// network never starts (seen: a coarse network dead from step 0 while
+    /// the fine one trained). A positive start makes space semi-opaque
+    /// everywhere and lets the loss carve out the empty parts.
     pub fn init(&self, seed: u64) -> Vec<f32> {
         let mut rng = crate::rng::Rng::new(seed);
         let mut p = vec![0.0; self.n_params];
@@ -99,8 +107,15 @@ impl Mlp {
                 *v = (rng.f32() * 2.0 - 1.0) * bound;
             }
         }
+        let s = self.slots[self.sigma_idx()];
+        p[s.b] = Self::SIGMA_BIAS_INIT;
         p
     }
+
+    /// Initial density bias (σ in 1/world units before the ReLU): with the
+    /// σ head's weights at ±1/√width on activations of order 1, this keeps
+    /// σ > 0 at nearly every point at the start.
+    pub const SIGMA_BIAS_INIT: f32 = 1.0;
 
     /// `out = bias + Σ parts · W[row0..]` for `rows` rows.
     fn linear(&self, p: &[f32], l: usize, parts: &[(&[f32], usize, usize)], rows: usize, out: &mut [f32]) {

@@ -23,6 +23,9 @@ pub struct Args {
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
+    /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
+    #[arg(long, default_value_t = 8)]
+    llffhold: usize,
     /// Downscale factor (default: the one the model was trained at).
     #[arg(long)]
     downscale: Option<u32>,
@@ -58,7 +61,7 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let downscale = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
-    let data = load_split(&a.data, a.split.into(), a.format, downscale)?;
+    let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold)?;
     let mut opts = RenderOptions::from_model(&model);
     opts.coarse = a.coarse.unwrap_or(opts.coarse);
     opts.fine = a.fine.unwrap_or(opts.fine);

@@ -6,6 +6,7 @@ pub mod export;
 pub mod info;
 pub mod render;
 pub mod scene;
+pub mod tradeoff;
 pub mod train;
 
 use nerf_train::dataset::{self, Dataset, Format, LoadOptions, Split};
@@ -59,9 +60,19 @@ impl From<SplitArg> for Split {
     }
 }
 
-/// Loads a split, mapping errors to one line.
-pub fn load_split(dir: &Path, split: Split, format: FormatArg, downscale: u32) -> Result<Dataset, String> {
-    dataset::load(dir, split, LoadOptions { format: format.into(), downscale, holdout: 8 }).map_err(|e| e.to_string())
+/// Loads a split, mapping errors to one line; `holdout` is LLFF's
+/// `--llffhold` (every `holdout`-th image is a test/val view).
+pub fn load_split(
+    dir: &Path,
+    split: Split,
+    format: FormatArg,
+    downscale: u32,
+    holdout: usize,
+) -> Result<Dataset, String> {
+    if holdout == 0 {
+        return Err("--llffhold must be at least 1".into());
+    }
+    dataset::load(dir, split, LoadOptions { format: format.into(), downscale, holdout }).map_err(|e| e.to_string())
 }
 
 /// Reads a model file into memory.

@@ -23,6 +23,9 @@ pub struct Args {
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
+    /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
+    #[arg(long, default_value_t = 8)]
+    llffhold: usize,
     /// Downscale factor (default: the model's training downscale).
     #[arg(long)]
     downscale: Option<u32>,
@@ -53,7 +56,11 @@ pub fn run(a: Args) -> CmdResult {
     let cams: Vec<(String, Camera)> = match (&a.data, a.split, a.orbit) {
         (Some(dir), Some(split), _) => {
             let ds = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
-            load_split(dir, split.into(), a.format, ds)?.views.into_iter().map(|v| (v.name, v.camera)).collect()
+            load_split(dir, split.into(), a.format, ds, a.llffhold)?
+                .views
+                .into_iter()
+                .map(|v| (v.name, v.camera))
+                .collect()
         }
         (_, _, Some(n)) => (0..n)
             .map(|k| (format!("orbit_{k:03}"), orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size)))

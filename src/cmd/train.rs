@@ -23,6 +23,9 @@ pub struct Args {
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
+    /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
+    #[arg(long, default_value_t = 8)]
+    llffhold: usize,
     /// Downscale images by this integer factor (area averaging).
     #[arg(long, default_value_t = 1)]
     downscale: u32,
@@ -82,7 +85,7 @@ fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
     if a.val_views == 0 {
         return None;
     }
-    load_split(&a.data, Split::Val, a.format, downscale).ok()
+    load_split(&a.data, Split::Val, a.format, downscale, a.llffhold).ok()
 }
 
 /// Mean PSNR of the first `n` validation views rendered by the kernel's f32 path.
@@ -118,10 +121,10 @@ fn train(a: Args) -> CmdResult {
         return Err(format!("{}: no checkpoint to resume from", ckpt.display()));
     } else {
         let cfg = load_config(&a)?;
-        let data = load_split(&a.data, Split::Train, a.format, a.downscale)?;
+        let data = load_split(&a.data, Split::Train, a.format, a.downscale, a.llffhold)?;
         Trainer::new(cfg, data.scene, a.downscale, a.seed)
     };
-    let data = load_split(&a.data, Split::Train, a.format, tr.downscale)?;
+    let data = load_split(&a.data, Split::Train, a.format, tr.downscale, a.llffhold)?;
     let val = load_val(&a, tr.downscale);
     let calib = Trainer::draw_batch(&data, 4096, &mut Rng::new(tr.seed ^ 0xCA11));
     let budget_secs = a.minutes.map(|m| m * 60.0);
