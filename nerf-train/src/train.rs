@@ -73,6 +73,37 @@ struct Workspace {
     drgb: Vec<f32>,
 }
 
+/// Composites each ray's `n` consecutive samples (weights into `w`) and
+/// writes the gradients of `scale · Σ (C − C_gt)²` with respect to the raw
+/// densities and colours into `dsig` and `drgb`; returns the summed
+/// squared error over rays and channels.
+#[allow(clippy::too_many_arguments)]
+fn loss_gradients(
+    rays: &[Sample],
+    n: usize,
+    bg: f32,
+    scale: f32,
+    acts: &Acts,
+    t: &[f32],
+    w: &mut [f32],
+    dsig: &mut Vec<f32>,
+    drgb: &mut Vec<f32>,
+) -> f64 {
+    dsig.resize(rays.len() * n, 0.0);
+    drgb.resize(rays.len() * n * 3, 0.0);
+    let mut sq = 0.0f64;
+    for (i, (ray, gt)) in rays.iter().enumerate() {
+        let s = i * n..(i + 1) * n;
+        let c = 3 * s.start..3 * s.end;
+        let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[c.clone()]);
+        let col = composite(sig, rgb, &t[s.clone()], ray.dir_len, bg, &mut w[s.clone()]);
+        let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
+        sq += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
+        composite_back(sig, rgb, &t[s.clone()], ray.dir_len, bg, &w[s.clone()], dc, &mut dsig[s], &mut drgb[c]);
+    }
+    sq
+}
+
 /// A training ray and its ground-truth colour.
 pub type Sample = (Ray, [f32; 3]);
 
@@ -220,27 +251,7 @@ impl Trainer {
             ws.dirs.push(ray.viewdir.to_array());
         }
         net.forward(pc, &ws.pos, &ws.dirs, true, &mut ws.acts_c);
-        let mut sq_c = 0.0f64;
-        ws.dsig.resize(r * nc, 0.0);
-        ws.drgb.resize(r * nc * 3, 0.0);
-        for (i, (ray, gt)) in rays.iter().enumerate() {
-            let s = i * nc..(i + 1) * nc;
-            let (sig, rgb) = (&ws.acts_c.sigma[s.clone()], &ws.acts_c.rgb[3 * s.start..3 * s.end]);
-            let col = composite(sig, rgb, &ws.t_c[s.clone()], ray.dir_len, bg, &mut ws.w_c[s.clone()]);
-            let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
-            sq_c += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
-            composite_back(
-                sig,
-                rgb,
-                &ws.t_c[s.clone()],
-                ray.dir_len,
-                bg,
-                &ws.w_c[s.clone()],
-                dc,
-                &mut ws.dsig[s.clone()],
-                &mut ws.drgb[3 * s.start..3 * s.end],
-            );
-        }
+        let sq_c = loss_gradients(rays, nc, bg, scale, &ws.acts_c, &ws.t_c, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb);
         net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
         if nf == 0 {
             return (sq_c, 0.0);
@@ -266,27 +277,7 @@ impl Trainer {
             ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
         }
         net.forward(pf, &ws.pos, &ws.dirs, true, &mut ws.acts_f);
-        let mut sq_f = 0.0f64;
-        ws.dsig.resize(r * na, 0.0);
-        ws.drgb.resize(r * na * 3, 0.0);
-        for (i, (ray, gt)) in rays.iter().enumerate() {
-            let s = i * na..(i + 1) * na;
-            let (sig, rgb) = (&ws.acts_f.sigma[s.clone()], &ws.acts_f.rgb[3 * s.start..3 * s.end]);
-            let col = composite(sig, rgb, &ws.t_all[s.clone()], ray.dir_len, bg, &mut ws.w_f[s.clone()]);
-            let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
-            sq_f += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
-            composite_back(
-                sig,
-                rgb,
-                &ws.t_all[s.clone()],
-                ray.dir_len,
-                bg,
-                &ws.w_f[s.clone()],
-                dc,
-                &mut ws.dsig[s.clone()],
-                &mut ws.drgb[3 * s.start..3 * s.end],
-            );
-        }
+        let sq_f = loss_gradients(rays, na, bg, scale, &ws.acts_f, &ws.t_all, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb);
         net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf);
         (sq_c, sq_f)
     }
