@@ -49,6 +49,7 @@ pub fn run(a: Args) -> CmdResult {
         return Ok(());
     }
     let t = &m.topology;
+    let skips: Vec<usize> = (1..16).filter(|&i| t.is_skip(i)).collect();
     println!(
         "{}: NeRF model, format version {}, {} bytes ({} in tensors)",
         a.model.display(),
@@ -61,7 +62,7 @@ pub fn run(a: Args) -> CmdResult {
         "  network: {}x{} trunk, skips {:?}, view branch {}",
         t.depth,
         t.width,
-        info["topology"]["skips"],
+        skips,
         if t.view_dependent { format!("on ({} wide)", t.view_width) } else { "off".into() }
     );
     println!(
