@@ -10,7 +10,7 @@
 //! Worked example: two samples with α = ½ each on black: T = 1, ½, ¼;
 //! weights ½, ¼; opacity ¾.
 
-use crate::fixed::{exp_neg_q16_q30, COLOR_ONE, SIGMA_FRAC, T_FRAC, T_ONE};
+use crate::fixed::{exp_neg_q26_q30, COLOR_ONE, T_FRAC, T_ONE};
 
 /// A rendered pixel from the f32 path.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -134,9 +134,8 @@ pub fn survival_fixed(sigma_q10: i32, delta_q16: i32) -> u32 {
     if delta_q16 == DELTA_INF_Q16 {
         return 0;
     }
-    // σ·δ in Q16: (Q10 · Q16) >> 10; < 2^31 · 2^31 fits i64.
-    let x = (sigma_q10 as i64 * delta_q16 as i64) >> SIGMA_FRAC;
-    exp_neg_q16_q30(x)
+    // σ·δ exactly, in Q26 (Q10 · Q16); < 2^31 · 2^31 fits i64.
+    exp_neg_q26_q30(sigma_q10 as i64 * delta_q16 as i64)
 }
 
 impl CompositorFixed {

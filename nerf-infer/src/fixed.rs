@@ -206,23 +206,22 @@ pub fn cos_turns_q15(phase: u32) -> i16 {
     sin_turns_q15(phase.wrapping_add(1 << 30))
 }
 
-/// `exp(−x)` for `x ≥ 0` in Q16, returned in Q30 (`2³⁰` = 1).
+/// `exp(−x)` for `x ≥ 0` in Q26, returned in Q30 (`2³⁰` = 1).
 ///
-/// Method: `exp(−x) = 2^(−y)` with `y = x·log₂e`, split into integer part `n`
-/// and fraction `f`; `2^(−f)` is a degree-5 minimax-like polynomial in Q30
-/// (error < 2·10⁻⁷), then shifted right by `n`. Negative inputs are treated
-/// as 0 (result 1.0); results below 2⁻³⁰ are 0.
+/// Method: `exp(−x) = 2^(−y)` with `y = x·log₂e` in Q32, split into integer
+/// part `n` and fraction `f`; `2^(−f)` is a degree-9 alternating series in
+/// Q30 (error < 10⁻⁸), then shifted right by `n`. Negative inputs are
+/// treated as 0 (result 1.0); results below 2⁻³⁰ are 0.
 #[inline]
-pub fn exp_neg_q16_q30(x: i64) -> u32 {
+pub fn exp_neg_q26_q30(x: i64) -> u32 {
     if x <= 0 {
         return T_ONE;
     }
     // log2(e) in Q30.
     const LOG2E_Q30: i64 = 1_549_082_005;
-    // y in Q16; x ≤ 2^32 (65536 units, far past underflow) keeps the
-    // product below 2^63.
+    // x ≤ 2^32 (64 units, far past underflow) keeps the product below 2^63.
     let x = x.min(1 << 32);
-    let y = (x * LOG2E_Q30) >> 14; // Q32
+    let y = (x * LOG2E_Q30) >> 24; // Q32
     let n = y >> 32;
     if n >= 31 {
         return 0;
@@ -230,6 +229,13 @@ pub fn exp_neg_q16_q30(x: i64) -> u32 {
     let f = (y & 0xFFFF_FFFF) >> 2; // fraction in Q30
     let p = exp2_neg_frac_q30(f);
     shr_round_i64(p, n as u32) as u32
+}
+
+/// `exp(−x)` for `x ≥ 0` in Q16, returned in Q30: [`exp_neg_q26_q30`] of
+/// the same value.
+#[inline]
+pub fn exp_neg_q16_q30(x: i64) -> u32 {
+    exp_neg_q26_q30(x.clamp(0, 1 << 32) << 10)
 }
 
 /// `2^(−f)` for `f` in `[0, 1)` given in Q30, result in Q30.
@@ -324,6 +330,15 @@ mod tests {
         assert_eq!(exp_neg_q16_q30(0), T_ONE);
         assert_eq!(exp_neg_q16_q30(-5), T_ONE);
         assert_eq!(exp_neg_q16_q30(i64::MAX), 0);
+    }
+
+    #[test]
+    fn exp_neg_q26_is_accurate_for_tiny_arguments() {
+        for x in [1i64, 7, 100, 65_535, 1 << 20, 3 << 26] {
+            let want = libm::exp(-(x as f64) / 67108864.0) * 1073741824.0;
+            let got = exp_neg_q26_q30(x) as f64;
+            assert!((got - want).abs() <= 2.0 + want * 2e-7, "x={x}: {got} vs {want}");
+        }
     }
 
     #[test]
