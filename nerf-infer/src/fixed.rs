@@ -115,14 +115,13 @@ impl Requant {
         }
         // factor = mant · 2^exp with mant in [0.5, 1).
         let mut exp = libm::ilogb(factor) + 1;
-        let mut mant = factor / libm::ldexp(1.0, exp);
+        let mant = factor / libm::ldexp(1.0, exp);
         let mut m = libm::round(mant * 2147483648.0) as i64;
         if m == 1 << 31 {
+            // mant rounded up to 1.0: renormalise to 0.5 · 2^(exp+1)
             m >>= 1;
             exp += 1;
-            mant = m as f64 / 2147483648.0;
         }
-        let _ = mant;
         let shift = -exp;
         if !(Self::MIN_SHIFT..=Self::MAX_SHIFT).contains(&shift) {
             return None;
@@ -287,21 +286,6 @@ pub fn sigmoid_q12_q15(z: i32) -> u16 {
     }
 }
 
-/// Integer square root of a `u64` (floor).
-pub fn isqrt_u64(x: u64) -> u64 {
-    if x < 2 {
-        return x;
-    }
-    let mut r = (libm::sqrt(x as f64) as u64).min(u32::MAX as u64);
-    while r * r > x {
-        r -= 1;
-    }
-    while (r + 1).checked_mul(r + 1).is_some_and(|s| s <= x) {
-        r += 1;
-    }
-    r
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -365,14 +349,5 @@ mod tests {
         let r = Requant::from_f64(0.25).unwrap();
         assert_eq!(r.apply(6), 2); // 1.5 rounds half up
         assert_eq!(r.apply(-6), -1); // -1.5 rounds half up
-    }
-
-    #[test]
-    fn isqrt_exact() {
-        for x in [0u64, 1, 2, 3, 4, 15, 16, 17, 1 << 40, u64::MAX] {
-            let r = isqrt_u64(x);
-            assert!(r * r <= x);
-            assert!((r + 1).checked_mul(r + 1).is_none_or(|s| s > x));
-        }
     }
 }

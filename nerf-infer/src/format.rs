@@ -375,7 +375,6 @@ impl<'a> Model<'a> {
         if n.act_bits != want_act {
             return Err(Error::InvalidTopology("unsupported activation width"));
         }
-        let w = t.width as usize;
         for (i, l) in n.layers.iter().enumerate() {
             let (din, dout) = expected_shape(t, e, i);
             let idx = i as u8;
@@ -413,7 +412,6 @@ impl<'a> Model<'a> {
                 }
             }
         }
-        let _ = w;
         Ok(())
     }
 }
