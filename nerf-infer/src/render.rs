@@ -145,7 +145,10 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         evaluations: &mut u64,
     ) -> Pixel {
         let m = self.model;
-        block.prepare_ray(m, net, ray.viewdir.to_array());
+        if need_rgb {
+            // the view branch only feeds colour; a density-only pass skips it
+            block.prepare_ray(m, net, ray.viewdir.to_array());
+        }
         let mut comp = CompositorF32::default();
         let n = t.len();
         let mut start = 0;
@@ -333,7 +336,9 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         evaluations: &mut u64,
     ) -> FixedPixel {
         let m = self.model;
-        block.prepare_ray::<W>(m, net, ray.viewdir);
+        if need_rgb {
+            block.prepare_ray::<W>(m, net, ray.viewdir);
+        }
         let mut comp = CompositorFixed::default();
         let n = t.len();
         let mut start = 0;
