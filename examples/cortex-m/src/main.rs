@@ -1,0 +1,259 @@
+//! Firmware example: embeds the shipped built-in-scene models (int8 and
+//! int16 weights, kept in flash by `include_bytes!`), renders one tile of a
+//! fixed view with `nerf-infer`'s integer-only path, prints the cost and a
+//! few pixels over semihosting, and exits with status 0 only if every pixel
+//! equals the host's render of the same tile bit for bit (`expected.rs`).
+//!
+//! Cost is counted in instructions: QEMU runs with `-icount shift=0` (one
+//! instruction per virtual nanosecond) and SysTick measures virtual time,
+//! calibrated against a loop of known length. RAM is the static sections
+//! (`size`) plus the stack high-water mark, found by painting the stack.
+
+#![no_std]
+#![no_main]
+
+use core::ptr::{addr_of, addr_of_mut};
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use cortex_m_rt::{entry, exception};
+use cortex_m_semihosting::{debug, hprintln};
+use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchFixed};
+use panic_semihosting as _;
+
+mod expected;
+mod view;
+
+/// The models, in flash: `Model::from_bytes` borrows, it never copies.
+static MODEL_INT8: &[u8] = include_bytes!("../../../models/scene_int8.nerf");
+static MODEL_INT16: &[u8] = include_bytes!("../../../models/scene_int16.nerf");
+
+/// Samples evaluated together: 4 keeps the scratch under 24 KiB.
+const BLOCK: usize = 4;
+
+/// SysTick reload value (24-bit counter, counts down).
+const RELOAD: u32 = 0x00FF_FFFF;
+/// SysTick wraps since start, counted by the exception handler.
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+#[exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// Ticks since SysTick started (wrap-safe).
+fn ticks() -> u64 {
+    loop {
+        let w = WRAPS.load(Ordering::Acquire);
+        let v = SYST::get_current();
+        if WRAPS.load(Ordering::Acquire) == w {
+            return w as u64 * (RELOAD as u64 + 1) + (RELOAD - v) as u64;
+        }
+    }
+}
+
+/// Executes `2·n` instructions (`subs` + `bne` per turn) plus a few.
+#[inline(never)]
+fn spin(n: u32) {
+    // SAFETY: a register-only countdown loop; touches no memory.
+    unsafe {
+        core::arch::asm!("2:", "subs {0}, {0}, #1", "bne 2b", inout(reg) n => _, options(nomem, nostack));
+    }
+}
+
+/// Instruction clock: SysTick ticks → instructions, from a calibration loop.
+struct Clock {
+    /// Instructions in the calibration loop.
+    instructions: u64,
+    /// Ticks it took.
+    ticks: u64,
+}
+
+impl Clock {
+    fn calibrate() -> Self {
+        const TURNS: u32 = 5_000_000;
+        let t0 = ticks();
+        spin(TURNS);
+        let t1 = ticks();
+        Self { instructions: 2 * TURNS as u64, ticks: (t1 - t0).max(1) }
+    }
+
+    /// Instructions in `ticks` (rounded).
+    fn instructions(&self, ticks: u64) -> u64 {
+        (ticks * self.instructions + self.ticks / 2) / self.ticks
+    }
+
+    /// Instructions spent in `f`, and its result.
+    fn count<T>(&self, f: impl FnOnce() -> T) -> (u64, T) {
+        let t0 = ticks();
+        let r = f();
+        let t1 = ticks();
+        (self.instructions(t1 - t0), r)
+    }
+}
+
+const PAINT: u32 = 0x5AFE_C0DE;
+
+extern "C" {
+    /// Start of the free RAM above `.bss` (cortex-m-rt's linker script).
+    static mut __sheap: u32;
+    /// Initial stack pointer: the top of RAM.
+    static _stack_start: u32;
+}
+
+/// Fills the free stack below the current stack pointer with [`PAINT`].
+#[inline(always)]
+fn paint_stack() {
+    // SAFETY: writes only words between the end of the static sections and
+    // the current stack pointer, which nothing uses yet.
+    unsafe {
+        let mut p = addr_of_mut!(__sheap);
+        let sp = cortex_m::register::msp::read() as *mut u32;
+        while p < sp {
+            p.write_volatile(PAINT);
+            p = p.add(1);
+        }
+    }
+}
+
+/// Deepest stack use so far, in bytes from the top of RAM.
+fn stack_high_water() -> usize {
+    // SAFETY: reads words of RAM between the static sections and the top.
+    unsafe {
+        let top = addr_of!(_stack_start) as usize;
+        let mut p = addr_of!(__sheap);
+        while (p as usize) < top && p.read_volatile() == PAINT {
+            p = p.add(1);
+        }
+        top - p as usize
+    }
+}
+
+fn as_tuple(p: &FixedPixel) -> (u16, u16, u16, u16, i32) {
+    (p.rgb[0], p.rgb[1], p.rgb[2], p.opacity, p.depth)
+}
+
+/// Renders the view's tile of `blob` ray by ray and as a tile, prints the
+/// cost and a few pixels, and returns whether both match `want` exactly.
+fn run(
+    name: &str,
+    blob: &'static [u8],
+    want: &[(u16, u16, u16, u16, i32); view::PIXELS],
+    want_sum: u32,
+    clock: &Clock,
+    scratch: &mut ScratchFixed<BLOCK>,
+) -> bool {
+    let (decode, model) = clock.count(|| Model::from_bytes(blob));
+    let model = match model {
+        Ok(m) => m,
+        Err(e) => {
+            hprintln!("{}: model rejected: {}", name, e);
+            return false;
+        }
+    };
+    let renderer = match FixedRenderer::new(&model, RenderOptions::from_model(&model)) {
+        Ok(r) => r,
+        Err(e) => {
+            hprintln!("{}: renderer rejected the model: {}", name, e);
+            return false;
+        }
+    };
+    let camera = Camera::from_fov(view::WIDTH, view::HEIGHT, view::FOV_X, view::POSE).expect("rigid pose");
+    let tile = view::TILE;
+
+    // Ray by ray: per-ray cost (min / max).
+    let mut rays = [FixedPixel::default(); view::PIXELS];
+    let (mut lo, mut hi) = (u64::MAX, 0);
+    for (k, px) in rays.iter_mut().enumerate() {
+        let (x, y) = (tile.x0 + k as u32 % tile.width, tile.y0 + k as u32 / tile.width);
+        let (cost, p) = clock.count(|| {
+            let (o, d) = camera.ray(x, y);
+            renderer.render_ray(o, d, (x, y), scratch)
+        });
+        *px = p;
+        lo = lo.min(cost);
+        hi = hi.max(cost);
+    }
+
+    // The whole tile at once.
+    let mut pixels = [FixedPixel::default(); view::PIXELS];
+    let evals0 = scratch.evaluations;
+    let (tile_cost, res) = clock.count(|| render_tile(&renderer, &camera, tile, scratch, &mut pixels));
+    if let Err(e) = res {
+        hprintln!("{}: render_tile failed: {}", name, e);
+        return false;
+    }
+    let evals = scratch.evaluations - evals0;
+
+    let sum = view::checksum(&pixels);
+    let mismatches = pixels.iter().zip(want.iter()).filter(|(p, w)| as_tuple(p) != **w).count();
+    let ray_tile_differ = rays.iter().zip(pixels.iter()).filter(|(a, b)| a != b).count();
+    hprintln!(
+        "{}: {} bytes in flash, decode+validate {} instructions, {} network evaluations",
+        name,
+        blob.len(),
+        decode,
+        evals
+    );
+    hprintln!(
+        "{}: tile {}x{} = {} instructions; per ray {} mean, {} min, {} max",
+        name,
+        tile.width,
+        tile.height,
+        tile_cost,
+        tile_cost / view::PIXELS as u64,
+        lo,
+        hi
+    );
+    for k in [0, view::PIXELS / 2 + tile.width as usize / 2, view::PIXELS - 1] {
+        let (r, g, b, a, d) = as_tuple(&pixels[k]);
+        hprintln!("{}: pixel {:2}: rgb ({}, {}, {}) Q15, opacity {} Q15, depth {} Q16", name, k, r, g, b, a, d);
+    }
+    let ok = mismatches == 0 && ray_tile_differ == 0 && sum == want_sum;
+    hprintln!(
+        "{}: checksum {:08x} (host {:08x}), {} of {} pixels differ from the host{}: {}",
+        name,
+        sum,
+        want_sum,
+        mismatches,
+        view::PIXELS,
+        if ray_tile_differ > 0 { ", ray-by-ray and tile renders disagree" } else { "" },
+        if ok { "BIT-EXACT" } else { "MISMATCH" }
+    );
+    ok
+}
+
+#[entry]
+fn main() -> ! {
+    paint_stack();
+    let mut cp = cortex_m::Peripherals::take().expect("first take");
+    cp.SYST.set_clock_source(SystClkSource::Core);
+    cp.SYST.set_reload(RELOAD);
+    cp.SYST.clear_current();
+    cp.SYST.enable_interrupt();
+    cp.SYST.enable_counter();
+    // The counter reads 0 until its first reload: let it start.
+    while SYST::get_current() == 0 {}
+
+    let clock = Clock::calibrate();
+    hprintln!(
+        "nerf-cortex-m on {}: calibration {} instructions in {} SysTick ticks",
+        env!("NERF_BOARD"),
+        clock.instructions,
+        clock.ticks
+    );
+    let mut scratch = ScratchFixed::<BLOCK>::default();
+    let ok8 = run("int8", MODEL_INT8, &expected::INT8, expected::INT8_CHECKSUM, &clock, &mut scratch);
+    let ok16 = run("int16", MODEL_INT16, &expected::INT16, expected::INT16_CHECKSUM, &clock, &mut scratch);
+    hprintln!(
+        "ram: stack high-water {} bytes (scratch {} bytes of it); flash: models {} bytes",
+        stack_high_water(),
+        core::mem::size_of::<ScratchFixed<BLOCK>>(),
+        MODEL_INT8.len() + MODEL_INT16.len()
+    );
+    let ok = ok8 && ok16;
+    hprintln!("{}", if ok { "PASS: bit-exact with the host" } else { "FAIL" });
+    debug::exit(if ok { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
