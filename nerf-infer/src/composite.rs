@@ -78,15 +78,15 @@ pub fn alpha_f32(sigma_raw: f32, delta: f32) -> f32 {
 
 impl CompositorF32 {
     /// Adds one sample (`delta` in world units, `f32::INFINITY` for the last
-    /// interval; colour in `[0, 1]`; `t` the sample's ray parameter) and
-    /// returns its weight `wᵢ`.
+    /// interval; colour clamped to `[0, 1]`, NaN read as 0; `t` the sample's
+    /// ray parameter) and returns its weight `wᵢ` in `[0, 1]`.
     #[inline]
     pub fn add(&mut self, sigma_raw: f32, delta: f32, rgb: [f32; 3], t: f32) -> f32 {
         let alpha = alpha_f32(sigma_raw, delta);
         let w = self.transmittance * alpha;
         self.transmittance *= 1.0 - alpha;
         for (acc, c) in self.rgb.iter_mut().zip(rgb) {
-            *acc += w * c;
+            *acc += w * unit(c);
         }
         self.opacity += w;
         self.depth += w * t;
@@ -94,15 +94,34 @@ impl CompositorF32 {
     }
 
     /// Finishes the ray on the background; `far` is the depth of empty space.
+    /// Colour and opacity are in `[0, 1]`; depth in `[0, far]` (a ray with
+    /// no opacity has depth `far`).
     pub fn finish(&self, white_background: bool, far: f32) -> Pixel {
-        let acc = self.opacity.clamp(0.0, 1.0);
+        let acc = unit(self.opacity);
         let rest = 1.0 - acc;
         let bg = if white_background { rest } else { 0.0 };
+        let depth = self.depth + rest * far;
         Pixel {
-            rgb: self.rgb.map(|c| (c + bg).clamp(0.0, 1.0)),
+            rgb: self.rgb.map(|c| unit(c + bg)),
             opacity: acc,
-            depth: (self.depth + rest * far).clamp(0.0, far),
+            depth: if depth >= 0.0 {
+                depth.min(far)
+            } else if depth < 0.0 {
+                0.0
+            } else {
+                far
+            },
         }
+    }
+}
+
+/// `x` clamped to `[0, 1]`, NaN read as 0.
+#[inline(always)]
+fn unit(x: f32) -> f32 {
+    if x >= 0.0 {
+        x.min(1.0)
+    } else {
+        0.0
     }
 }
 

@@ -24,9 +24,13 @@ pub const NPOS_FRAC: u32 = 24;
 /// Method: `q = round(2x)` (ties to even) and `f = x − q/2 ∈ [−¼, ¼]` are exact in f32;
 /// Taylor polynomials of degree 9 (sin) and 8 (cos) in `πf` (truncation
 /// < 3·10⁻⁸), then a rotation by `q` quarter turns. Maximum error
-/// ≈ 2·10⁻⁷ (a few f32 ulps); no libm call, branch-free.
+/// ≈ 2·10⁻⁷ (a few f32 ulps); no libm call. Non-finite `x` gives
+/// `(0, 1)`, the value at 0 (as [`encode_f32`] treats such coordinates).
 #[inline]
 pub fn sincospi_f32(x: f32) -> (f32, f32) {
+    if !x.is_finite() {
+        return (0.0, 1.0);
+    }
     let q = round_f32(2.0 * x);
     let f = x - 0.5 * q;
     let a = core::f32::consts::PI * f;

@@ -186,7 +186,12 @@ fn relu_f32(out_dim: usize, n: usize, buf: &mut [[f32; MAX_WIDTH]]) {
     }
 }
 
+/// `1 / (1 + e^−x)` in `[0, 1]`; NaN (from activations that overflowed to
+/// ±∞ and met) maps to 0.5, the value at x = 0.
 fn sigmoid_f32(x: f32) -> f32 {
+    if x.is_nan() {
+        return 0.5;
+    }
     1.0 / (1.0 + libm::expf(-x))
 }
 

@@ -177,7 +177,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             }
             start += len;
         }
-        comp.finish(m.scene.white_background, ray.far)
+        comp.finish(m.scene.white_background, m.scene.far)
     }
 
     fn background(&self) -> Pixel {
@@ -372,7 +372,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             }
             start += len;
         }
-        comp.finish(m.scene.white_background, ray.far)
+        comp.finish(m.scene.white_background, self.far)
     }
 
     fn render<W: IntWeight, const B: usize>(&self, ray: &Ray, key: Option<u32>, s: &mut ScratchFixed<B>) -> FixedPixel {

@@ -35,11 +35,15 @@ pub fn ray_key(seed: u32, x: u32, y: u32) -> u32 {
 }
 
 /// Stratified `t` values: `n` points evenly spaced over `[near, far]`
-/// (endpoints included); with jitter, each point moves uniformly inside its
-/// stratum between the midpoints of its neighbours.
+/// (endpoints included; one point sits at `near`); with jitter, each point
+/// moves uniformly inside its stratum between the midpoints of its
+/// neighbours. Output is sorted and finite: a non-finite `near` reads as 0,
+/// a non-finite `far`, or one below `near`, as `near`.
 pub fn stratified_f32(near: f32, far: f32, jitter: Option<u32>, out: &mut [f32]) {
     let n = out.len();
-    let lin = |i: usize| near + (far - near) * (i as f32 / (n - 1) as f32);
+    let near = if near.is_finite() { near } else { 0.0 };
+    let far = if far >= near && far.is_finite() { far } else { near };
+    let lin = |i: usize| if n < 2 { near } else { near + (far - near) * (i as f32 / (n - 1) as f32) };
     for (i, o) in out.iter_mut().enumerate() {
         *o = lin(i);
     }
@@ -53,11 +57,12 @@ pub fn stratified_f32(near: f32, far: f32, jitter: Option<u32>, out: &mut [f32])
     }
 }
 
-/// Fixed-point [`stratified_f32`]: `near`, `far` and `out` in Q16.
+/// Fixed-point [`stratified_f32`]: `near`, `far` and `out` in Q16 (`far`
+/// below `near` reads as `near`).
 pub fn stratified_fixed(near: i32, far: i32, jitter: Option<u32>, out: &mut [i32]) {
     let n = out.len() as i64;
-    let span = far as i64 - near as i64;
-    let lin = |i: i64| (near as i64 + span * i / (n - 1)) as i32;
+    let span = (far as i64 - near as i64).max(0);
+    let lin = |i: i64| if n < 2 { near } else { (near as i64 + span * i / (n - 1)) as i32 };
     for (i, o) in out.iter_mut().enumerate() {
         *o = lin(i as i64);
     }

@@ -58,3 +58,23 @@ fn random_bit_flips_never_panic() {
     // most flips with a fixed-up CRC land in weights and still decode
     assert!(decoded > 500, "only {decoded} decodable variants exercised rendering");
 }
+
+#[allow(dead_code)]
+#[path = "../fuzz/decode_render_check.rs"]
+mod fuzz_check;
+
+#[test]
+fn fuzz_seeds_and_found_crashes_stay_fixed() {
+    // Inputs the fuzz target (`fuzz/`, cargo-fuzz on nightly) starts from or
+    // once crashed on, replayed through the same check on stable.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz");
+    let mut n = 0;
+    for sub in ["seeds", "regressions"] {
+        for entry in std::fs::read_dir(dir.join(sub)).unwrap() {
+            let path = entry.unwrap().path();
+            fuzz_check::run(&std::fs::read(&path).unwrap());
+            n += 1;
+        }
+    }
+    assert!(n >= 5, "{n} inputs");
+}

@@ -250,8 +250,16 @@ fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme) -> Result<
             }
             bias.extend(((b / s).round() as i32).to_le_bytes());
             scales.extend((s as f32).to_le_bytes());
-            let r = Requant::from_f64(s * target)
-                .ok_or_else(|| format!("layer {i} channel {c}: requantisation factor {:e} out of range", s * target))?;
+            // A channel with no weights and no bias outputs exactly 0; one
+            // whose calibrated output range is far below a weight step
+            // saturates (the largest factor), one far above it rounds to 0.
+            let factor = if amax == 0.0 && b == 0.0 { 0.0 } else { s * target };
+            let r = Requant::from_f64(factor).unwrap_or(if factor > 1.0 {
+                Requant { multiplier: i32::MAX, shift: Requant::MIN_SHIFT }
+            } else {
+                Requant { multiplier: 0, shift: 0 }
+            });
+            debug_assert!(r.is_valid(), "layer {i} channel {c}: {r:?}");
             requant.extend(r.multiplier.to_le_bytes());
             requant.extend(r.shift.to_le_bytes());
         }
