@@ -63,3 +63,33 @@ fn both_networks_learn_from_every_seed() {
         assert!(f1 < 0.6 * f0, "seed {seed}: fine network did not learn ({f0} -> {f1})");
     }
 }
+
+#[test]
+fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
+    let d = std::env::temp_dir().join(format!("nerf-train-nan-{}", std::process::id()));
+    write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
+    let good = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let mut bad = good.clone();
+    for v in &mut bad.views {
+        v.rgb.iter_mut().step_by(7).for_each(|p| *p = [f32::NAN, f32::INFINITY, 0.5]);
+    }
+    let cfg = nerf_train::config::TrainConfig { batch_rays: 128, ..small_config() };
+    let mut tr = Trainer::new(cfg, good.scene, 1, 2);
+    tr.train_step(&good, 0.0);
+    let (params, adam_before) = (tr.params.clone(), tr.to_bytes());
+    for _ in 0..3 {
+        let st = tr.train_step(&bad, 0.1);
+        assert!(st.skipped && !st.loss.is_finite(), "{st:?}");
+    }
+    assert_eq!(tr.skipped, 3);
+    assert_eq!(tr.params, params, "a skipped step changed the weights");
+    // optimiser state is untouched too: only the step counter moved
+    let mut back = Trainer::from_bytes(&adam_before).unwrap();
+    back.step = tr.step;
+    back.skipped = tr.skipped;
+    assert_eq!(back.to_bytes(), tr.to_bytes());
+    let st = tr.train_step(&good, 0.2);
+    assert!(!st.skipped && st.loss.is_finite());
+    assert_ne!(tr.params, params);
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -170,10 +170,7 @@ pub fn scatter(
         placed.push((x, y, w, lh));
         text(&mut img, x, y, &p.label, c);
     }
-    let tmp = path.with_extension("png.tmp");
-    img.save_with_format(&tmp, image::ImageFormat::Png)
-        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+    crate::atomic::write_png(path, &img).map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
 }
 
 /// Marks the points no other point beats on both axes (higher y at lower

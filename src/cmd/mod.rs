@@ -5,12 +5,13 @@ pub mod eval;
 pub mod export;
 pub mod info;
 pub mod render;
+pub mod runlog;
 pub mod scene;
 pub mod tradeoff;
 pub mod train;
 
 use nerf_train::dataset::{self, Dataset, Format, LoadOptions, Split};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A command's failure: one line for the user.
 pub type CmdResult = Result<(), String>;
@@ -88,19 +89,7 @@ pub fn decode<'a>(path: &Path, bytes: &'a [u8]) -> Result<nerf_infer::Model<'a>,
 /// Writes `bytes` to `path` atomically: a temporary file in the same
 /// directory, then a rename, so a failure never leaves a partial file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    let tmp = tmp_path(path);
-    let res = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
-    if let Err(e) = res {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(format!("{}: cannot write: {e}", path.display()));
-    }
-    Ok(())
-}
-
-fn tmp_path(path: &Path) -> PathBuf {
-    let mut s = path.as_os_str().to_owned();
-    s.push(".tmp");
-    PathBuf::from(s)
+    nerf_train::atomic::write(path, bytes).map_err(|e| format!("{}: cannot write: {e}", path.display()))
 }
 
 /// Creates an output directory, naming it on failure.

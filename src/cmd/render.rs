@@ -89,10 +89,9 @@ pub fn run(a: Args) -> CmdResult {
 
 fn write_gif(path: &Path, frames: &[Rendered]) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: cannot write GIF: {e}", path.display());
-    let tmp = path.with_extension("gif.tmp");
+    let mut bytes = Vec::new();
     {
-        let file = std::fs::File::create(&tmp).map_err(|e| err(&e))?;
-        let mut enc = image::codecs::gif::GifEncoder::new_with_speed(file, 10);
+        let mut enc = image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10);
         enc.set_repeat(image::codecs::gif::Repeat::Infinite).map_err(|e| err(&e))?;
         for r in frames {
             let mut img = image::RgbaImage::new(r.width, r.height);
@@ -104,5 +103,5 @@ fn write_gif(path: &Path, frames: &[Rendered]) -> Result<(), String> {
             enc.encode_frame(frame).map_err(|e| err(&e))?;
         }
     }
-    std::fs::rename(&tmp, path).map_err(|e| err(&e))
+    nerf_train::atomic::write(path, &bytes).map_err(|e| err(&e))
 }

@@ -1,6 +1,7 @@
 //! `nerf train`: fits a model to a dataset, with a progress bar, periodic
 //! validation, atomic checkpoints and `--resume`.
 
+use super::runlog::RunLog;
 use super::{create_dir, load_split, progress, with_threads, write_atomic, CmdResult, FormatArg};
 use nerf_infer::{Model, RenderOptions};
 use nerf_train::config::TrainConfig;
@@ -9,8 +10,8 @@ use nerf_train::eval::score_view;
 use nerf_train::export::trainer_model;
 use nerf_train::rng::Rng;
 use nerf_train::train::Trainer;
-use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 /// Arguments of `nerf train`.
@@ -106,6 +107,19 @@ fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample]) -> Result
     write_atomic(&out.join("model.nerf"), &bytes)
 }
 
+/// Interrupt signals (Ctrl-C, SIGTERM) received during training.
+static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
+
+/// The first Ctrl-C or SIGTERM asks the loop to checkpoint and stop after
+/// the current step; a second one exits at once (outputs are atomic).
+fn catch_interrupts() {
+    let _ = ctrlc::set_handler(|| {
+        if INTERRUPTS.fetch_add(1, Ordering::SeqCst) > 0 {
+            std::process::exit(130);
+        }
+    });
+}
+
 /// Runs `nerf train`.
 pub fn run(a: Args) -> CmdResult {
     with_threads(a.threads, || train(a))?
@@ -113,6 +127,10 @@ pub fn run(a: Args) -> CmdResult {
 
 fn train(a: Args) -> CmdResult {
     create_dir(&a.out)?;
+    // temporary files of a run killed while writing: never whole outputs
+    for f in ["checkpoint.bin", "model.nerf", "train.jsonl"] {
+        let _ = std::fs::remove_file(nerf_train::atomic::tmp_path(&a.out.join(f)));
+    }
     let ckpt = a.out.join("checkpoint.bin");
     let mut tr = if a.resume && ckpt.is_file() {
         let b = std::fs::read(&ckpt).map_err(|e| format!("{}: cannot read: {e}", ckpt.display()))?;
@@ -139,11 +157,8 @@ fn train(a: Args) -> CmdResult {
         _ => 1.0,
     };
     let pb = progress(total, "{bar:30} {pos}/{len} ({eta}) {msg}");
-    let mut log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(a.out.join("train.jsonl"))
-        .map_err(|e| format!("{}: cannot open: {e}", a.out.join("train.jsonl").display()))?;
+    let mut log = RunLog::open(&a.out.join("train.jsonl"), a.resume.then_some(tr.step))?;
+    catch_interrupts();
     let mlp = tr.mlp();
     let flops_per_sample = 6.0 * mlp.macs_per_sample() as f64;
     let (mut last_ckpt, mut last_val) = (tr.elapsed, tr.elapsed);
@@ -181,7 +196,7 @@ fn train(a: Args) -> CmdResult {
                 "val_psnr": val_psnr,
                 "skipped_steps": tr.skipped,
             });
-            writeln!(log, "{line}").map_err(|e| format!("train.jsonl: cannot write: {e}"))?;
+            log.append(&line)?;
             pb.set_message(format!(
                 "loss {:.4} psnr {:.2} dB, {:.0} rays/s{}",
                 st.loss,
@@ -195,6 +210,15 @@ fn train(a: Args) -> CmdResult {
             Some(_) => tr.step,
             None => (tr.elapsed * 1000.0) as u64,
         });
+        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+            pb.finish_and_clear();
+            save(&tr, &a.out, &calib)?;
+            return Err(format!(
+                "interrupted at step {}: checkpoint saved to {}; continue with --resume",
+                tr.step,
+                ckpt.display()
+            ));
+        }
         if tr.elapsed - last_ckpt >= a.checkpoint_secs {
             save(&tr, &a.out, &calib)?;
             last_ckpt = tr.elapsed;

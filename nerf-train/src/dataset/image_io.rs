@@ -42,8 +42,5 @@ pub fn save_png_rgb(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> R
     for (p, c) in buf.pixels_mut().zip(rgb) {
         p.0 = c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
     }
-    let tmp = path.with_extension("png.tmp");
-    buf.save_with_format(&tmp, image::ImageFormat::Png)
-        .map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))?;
-    std::fs::rename(&tmp, path).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
+    crate::atomic::write_png(path, &buf).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
 }

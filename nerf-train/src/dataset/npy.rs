@@ -57,7 +57,7 @@ pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> 
     Ok((rows, cols, vals))
 }
 
-/// Writes a C-order 2-D `<f8` array (NPY version 1.0).
+/// Writes a C-order 2-D `<f8` array (NPY version 1.0), atomically.
 pub fn write_npy_f64(path: &Path, rows: usize, cols: usize, vals: &[f64]) -> std::io::Result<()> {
     let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({rows}, {cols}), }}");
     while (10 + header.len() + 1) % 64 != 0 {
@@ -70,5 +70,5 @@ pub fn write_npy_f64(path: &Path, rows: usize, cols: usize, vals: &[f64]) -> std
     for v in vals {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    std::fs::write(path, out)
+    crate::atomic::write(path, &out)
 }
