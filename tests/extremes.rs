@@ -385,3 +385,30 @@ fn sampling_entry_points_take_nan_and_infinity() {
         assert!(out.windows(2).all(|p| p[0] <= p[1]), "weights {w:?}: not sorted: {out:?}");
     }
 }
+
+#[test]
+fn the_remaining_entry_points_take_nan_and_infinity() {
+    use nerf_infer::camera::{is_rotation, ndc_ray};
+    use nerf_infer::fixed::Requant;
+    use nerf_infer::network::BlockF32;
+    for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        assert_eq!(to_fixed(f32::NAN, 16), 0);
+        assert!(Requant::from_f64(v as f64).is_none(), "{v}");
+        assert!(!is_rotation(&glam::Mat3::from_diagonal(Vec3::new(1.0, v, 1.0))));
+        let (o, d) = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.1, 0.0, -1.0));
+        for args in [(v, 10.0, 5.0, o, d), (10.0, 10.0, v, o, d), (10.0, 10.0, 5.0, Vec3::splat(v), d)] {
+            assert!(ndc_ray(args.0, args.1, args.2, 1.0, args.3, args.4).is_none(), "{args:?}");
+        }
+    }
+    assert_eq!(to_fixed(f32::INFINITY, 16), i32::MAX);
+    assert_eq!(to_fixed(f32::NEG_INFINITY, 16), i32::MIN);
+    // the network fed non-finite positions: finite colour; the density is
+    // NaN, which every compositor reads as empty space
+    let f = f32_model(&small_config(), unit_scene(), Weights::Random).to_bytes().unwrap();
+    let m = Model::from_bytes(&f).unwrap();
+    let mut b = Box::<BlockF32<2>>::default();
+    b.prepare_ray(&m, &m.coarse, [f32::NAN, 0.0, 1.0]);
+    b.eval(&m, &m.coarse, &[[f32::NAN, 0.0, 0.0], [f32::INFINITY, 1.0, -1.0]], true);
+    assert!(b.rgb.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "{:?}", b.rgb);
+    assert!(b.sigma.iter().all(|&s| alpha_f32(s, 1.0) >= 0.0 && alpha_f32(s, 1.0) <= 1.0), "{:?}", b.sigma);
+}

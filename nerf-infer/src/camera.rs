@@ -134,9 +134,12 @@ impl Ray {
 
 /// nerf-pytorch's `ndc_rays`: shifts the origin to the `near` plane and maps
 /// the ray to normalised device coordinates, where `t ∈ [0, 1]` spans
-/// `near..∞`. Returns `None` for rays parallel to the image plane.
+/// `near..∞`. Returns `None` for rays parallel to the image plane, when an
+/// input is not finite or a size or focal length is not positive, and when
+/// the result would not be finite.
 pub fn ndc_ray(w: f32, h: f32, focal: f32, near: f32, o: Vec3, d: Vec3) -> Option<(Vec3, Vec3)> {
-    if d.z == 0.0 {
+    let finite = [w, h, focal, near].iter().all(|v| v.is_finite()) && o.is_finite() && d.is_finite();
+    if !finite || w <= 0.0 || h <= 0.0 || focal <= 0.0 || d.z == 0.0 {
         return None;
     }
     let t = -(near + o.z) / d.z;
