@@ -141,9 +141,16 @@ impl Requant {
     }
 
     /// Applies the factor to a 64-bit accumulator, rounding half up, with
-    /// the result saturated to `i64`.
+    /// the result saturated to `i64`. An accumulator that fits `i32` (every
+    /// int8 layer's) takes an exact 64-bit path, bit-identical to the
+    /// 128-bit one: `|acc · m| < 2⁶²`, so the rounding bias still fits.
     #[inline(always)]
     pub fn apply(&self, acc: i64) -> i64 {
+        if acc == acc as i32 as i64 {
+            // n ≤ 62: the bias is at most 2⁶¹ and the sum stays below 2⁶³
+            let n = (31 + self.shift) as u32 & 63;
+            return (acc * self.multiplier as i64 + ((1i64 << n) >> 1)) >> n;
+        }
         let p = acc as i128 * self.multiplier as i128;
         let r = shr_round_i128(p, (31 + self.shift) as u32);
         r.clamp(i64::MIN as i128, i64::MAX as i128) as i64
@@ -289,6 +296,27 @@ pub fn sigmoid_q12_q15(z: i32) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn requant_i32_fast_path_equals_the_exact_128_bit_product() {
+        let mut h = 0x1234_5678u32;
+        let mut next = || {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            h
+        };
+        for k in 0..20000 {
+            let r = Requant { multiplier: (1 << 30) | (next() >> 2) as i32, shift: (next() % 63) as i32 - 31 };
+            let acc = match k % 4 {
+                0 => i32::MAX as i64,
+                1 => i32::MIN as i64,
+                _ => next() as i32 as i64,
+            };
+            let exact = shr_round_i128(acc as i128 * r.multiplier as i128, (31 + r.shift) as u32);
+            assert_eq!(r.apply(acc) as i128, exact, "{r:?} {acc}");
+        }
+    }
 
     #[test]
     fn sine_table_matches_libm_within_one_lsb() {

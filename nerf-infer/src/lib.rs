@@ -42,7 +42,8 @@
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
-#![forbid(unsafe_code)]
+// Unsafe code only in `vnni` (SIMD loads and stores of checked slices).
+#![deny(unsafe_code)]
 // Numeric kernels index several arrays by the same sample/channel index;
 // iterator chains would hide that symmetry.
 #![allow(clippy::needless_range_loop)]
@@ -60,6 +61,8 @@ pub mod network;
 pub mod render;
 pub mod sampling;
 pub mod tile;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+mod vnni;
 
 pub use camera::{Camera, Ray};
 pub use composite::{FixedPixel, Pixel};
