@@ -5,11 +5,16 @@
 //! (He-uniform, calibrated); the work per ray does not depend on them
 //! except through ReLU sparsity and early termination (off here).
 //!
-//! `cargo bench --bench per_ray` — prints MACs per ray so that MAC/s =
-//! MACs per ray / time per ray.
+//! Per tile: an 8×8 tile (64 rays) through `render_tile`, the entry point
+//! an embedding binary calls.
+//!
+//! `cargo bench --bench per_ray` — criterion reports each time with its
+//! throughput in MAC/s (`thrpt`, elements = multiply-accumulates); compare
+//! with the machine's peak from `cargo bench --bench peak`.
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nerf_infer::format::{CameraConvention, Scene};
+use nerf_infer::tile::{render_tile, Tile};
 use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, Scheme, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{orbit_camera, quantise, random_model};
@@ -42,6 +47,9 @@ fn macs_per_ray(m: &Model<'_>) -> usize {
     }
 }
 
+/// The 8×8 tile of the per-tile benchmark (all its rays cross the bounds).
+const TILE: Tile = Tile { x0: 12, y0: 12, width: 8, height: 8 };
+
 fn bench(c: &mut Criterion) {
     let cam = orbit_camera(&scene(), 0.2, 32, 32);
     let rays: Vec<_> = (0..64u32).map(|k| (cam.ray(8 + k % 16, 8 + k / 4), (k, 0))).collect();
@@ -50,11 +58,18 @@ fn bench(c: &mut Criterion) {
         let mf = Model::from_bytes(&f).unwrap();
         let q16 = quantise(&mf, Scheme::I16).unwrap().to_bytes().unwrap();
         let q8 = quantise(&mf, Scheme::I8).unwrap().to_bytes().unwrap();
-        println!("{name}: {} MACs per ray", macs_per_ray(&mf));
-        let mut g = c.benchmark_group(format!("per_ray/{name}"));
-        g.sample_size(if name == "paper" { 20 } else { 60 });
+        let macs = macs_per_ray(&mf) as u64;
+        println!("{name}: {macs} MACs per ray");
         let rf = F32Renderer::new(&mf, RenderOptions::from_model(&mf)).unwrap();
         let mut sf = Box::<ScratchF32>::default();
+        let qs: Vec<_> = [("int16", &q16), ("int8", &q8)].map(|(l, b)| (l, Model::from_bytes(b).unwrap())).into();
+        let rqs: Vec<_> =
+            qs.iter().map(|(l, m)| (*l, FixedRenderer::new(m, RenderOptions::from_model(m)).unwrap())).collect();
+        let mut sq = Box::<ScratchFixed>::default();
+        let samples = if name == "paper" { 20 } else { 60 };
+
+        let mut g = c.benchmark_group(format!("per_ray/{name}"));
+        g.sample_size(samples).throughput(Throughput::Elements(macs));
         let mut k = 0;
         g.bench_function("f32", |b| {
             b.iter(|| {
@@ -63,16 +78,31 @@ fn bench(c: &mut Criterion) {
                 black_box(rf.render_ray(o, d, px, &mut sf))
             })
         });
-        for (label, bytes) in [("int16", &q16), ("int8", &q8)] {
-            let mq = Model::from_bytes(bytes).unwrap();
-            let rq = FixedRenderer::new(&mq, RenderOptions::from_model(&mq)).unwrap();
-            let mut sq = Box::<ScratchFixed>::default();
-            g.bench_function(label, |b| {
+        for (label, rq) in &rqs {
+            g.bench_function(*label, |b| {
                 b.iter(|| {
                     let ((o, d), px) = rays[k % rays.len()];
                     k += 1;
                     black_box(rq.render_ray(o, d, px, &mut sq))
                 })
+            });
+        }
+        g.finish();
+
+        // the MAC count assumes every ray of the tile evaluates every sample
+        let (nc, nf) = (mf.samples.coarse as u64, mf.samples.fine as u64);
+        let mut out_q = vec![Default::default(); TILE.len()];
+        sq.evaluations = 0;
+        render_tile(&rqs[0].1, &cam, TILE, &mut sq, &mut out_q).unwrap();
+        assert_eq!(sq.evaluations, TILE.len() as u64 * (2 * nc + nf));
+
+        let mut g = c.benchmark_group(format!("per_tile/{name}"));
+        g.sample_size(10).throughput(Throughput::Elements(macs * TILE.len() as u64));
+        let mut out_f = vec![Default::default(); TILE.len()];
+        g.bench_function("f32", |b| b.iter(|| render_tile(&rf, &cam, TILE, &mut sf, black_box(&mut out_f)).unwrap()));
+        for (label, rq) in &rqs {
+            g.bench_function(*label, |b| {
+                b.iter(|| render_tile(rq, &cam, TILE, &mut sq, black_box(&mut out_q)).unwrap())
             });
         }
         g.finish();

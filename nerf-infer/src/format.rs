@@ -242,7 +242,9 @@ pub fn read_i32(bytes: &[u8], i: usize) -> i32 {
 pub struct Network<'a> {
     /// Numeric scheme of every layer's weights.
     pub scheme: Scheme,
-    /// Activation width of the fixed-point path in bits (16); 32 for f32.
+    /// Activation width in bits: 32 for f32; 16 for int16 weights; 16 or 8
+    /// for int8 weights (8: hidden ReLU outputs in `[0, 255]`, the linear
+    /// feature layer in `[−127, 127]`; the encoding stays 16-bit).
     pub act_bits: u8,
     /// The layers, in the order documented above.
     #[serde(borrow)]
@@ -371,8 +373,12 @@ impl<'a> Model<'a> {
         if n.layers.len() != t.layer_count() {
             return Err(Error::InvalidTopology("layer count does not match the topology"));
         }
-        let want_act = if n.scheme.is_fixed() { 16 } else { 32 };
-        if n.act_bits != want_act {
+        let act_ok = match n.scheme {
+            Scheme::F32 => n.act_bits == 32,
+            Scheme::I16 => n.act_bits == 16,
+            Scheme::I8 => n.act_bits == 16 || n.act_bits == 8,
+        };
+        if !act_ok {
             return Err(Error::InvalidTopology("unsupported activation width"));
         }
         for (i, l) in n.layers.iter().enumerate() {

@@ -557,7 +557,11 @@ impl<const B: usize> BlockFixed<B> {
         }
         let w = t.width as usize;
         let layers = &net.layers;
-        let relu = |v: i64| sat_i16(v.max(0));
+        // hidden activations: i16, or 8-bit (ReLU outputs u8, the linear
+        // feature layer i8) when the network says so
+        let a8 = net.act_bits == 8;
+        let relu = |v: i64| if a8 { v.clamp(0, 255) as i16 } else { sat_i16(v.max(0)) };
+        let linear = |v: i64| if a8 { v.clamp(-127, 127) as i16 } else { sat_i16(v) };
         let l0 = &layers[0];
         init_int::<W>(l0, None, n, acc);
         accumulate_int::<W, ENC_MAX>(l0, 0, enc, pd, n, acc);
@@ -591,7 +595,7 @@ impl<const B: usize> BlockFixed<B> {
             let lf = &layers[si + 1];
             init_int::<W>(lf, None, n, acc);
             accumulate_int::<W, MAX_WIDTH>(lf, 0, trunk, w, n, acc);
-            requant_each::<W, i16>(lf, n, acc, spare, sat_i16);
+            requant_each::<W, i16>(lf, n, acc, spare, linear);
             let lv = &layers[si + 2];
             init_int::<W>(lv, Some(view_acc), n, acc);
             accumulate_int::<W, MAX_WIDTH>(lv, 0, spare, w, n, acc);

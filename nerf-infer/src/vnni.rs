@@ -15,19 +15,36 @@
 
 use core::arch::x86_64::*;
 
-use crate::format::MAX_WIDTH;
+use crate::format::{MAX_INPUT, MAX_WIDTH};
 
 /// Samples per register tile: 8 samples × 32 outputs is 16 accumulator
 /// registers, leaving room for the weights.
 const TILE_S: usize = 8;
 /// Outputs per register tile.
 const TILE_C: usize = 32;
+/// Words of the live-pair bit set (one bit per pair of inputs).
+const LIVE_WORDS: usize = MAX_INPUT.div_ceil(2).div_ceil(64);
 
 /// Output channel (within a 32-wide tile) of lane `i` of the `lo` / `hi`
 /// accumulator: `unpack{lo,hi}_epi16` work within 128-bit lanes.
 const fn channel(i: usize, hi: bool) -> usize {
     8 * (i / 4) + i % 4 + if hi { 4 } else { 0 }
 }
+
+/// `_mm512_permutex2var_epi32(lo, PERM[h], hi)` lists channels
+/// `16h..16h + 16` in order (index `i` is lane `i` of `lo`, `16 + i` of `hi`).
+const PERM: [[i32; 16]; 2] = {
+    let mut p = [[0; 16]; 2];
+    let mut i = 0;
+    while i < 16 {
+        let c = channel(i, false);
+        p[c / 16][c % 16] = i as i32;
+        let c = channel(i, true);
+        p[c / 16][c % 16] = 16 + i as i32;
+        i += 1;
+    }
+    p
+};
 
 /// 32 int8 weights of row `j` from column `c0`, sign-extended to i16.
 #[inline]
@@ -69,6 +86,8 @@ fn accumulate_i8_vnni<const N: usize>(
     out: &mut [[i32; MAX_WIDTH]],
 ) {
     let pairs = in_dim.div_ceil(2);
+    // SAFETY: each row of PERM is exactly 64 bytes; unaligned loads.
+    let perm = PERM.map(|row| unsafe { _mm512_loadu_si512(row.as_ptr().cast()) });
     let mut s0 = 0;
     while s0 < n {
         let sn = (n - s0).min(TILE_S);
@@ -80,39 +99,46 @@ fn accumulate_i8_vnni<const N: usize>(
             let hi = if 2 * p + 1 < in_dim { rows[s][2 * p + 1] as u16 as u32 } else { 0 };
             (lo | hi << 16) as i32
         };
+        // pairs with a non-zero input for some sample (ReLU zeros skipped)
+        let mut live = [0u64; LIVE_WORDS];
+        for p in 0..pairs {
+            let any = (0..TILE_S).fold(0, |a, s| a | pair_x(p, s)) != 0;
+            live[p / 64] |= (any as u64) << (p % 64);
+        }
         let mut c0 = 0;
         while c0 + TILE_C <= od {
             let mut lo = [_mm512_setzero_si512(); TILE_S];
             let mut hi = [_mm512_setzero_si512(); TILE_S];
-            for p in 0..pairs {
-                let xs: [i32; TILE_S] = core::array::from_fn(|s| pair_x(p, s));
-                if xs.iter().all(|&x| x == 0) {
-                    continue; // ReLU zeros for the whole tile
-                }
-                let ja = row0 + 2 * p;
-                // an odd last input pairs its row with itself (input 0)
-                let jb = if 2 * p + 1 < in_dim { ja + 1 } else { ja };
-                let wa = row_i16(weights, od, ja, c0);
-                let wb = row_i16(weights, od, jb, c0);
-                let w_lo = _mm512_unpacklo_epi16(wa, wb);
-                let w_hi = _mm512_unpackhi_epi16(wa, wb);
-                for s in 0..TILE_S {
-                    let xp = _mm512_set1_epi32(xs[s]);
-                    lo[s] = _mm512_dpwssd_epi32(lo[s], xp, w_lo);
-                    hi[s] = _mm512_dpwssd_epi32(hi[s], xp, w_hi);
+            for (word, &bits) in live.iter().enumerate().take(pairs.div_ceil(64)) {
+                let mut bits = bits;
+                while bits != 0 {
+                    let p = 64 * word + bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    let ja = row0 + 2 * p;
+                    // an odd last input pairs its row with itself (input 0)
+                    let jb = if 2 * p + 1 < in_dim { ja + 1 } else { ja };
+                    let wa = row_i16(weights, od, ja, c0);
+                    let wb = row_i16(weights, od, jb, c0);
+                    let w_lo = _mm512_unpacklo_epi16(wa, wb);
+                    let w_hi = _mm512_unpackhi_epi16(wa, wb);
+                    for s in 0..TILE_S {
+                        let xp = _mm512_set1_epi32(pair_x(p, s));
+                        lo[s] = _mm512_dpwssd_epi32(lo[s], xp, w_lo);
+                        hi[s] = _mm512_dpwssd_epi32(hi[s], xp, w_hi);
+                    }
                 }
             }
             for s in 0..sn {
-                let (mut l, mut h) = ([0i32; 16], [0i32; 16]);
-                // SAFETY: each array holds exactly the 64 bytes stored.
-                unsafe {
-                    _mm512_storeu_si512(l.as_mut_ptr().cast(), lo[s]);
-                    _mm512_storeu_si512(h.as_mut_ptr().cast(), hi[s]);
-                }
                 let row = &mut out[s0 + s][c0..c0 + TILE_C];
-                for i in 0..16 {
-                    row[channel(i, false)] = row[channel(i, false)].wrapping_add(l[i]);
-                    row[channel(i, true)] = row[channel(i, true)].wrapping_add(h[i]);
+                for (half, &idx) in perm.iter().enumerate() {
+                    let dst = &mut row[16 * half..16 * half + 16];
+                    // SAFETY: `dst` is exactly 16 i32 (bounds-checked slice);
+                    // unaligned load and store.
+                    unsafe {
+                        let old = _mm512_loadu_si512(dst.as_ptr().cast());
+                        let add = _mm512_permutex2var_epi32(lo[s], idx, hi[s]);
+                        _mm512_storeu_si512(dst.as_mut_ptr().cast(), _mm512_add_epi32(old, add));
+                    }
                 }
             }
             c0 += TILE_C;

@@ -186,8 +186,16 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample]) -> Owne
 }
 
 /// Input scale of every column of layer `i`, and the output target factor.
-fn layer_scales(t: &Topology, e: &Encoding, net: &Network<'_>, i: usize) -> (Vec<f64>, f64) {
-    let act = |l: usize| (net.layers[l].act_max.max(1e-6) as f64) / 32767.0;
+fn layer_scales(t: &Topology, e: &Encoding, net: &Network<'_>, i: usize, act_bits: u8) -> (Vec<f64>, f64) {
+    // largest code of layer l's output: i16, or u8 after ReLU / i8 for the
+    // linear feature layer
+    let linear = |l: usize| t.view_dependent && l == sigma_layer(t) + 1;
+    let top = |l: usize| match (act_bits, linear(l)) {
+        (8, false) => 255.0,
+        (8, true) => 127.0,
+        _ => 32767.0,
+    };
+    let act = |l: usize| (net.layers[l].act_max.max(1e-6) as f64) / top(l);
     let enc = |freqs: u8| {
         let mut v = Vec::new();
         if e.include_input {
@@ -223,15 +231,16 @@ fn layer_scales(t: &Topology, e: &Encoding, net: &Network<'_>, i: usize) -> (Vec
     }
 }
 
-fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme) -> Result<OwnedNetwork, String> {
-    let qmax = match scheme {
-        Scheme::I16 => 32767.0,
-        Scheme::I8 => 127.0,
-        Scheme::F32 => return Err("quantise to int16 or int8".into()),
+fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme, act_bits: u8) -> Result<OwnedNetwork, String> {
+    let qmax = match (scheme, act_bits) {
+        (Scheme::I16, 16) => 32767.0,
+        (Scheme::I8, 16 | 8) => 127.0,
+        (Scheme::F32, _) => return Err("quantise to int16 or int8".into()),
+        _ => return Err(format!("{act_bits}-bit activations need int8 weights")),
     };
     let mut layers = Vec::new();
     for (i, l) in net.layers.iter().enumerate() {
-        let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i);
+        let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i, act_bits);
         let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
         debug_assert_eq!(cols.len(), din);
         let mut q = vec![0i32; din * dout];
@@ -277,19 +286,25 @@ fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme) -> Result<
             requant,
         });
     }
-    Ok(OwnedNetwork { scheme, act_bits: 16, layers })
+    Ok(OwnedNetwork { scheme, act_bits, layers })
 }
 
 /// Quantises an f32 model to `scheme` (int16 or int8 weights, 16-bit
 /// activations), using the activation ranges stored in the model.
 pub fn quantise(m: &Model<'_>, scheme: Scheme) -> Result<OwnedModel, String> {
+    quantise_acts(m, scheme, 16)
+}
+
+/// [`quantise`] with `act_bits`-bit hidden activations: 16, or 8 with int8
+/// weights (ReLU outputs u8, the feature layer i8; the encoding stays Q15).
+pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<OwnedModel, String> {
     if m.scheme() != Scheme::F32 {
         return Err("the model is already quantised; export from the f32 model".into());
     }
     let mut out = OwnedModel::from_model(m);
-    out.coarse = quantise_network(m, &m.coarse, scheme)?;
+    out.coarse = quantise_network(m, &m.coarse, scheme, act_bits)?;
     out.fine = match &m.fine {
-        Some(f) => Some(quantise_network(m, f, scheme)?),
+        Some(f) => Some(quantise_network(m, f, scheme, act_bits)?),
         None => None,
     };
     Ok(out)

@@ -2,7 +2,7 @@
 
 use super::{decode, read_model, write_atomic, CmdResult};
 use nerf_infer::Scheme;
-use nerf_train::export::{quantise, OwnedModel};
+use nerf_train::export::{quantise_acts, OwnedModel};
 use std::path::PathBuf;
 
 /// Arguments of `nerf export`.
@@ -13,6 +13,10 @@ pub struct Args {
     /// Weight bits: 32 (f32 path), 16 or 8 (integer fixed-point path).
     #[arg(long, value_parser = ["32", "16", "8"])]
     bits: String,
+    /// Hidden-activation bits of the integer path: 16, or 8 with `--bits 8`
+    /// (ReLU outputs u8, the feature layer i8; the encoding stays 16-bit).
+    #[arg(long, default_value = "16", value_parser = ["16", "8"])]
+    act_bits: String,
     /// Output file.
     #[arg(long)]
     out: PathBuf,
@@ -20,16 +24,23 @@ pub struct Args {
 
 /// Runs `nerf export`.
 pub fn run(a: Args) -> CmdResult {
+    if a.act_bits == "8" && a.bits != "8" {
+        return Err("--act-bits 8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into());
+    }
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let owned = match a.bits.as_str() {
         "32" if model.scheme() == Scheme::F32 => OwnedModel::from_model(&model),
         "32" => return Err(format!("{}: model is already quantised; export from the f32 model", a.model.display())),
-        "16" => quantise(&model, Scheme::I16).map_err(|e| format!("{}: {e}", a.model.display()))?,
-        _ => quantise(&model, Scheme::I8).map_err(|e| format!("{}: {e}", a.model.display()))?,
+        bits => {
+            let scheme = if bits == "16" { Scheme::I16 } else { Scheme::I8 };
+            let act_bits = if a.act_bits == "8" { 8 } else { 16 };
+            quantise_acts(&model, scheme, act_bits).map_err(|e| format!("{}: {e}", a.model.display()))?
+        }
     };
     let out = owned.to_bytes().map_err(|e| format!("{}: {e}", a.out.display()))?;
     write_atomic(&a.out, &out)?;
-    eprintln!("wrote {} ({} bytes, {}-bit weights)", a.out.display(), out.len(), a.bits);
+    let acts = if a.bits == "32" { String::new() } else { format!(", {}-bit activations", a.act_bits) };
+    eprintln!("wrote {} ({} bytes, {}-bit weights{acts})", a.out.display(), out.len(), a.bits);
     Ok(())
 }
