@@ -107,16 +107,43 @@ fn scene_train_resume_eval_export_info_render() {
     assert!(spr > 8.0 && spr <= 24.0, "{spr}");
     assert!(d.join("ev/r_0.png").is_file() && d.join("ev/r_0_gt.png").is_file());
 
-    for bits in ["16", "8"] {
-        let out = d.join(format!("m{bits}.nerf"));
-        ok(&["export", s(&model), "--bits", bits, "--out", s(&out)]);
+    for (bits, act) in [("16", "16"), ("8", "16"), ("8", "8")] {
+        let out = d.join(format!("m{bits}a{act}.nerf"));
+        ok(&["export", s(&model), "--bits", bits, "--act-bits", act, "--out", s(&out)]);
         let info: serde_json::Value = serde_json::from_str(&ok(&["info", s(&out), "--json"])).unwrap();
         assert_eq!(info["scheme"], if bits == "16" { "I16" } else { "I8" });
+        assert_eq!(info["coarse"]["activation_bits"].to_string(), act, "{info}");
         let r: serde_json::Value =
             serde_json::from_str(&ok(&["eval", s(&out), "--data", s(&data), "--split", "test"])).unwrap();
         assert!(r["psnr"].as_f64().unwrap() > 5.0);
     }
     assert!(ok(&["info", s(&model)]).contains("numeric scheme: F32"));
+    let e = fails(&["export", s(&model), "--bits", "16", "--act-bits", "8", "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains("--act-bits 8 needs --bits 8"), "{e}");
+    assert!(!d.join("x.nerf").exists());
+
+    let t = d.join("trade");
+    let table = ok(&[
+        "tradeoff",
+        s(&model),
+        "--data",
+        s(&data),
+        "--split",
+        "test",
+        "--views",
+        "1",
+        "--repeats",
+        "1",
+        "--out",
+        s(&t),
+    ]);
+    let csv = std::fs::read_to_string(t.join("tradeoff.csv")).unwrap();
+    assert!(csv.starts_with("label,bits,coarse,fine,early_stop,psnr,ssim,us_per_ray,samples_per_ray,pareto,act_bits\n"));
+    for label in ["f32 ", "int16 ", "int8 ", "int8/a8 "] {
+        assert!(csv.lines().any(|l| l.starts_with(label)), "{label} missing:\n{csv}");
+        assert!(table.contains(label), "{table}");
+    }
+    assert!(t.join("tradeoff.png").is_file());
 
     let orbit = d.join("orbit");
     ok(&["render", s(&model), "--orbit", "3", "--size", "12", "--out", s(&orbit)]);

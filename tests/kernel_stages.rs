@@ -11,7 +11,7 @@ use nerf_infer::format::Scheme;
 use nerf_infer::network::{BlockF32, BlockFixed, W16, W8};
 use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{orbit_camera, quantise, random_model};
+use nerf_train::export::{orbit_camera, quantise, quantise_acts, random_model};
 use proptest::prelude::*;
 use support::*;
 
@@ -45,8 +45,8 @@ fn positions(n: usize, seed: u32) -> Vec<[i32; 3]> {
 }
 
 fn compare_mlp(cfg: &TrainConfig, scheme: Scheme, sigma_tol: f32, rgb_tol: f32) {
-    let (f, q16, q8) = models(cfg, 11);
-    let q = if scheme == Scheme::I16 { q16 } else { q8 };
+    let f = random_model(cfg, unit_scene(), 11, 6.0).to_bytes().unwrap();
+    let q = quantise(&Model::from_bytes(&f).unwrap(), scheme).unwrap().to_bytes().unwrap();
     let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q).unwrap());
     let mut bf = Box::<BlockF32<8>>::default();
     let mut bq = Box::<BlockFixed<8>>::default();
@@ -103,6 +103,19 @@ fn whole_mlp_int16_small_and_fast_preset() {
 fn whole_mlp_int8_within_its_own_tier() {
     // int8 weights: one weight step is 1/127 of a channel's range.
     compare_mlp(&small_config(), Scheme::I8, 0.08, 0.04);
+}
+
+#[test]
+fn activation_width_must_fit_the_scheme() {
+    let f = random_model(&small_config(), unit_scene(), 3, 6.0).to_bytes().unwrap();
+    let mf = Model::from_bytes(&f).unwrap();
+    assert!(quantise_acts(&mf, Scheme::I16, 8).is_err());
+    // a model claiming 8-bit activations with int16 weights is refused
+    let mut m16 = quantise_acts(&mf, Scheme::I16, 16).unwrap();
+    m16.coarse.act_bits = 8;
+    assert_eq!(m16.to_bytes().unwrap_err(), nerf_infer::Error::InvalidTopology("unsupported activation width"));
+    let m8 = quantise_acts(&mf, Scheme::I8, 8).unwrap().to_bytes().unwrap();
+    assert_eq!(Model::from_bytes(&m8).unwrap().coarse.act_bits, 8);
 }
 
 fn composite_both(

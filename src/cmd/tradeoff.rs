@@ -1,14 +1,16 @@
-//! `nerf tradeoff`: what each knob costs and buys. Sweeps weight bits,
+//! `nerf tradeoff`: what each knob costs and buys. Sweeps weight bits (and
+//! int8 weights with 8-bit activations),
 //! sample counts and the early-termination threshold one at a time around
 //! the model's defaults; for each point measures PSNR and SSIM on the views
-//! and µs per ray (median of repeated single-thread runs in this process);
+//! and µs per ray (median of repeated single-thread runs in this process,
+//! the repetitions interleaved across points);
 //! writes `tradeoff.csv` and `tradeoff.png` (PSNR against µs/ray, Pareto
 //! front marked) and prints the table.
 
 use super::{create_dir, decode, load_split, read_model, with_threads, write_atomic, CmdResult, FormatArg, SplitArg};
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
-use nerf_train::export::quantise;
+use nerf_train::export::{quantise, quantise_acts};
 use nerf_train::plot::{pareto, scatter, Point};
 use std::path::PathBuf;
 
@@ -47,6 +49,8 @@ pub struct Args {
 #[derive(Clone, Copy)]
 struct Knobs {
     bits: u32,
+    /// Hidden-activation bits of the integer path (16, or 8 with int8).
+    act_bits: u8,
     coarse: usize,
     fine: usize,
     early_stop: f32,
@@ -56,7 +60,11 @@ impl Knobs {
     fn label(&self) -> String {
         let mut s = format!(
             "{} {}+{}",
-            if self.bits == 32 { "f32".to_string() } else { format!("int{}", self.bits) },
+            match (self.bits, self.act_bits) {
+                (32, _) => "f32".to_string(),
+                (b, 8) => format!("int{b}/a8"),
+                (b, _) => format!("int{b}"),
+            },
             self.coarse,
             self.fine
         );
@@ -70,8 +78,9 @@ impl Knobs {
 /// The sweep: each knob varied alone around the defaults.
 fn sweep(m: &Model<'_>) -> Vec<Knobs> {
     let (nc, nf) = (m.samples.coarse as usize, m.samples.fine as usize);
-    let base = Knobs { bits: 32, coarse: nc, fine: nf, early_stop: 0.0 };
-    let mut v = vec![base, Knobs { bits: 16, ..base }, Knobs { bits: 8, ..base }];
+    let base = Knobs { bits: 32, act_bits: 16, coarse: nc, fine: nf, early_stop: 0.0 };
+    let mut v =
+        vec![base, Knobs { bits: 16, ..base }, Knobs { bits: 8, ..base }, Knobs { bits: 8, act_bits: 8, ..base }];
     let half = |n: usize| (n / 2).max(2);
     if nf > 0 {
         v.push(Knobs { fine: half(nf), ..base });
@@ -100,56 +109,69 @@ pub fn run(a: Args) -> CmdResult {
     let q8 = quantise(&mf, Scheme::I8).and_then(|m| m.to_bytes().map_err(|e| e.to_string()))?;
     let m16 = Model::from_bytes(&q16).map_err(|e| e.to_string())?;
     let m8 = Model::from_bytes(&q8).map_err(|e| e.to_string())?;
+    let q8a8 = quantise_acts(&mf, Scheme::I8, 8).and_then(|m| m.to_bytes().map_err(|e| e.to_string()))?;
+    let m8a8 = Model::from_bytes(&q8a8).map_err(|e| e.to_string())?;
     let downscale = a.downscale.unwrap_or(mf.meta.train_downscale.max(1) as u32);
     let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
     create_dir(&a.out)?;
     let knobs = sweep(&mf);
-    let pb = super::progress(knobs.len() as u64, "{bar:30} {pos}/{len} points ({eta}) {msg}");
-    let mut rows = Vec::new();
-    for k in &knobs {
-        pb.set_message(k.label());
-        let model = match k.bits {
-            32 => &mf,
-            16 => &m16,
-            _ => &m8,
-        };
-        let opts = RenderOptions {
-            coarse: k.coarse,
-            fine: k.fine,
-            early_stop: k.early_stop,
-            ..RenderOptions::from_model(model)
-        };
-        let (mut psnr, mut ssim, mut spr) = (0.0, 0.0, 0.0);
-        let mut times = Vec::new();
-        for rep in 0..a.repeats.max(1) {
+    // Repetitions are interleaved (every point once, then again), so drift
+    // in the machine's speed reaches all points alike.
+    let reps = a.repeats.max(1);
+    let pb = super::progress((knobs.len() * reps) as u64, "{bar:30} {pos}/{len} point runs ({eta}) {msg}");
+    let mut scores = vec![(0.0, 0.0, 0.0); knobs.len()];
+    let mut times = vec![Vec::new(); knobs.len()];
+    for rep in 0..reps {
+        for (i, k) in knobs.iter().enumerate() {
+            pb.set_message(k.label());
+            let model = match (k.bits, k.act_bits) {
+                (32, _) => &mf,
+                (16, _) => &m16,
+                (_, 8) => &m8a8,
+                _ => &m8,
+            };
+            let opts = RenderOptions {
+                coarse: k.coarse,
+                fine: k.fine,
+                early_stop: k.early_stop,
+                ..RenderOptions::from_model(model)
+            };
             let mut secs = 0.0;
             for v in views {
                 let (r, s) =
                     with_threads(1, || score_view(model, opts, v))?.map_err(|e| format!("{}: {e}", k.label()))?;
                 secs += r.secs_per_ray;
                 if rep == 0 {
-                    psnr += s.psnr / views.len() as f64;
-                    ssim += s.ssim / views.len() as f64;
-                    spr += r.samples_per_ray / views.len() as f64;
+                    let n = views.len() as f64;
+                    let (p, ss, spr) = &mut scores[i];
+                    (*p, *ss, *spr) = (*p + s.psnr / n, *ss + s.ssim / n, *spr + r.samples_per_ray / n);
                 }
             }
-            times.push(secs / views.len() as f64 * 1e6);
+            times[i].push(secs / views.len() as f64 * 1e6);
+            pb.inc(1);
         }
-        times.sort_by(f64::total_cmp);
-        rows.push((*k, psnr, ssim, times[times.len() / 2], spr));
-        pb.inc(1);
     }
+    let rows: Vec<_> = knobs
+        .iter()
+        .zip(scores)
+        .zip(&mut times)
+        .map(|((k, (psnr, ssim, spr)), t)| {
+            t.sort_by(f64::total_cmp);
+            (*k, psnr, ssim, t[t.len() / 2], spr)
+        })
+        .collect();
     pb.finish_and_clear();
     let mut points: Vec<Point> =
         rows.iter().map(|(k, p, _, us, _)| Point { x: *us, y: *p, label: k.label(), front: false }).collect();
     pareto(&mut points);
-    let mut csv = String::from("label,bits,coarse,fine,early_stop,psnr,ssim,us_per_ray,samples_per_ray,pareto\n");
+    let mut csv =
+        String::from("label,bits,coarse,fine,early_stop,psnr,ssim,us_per_ray,samples_per_ray,pareto,act_bits\n");
     println!("{:<22} {:>9} {:>7} {:>9} {:>12} {:>7}", "point", "PSNR dB", "SSIM", "µs/ray", "samples/ray", "pareto");
     for ((k, p, s, us, spr), pt) in rows.iter().zip(&points) {
         csv += &format!(
-            "{},{},{},{},{},{p:.4},{s:.5},{us:.2},{spr:.2},{}\n",
-            pt.label, k.bits, k.coarse, k.fine, k.early_stop, pt.front
+            "{},{},{},{},{},{p:.4},{s:.5},{us:.2},{spr:.2},{},{}\n",
+            pt.label, k.bits, k.coarse, k.fine, k.early_stop, pt.front, k.act_bits
         );
         println!("{:<22} {p:>9.3} {s:>7.4} {us:>9.1} {spr:>12.1} {:>7}", pt.label, if pt.front { "*" } else { "" });
     }
