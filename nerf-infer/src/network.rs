@@ -484,14 +484,19 @@ fn accumulate_int<W: IntWeight, const N: usize>(
 /// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
 fn init_int<W: IntWeight>(l: &Layer<'_>, view: Option<&[i64; MAX_WIDTH]>, n: usize, acc: &mut [[W::Acc; MAX_WIDTH]]) {
     let od = l.out_dim as usize;
-    for row in acc[..n].iter_mut() {
-        for (c, y) in row[..od].iter_mut().enumerate() {
-            *y = match view {
-                // prepare_ray summed a subset of this channel's checked terms.
-                Some(v) => W::from_i64(v[c]),
-                None => W::from_i64(read_i32(l.bias, c) as i64),
-            };
-        }
+    let Some((first, rest)) = acc[..n].split_first_mut() else {
+        return;
+    };
+    for (c, y) in first[..od].iter_mut().enumerate() {
+        *y = match view {
+            // prepare_ray summed a subset of this channel's checked terms.
+            Some(v) => W::from_i64(v[c]),
+            None => W::from_i64(read_i32(l.bias, c) as i64),
+        };
+    }
+    // the other samples start from the same row (a block copy)
+    for row in rest {
+        row[..od].copy_from_slice(&first[..od]);
     }
 }
 
