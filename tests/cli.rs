@@ -1,36 +1,8 @@
 //! The `nerf` binary end to end, as a user runs it, on tiny data.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod support;
 
-fn nerf(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_nerf")).args(args).output().expect("run nerf")
-}
-
-fn ok(args: &[&str]) -> String {
-    let o = nerf(args);
-    assert!(o.status.success(), "nerf {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8(o.stdout).unwrap()
-}
-
-fn fails(args: &[&str]) -> String {
-    let o = nerf(args);
-    assert!(!o.status.success(), "nerf {args:?} should fail");
-    let e = String::from_utf8(o.stderr).unwrap();
-    assert_eq!(e.trim_end().lines().count(), 1, "not one line: {e}");
-    e
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("nerf-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use support::cli::{fails, ok, s, tmp};
 
 #[test]
 fn scene_train_resume_eval_export_info_render() {

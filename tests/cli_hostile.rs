@@ -4,43 +4,21 @@
 //! error naming the file and a non-zero exit, leaves no half-written output,
 //! and a killed or interrupted run continues with `--resume`.
 
+mod support;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-const BIN: &str = env!("CARGO_BIN_EXE_nerf");
-
-fn nerf(args: &[&str]) -> Output {
-    Command::new(BIN).args(args).output().expect("run nerf")
-}
+use support::cli::{fails, ok, s, tmp, BIN};
 
 /// Runs `nerf args`, expects failure with one line on stderr that contains
 /// every string in `needles`; returns the line.
 fn fails_naming(args: &[&str], needles: &[&str]) -> String {
-    let o = nerf(args);
-    let e = String::from_utf8(o.stderr).unwrap();
-    assert!(!o.status.success(), "nerf {args:?} should fail; stderr: {e}");
-    assert_eq!(e.trim_end().lines().count(), 1, "nerf {args:?}: not one line: {e}");
+    let e = fails(args);
     for n in needles {
         assert!(e.contains(n), "nerf {args:?}: {n:?} not in {e}");
     }
     e
-}
-
-fn ok(args: &[&str]) {
-    let o = nerf(args);
-    assert!(o.status.success(), "nerf {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("nerf-hostile-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// Every file under `dir`, recursively.

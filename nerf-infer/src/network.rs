@@ -13,7 +13,7 @@
 
 use crate::encoding::{encode_f32, encode_fixed};
 use crate::error::{Error, Result};
-use crate::fixed::{sat_i16, sat_i32, sigmoid_q12_q15, Requant};
+use crate::fixed::{sat_i32, sigmoid_q12_q15, Requant};
 use crate::format::{read_f32, read_i32, sigma_layer, Layer, Model, Network, Scheme, MAX_FREQS, MAX_WIDTH};
 
 /// Longest encoded position or direction: `3 + 6·16`.
@@ -304,8 +304,22 @@ pub trait IntWeight {
     fn widen(p: i32) -> Self::Acc;
     /// A bias or partial sum (checked at load to fit the accumulator).
     fn from_i64(b: i64) -> Self::Acc;
-    /// The accumulators as i32, if that is their type (int8 weights).
-    fn as_i32(acc: &mut [[Self::Acc; MAX_WIDTH]]) -> Option<&mut [[i32; MAX_WIDTH]]>;
+    /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for a layer at
+    /// least 32 outputs wide: the portable register-tiled kernel; int8
+    /// weights use AVX-512 VNNI where the build enables it.
+    #[inline]
+    fn accumulate_wide<const N: usize>(
+        l: &Layer<'_>,
+        row0: usize,
+        input: &[[i16; N]],
+        in_dim: usize,
+        n: usize,
+        acc: &mut [[Self::Acc; MAX_WIDTH]],
+    ) where
+        Self: Sized,
+    {
+        accumulate::<MacInt<Self>, N>(l.weights, l.out_dim as usize, 0, row0, input, in_dim, n, acc);
+    }
     /// Picks this type's accumulator buffer.
     fn pick<'a, const B: usize>(
         a64: &'a mut [[i64; MAX_WIDTH]; B],
@@ -327,9 +341,6 @@ impl IntWeight for W16 {
     }
     fn from_i64(b: i64) -> i64 {
         b
-    }
-    fn as_i32(_: &mut [[i64; MAX_WIDTH]]) -> Option<&mut [[i32; MAX_WIDTH]]> {
-        None
     }
     #[inline(always)]
     fn decode(b: &[u8]) -> i32 {
@@ -357,8 +368,20 @@ impl IntWeight for W8 {
     fn from_i64(b: i64) -> i32 {
         b as i32
     }
-    fn as_i32(acc: &mut [[i32; MAX_WIDTH]]) -> Option<&mut [[i32; MAX_WIDTH]]> {
-        Some(acc)
+    /// VNNI for whole 32-wide tiles, the portable loop for the rest.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+    #[inline]
+    fn accumulate_wide<const N: usize>(
+        l: &Layer<'_>,
+        row0: usize,
+        input: &[[i16; N]],
+        in_dim: usize,
+        n: usize,
+        acc: &mut [[i32; MAX_WIDTH]],
+    ) {
+        let od = l.out_dim as usize;
+        crate::vnni::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc);
+        accumulate::<MacInt<W8>, N>(l.weights, od, od - od % TILE_C, row0, input, in_dim, n, acc);
     }
     #[inline(always)]
     fn decode(b: &[u8]) -> i32 {
@@ -470,15 +493,7 @@ fn accumulate_int<W: IntWeight, const N: usize>(
         }
         return;
     }
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-    if let Some(acc32) = W::as_i32(acc) {
-        // int8 weights: VNNI for whole 32-wide tiles, the portable loop for the rest
-        let full = od - od % 32;
-        crate::vnni::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc32);
-        accumulate::<MacInt<W8>, N>(l.weights, od, full, row0, input, in_dim, n, acc32);
-        return;
-    }
-    accumulate::<MacInt<W>, N>(l.weights, od, 0, row0, input, in_dim, n, acc);
+    W::accumulate_wide(l, row0, input, in_dim, n, acc);
 }
 
 /// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
@@ -564,9 +579,9 @@ impl<const B: usize> BlockFixed<B> {
         let layers = &net.layers;
         // hidden activations: i16, or 8-bit (ReLU outputs u8, the linear
         // feature layer i8) when the network says so
-        let a8 = net.act_bits == 8;
-        let relu = |v: i64| if a8 { v.clamp(0, 255) as i16 } else { sat_i16(v.max(0)) };
-        let linear = |v: i64| if a8 { v.clamp(-127, 127) as i16 } else { sat_i16(v) };
+        let (relu_max, lin_min, lin_max) = if net.act_bits == 8 { (255, -127, 127) } else { (32767, -32768, 32767) };
+        let relu = |v: i64| v.clamp(0, relu_max) as i16;
+        let linear = |v: i64| v.clamp(lin_min, lin_max) as i16;
         let l0 = &layers[0];
         init_int::<W>(l0, None, n, acc);
         accumulate_int::<W, ENC_MAX>(l0, 0, enc, pd, n, acc);

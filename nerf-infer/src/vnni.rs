@@ -6,9 +6,11 @@
 //! to one of 16 i32 accumulators: 32 multiply-accumulates per instruction,
 //! against 16 for an f32 multiply and add. Two weight rows `ja`, `jb` (i8,
 //! sign-extended to i16) are interleaved so each i32 lane holds the pair
-//! `(W[ja][c], W[jb][c])`, and the inputs `(x[ja], x[jb])` are broadcast as
-//! one i32. Rows whose input is zero for every sample of the tile (ReLU)
-//! are skipped before pairing. Integer sums are exact, and the load-time
+//! `(W[ja][c], W[jb][c])`, and the inputs `(x[ja], x[jb])` of adjacent rows
+//! `jb = ja + 1` are broadcast as one i32. Pairs whose inputs are zero for
+//! every sample of the 8-sample tile (ReLU) are skipped; the live pairs are
+//! gathered once per tile and reused for every 32-wide output tile.
+//! Integer sums are exact, and the load-time
 //! headroom check (`check_i8_headroom`) bounds every partial sum, so the
 //! result is bit-identical to the portable kernel's.
 #![allow(unsafe_code)]
@@ -22,8 +24,8 @@ use crate::format::{MAX_INPUT, MAX_WIDTH};
 const TILE_S: usize = 8;
 /// Outputs per register tile.
 const TILE_C: usize = 32;
-/// Words of the live-pair bit set (one bit per pair of inputs).
-const LIVE_WORDS: usize = MAX_INPUT.div_ceil(2).div_ceil(64);
+/// Most input pairs of a layer.
+const MAX_PAIRS: usize = MAX_INPUT.div_ceil(2);
 
 /// Output channel (within a 32-wide tile) of lane `i` of the `lo` / `hi`
 /// accumulator: `unpack{lo,hi}_epi16` work within 128-bit lanes.
@@ -53,8 +55,7 @@ fn row_i16(weights: &[u8], od: usize, j: usize, c0: usize) -> __m512i {
     let w = &weights[j * od + c0..j * od + c0 + TILE_C];
     // SAFETY: `w` is exactly 32 bytes (the slice above is bounds-checked);
     // the load is unaligned.
-    let v = unsafe { _mm256_loadu_si256(w.as_ptr().cast()) };
-    _mm512_cvtepi8_epi16(v)
+    _mm512_cvtepi8_epi16(unsafe { _mm256_loadu_si256(w.as_ptr().cast()) })
 }
 
 /// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
@@ -85,58 +86,55 @@ fn accumulate_i8_vnni<const N: usize>(
     n: usize,
     out: &mut [[i32; MAX_WIDTH]],
 ) {
-    let pairs = in_dim.div_ceil(2);
     // SAFETY: each row of PERM is exactly 64 bytes; unaligned loads.
     let perm = PERM.map(|row| unsafe { _mm512_loadu_si512(row.as_ptr().cast()) });
+    // Per tile: the input pairs (2p, 2p + 1) that are non-zero for some
+    // sample (ReLU zeros skipped), and each sample's pair as one i32, the
+    // low half first; built once, used for every 32-wide output tile.
+    let mut live_p = [0u16; MAX_PAIRS];
+    let mut live_x = [[0i32; TILE_S]; MAX_PAIRS];
     let mut s0 = 0;
     while s0 < n {
         let sn = (n - s0).min(TILE_S);
         // a short tile repeats its last sample; those results are dropped
         let rows: [&[i16; N]; TILE_S] = core::array::from_fn(|s| &input[s0 + s.min(sn - 1)]);
-        // inputs (2p, 2p + 1) of sample s as one i32, the low half first
-        let pair_x = |p: usize, s: usize| -> i32 {
-            let lo = rows[s][2 * p] as u16 as u32;
-            let hi = if 2 * p + 1 < in_dim { rows[s][2 * p + 1] as u16 as u32 } else { 0 };
-            (lo | hi << 16) as i32
-        };
-        // pairs with a non-zero input for some sample (ReLU zeros skipped)
-        let mut live = [0u64; LIVE_WORDS];
-        for p in 0..pairs {
-            let any = (0..TILE_S).fold(0, |a, s| a | pair_x(p, s)) != 0;
-            live[p / 64] |= (any as u64) << (p % 64);
+        let mut live = 0;
+        for p in 0..in_dim.div_ceil(2) {
+            let xs = rows.map(|r| {
+                let hi = if 2 * p + 1 < in_dim { r[2 * p + 1] as u16 as u32 } else { 0 };
+                (r[2 * p] as u16 as u32 | hi << 16) as i32
+            });
+            live_p[live] = p as u16;
+            live_x[live] = xs;
+            live += xs.iter().any(|&x| x != 0) as usize;
         }
         let mut c0 = 0;
         while c0 + TILE_C <= od {
             let mut lo = [_mm512_setzero_si512(); TILE_S];
             let mut hi = [_mm512_setzero_si512(); TILE_S];
-            for (word, &bits) in live.iter().enumerate().take(pairs.div_ceil(64)) {
-                let mut bits = bits;
-                while bits != 0 {
-                    let p = 64 * word + bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    let ja = row0 + 2 * p;
-                    // an odd last input pairs its row with itself (input 0)
-                    let jb = if 2 * p + 1 < in_dim { ja + 1 } else { ja };
-                    let wa = row_i16(weights, od, ja, c0);
-                    let wb = row_i16(weights, od, jb, c0);
-                    let w_lo = _mm512_unpacklo_epi16(wa, wb);
-                    let w_hi = _mm512_unpackhi_epi16(wa, wb);
-                    for s in 0..TILE_S {
-                        let xp = _mm512_set1_epi32(pair_x(p, s));
-                        lo[s] = _mm512_dpwssd_epi32(lo[s], xp, w_lo);
-                        hi[s] = _mm512_dpwssd_epi32(hi[s], xp, w_hi);
-                    }
+            for (&p, xs) in live_p[..live].iter().zip(&live_x[..live]) {
+                let ja = row0 + 2 * p as usize;
+                // an odd last input pairs its row with itself (input 0)
+                let jb = if 2 * p as usize + 1 < in_dim { ja + 1 } else { ja };
+                let wa = row_i16(weights, od, ja, c0);
+                let wb = row_i16(weights, od, jb, c0);
+                let w_lo = _mm512_unpacklo_epi16(wa, wb);
+                let w_hi = _mm512_unpackhi_epi16(wa, wb);
+                for s in 0..TILE_S {
+                    let xp = _mm512_set1_epi32(xs[s]);
+                    lo[s] = _mm512_dpwssd_epi32(lo[s], xp, w_lo);
+                    hi[s] = _mm512_dpwssd_epi32(hi[s], xp, w_hi);
                 }
             }
             for s in 0..sn {
                 let row = &mut out[s0 + s][c0..c0 + TILE_C];
                 for (half, &idx) in perm.iter().enumerate() {
                     let dst = &mut row[16 * half..16 * half + 16];
+                    let add = _mm512_permutex2var_epi32(lo[s], idx, hi[s]);
                     // SAFETY: `dst` is exactly 16 i32 (bounds-checked slice);
                     // unaligned load and store.
                     unsafe {
                         let old = _mm512_loadu_si512(dst.as_ptr().cast());
-                        let add = _mm512_permutex2var_epi32(lo[s], idx, hi[s]);
                         _mm512_storeu_si512(dst.as_mut_ptr().cast(), _mm512_add_epi32(old, add));
                     }
                 }

@@ -10,7 +10,7 @@
 use super::{create_dir, decode, load_split, read_model, with_threads, write_atomic, CmdResult, FormatArg, SplitArg};
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
-use nerf_train::export::{quantise, quantise_acts};
+use nerf_train::export::quantise_acts;
 use nerf_train::plot::{pareto, scatter, Point};
 use std::path::PathBuf;
 
@@ -105,12 +105,11 @@ pub fn run(a: Args) -> CmdResult {
     if mf.scheme() != Scheme::F32 {
         return Err(format!("{}: give the f32 model; its int16 and int8 variants are made from it", a.model.display()));
     }
-    let q16 = quantise(&mf, Scheme::I16).and_then(|m| m.to_bytes().map_err(|e| e.to_string()))?;
-    let q8 = quantise(&mf, Scheme::I8).and_then(|m| m.to_bytes().map_err(|e| e.to_string()))?;
-    let m16 = Model::from_bytes(&q16).map_err(|e| e.to_string())?;
-    let m8 = Model::from_bytes(&q8).map_err(|e| e.to_string())?;
-    let q8a8 = quantise_acts(&mf, Scheme::I8, 8).and_then(|m| m.to_bytes().map_err(|e| e.to_string()))?;
-    let m8a8 = Model::from_bytes(&q8a8).map_err(|e| e.to_string())?;
+    let quantised =
+        |scheme, act_bits| quantise_acts(&mf, scheme, act_bits).and_then(|m| m.to_bytes().map_err(|e| e.to_string()));
+    let (q16, q8, q8a8) = (quantised(Scheme::I16, 16)?, quantised(Scheme::I8, 16)?, quantised(Scheme::I8, 8)?);
+    let decoded = |bytes| Model::from_bytes(bytes).map_err(|e| e.to_string());
+    let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
     let downscale = a.downscale.unwrap_or(mf.meta.train_downscale.max(1) as u32);
     let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];

@@ -1,6 +1,8 @@
 //! Helpers shared by the workspace tests.
 #![allow(dead_code)]
 
+pub mod cli;
+
 use nerf_infer::format::{CameraConvention, Scene};
 use nerf_infer::{Camera, Model, RenderOptions};
 use nerf_train::config::TrainConfig;

@@ -1,0 +1,42 @@
+//! Running the `nerf` binary from the end-to-end tests.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The `nerf` binary under test.
+pub const BIN: &str = env!("CARGO_BIN_EXE_nerf");
+
+/// Runs `nerf args` to completion.
+pub fn nerf(args: &[&str]) -> Output {
+    Command::new(BIN).args(args).output().expect("run nerf")
+}
+
+/// Runs `nerf args`, expects success; returns stdout.
+pub fn ok(args: &[&str]) -> String {
+    let o = nerf(args);
+    assert!(o.status.success(), "nerf {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8(o.stdout).unwrap()
+}
+
+/// Runs `nerf args`, expects failure with exactly one line on stderr;
+/// returns it.
+pub fn fails(args: &[&str]) -> String {
+    let o = nerf(args);
+    let e = String::from_utf8(o.stderr).unwrap();
+    assert!(!o.status.success(), "nerf {args:?} should fail; stderr: {e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "nerf {args:?}: not one line: {e}");
+    e
+}
+
+/// A fresh, empty directory under the system temp dir for test `name`.
+pub fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("nerf-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `p` as a command-line argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
