@@ -17,7 +17,7 @@ use nerf_infer::sampling::hash32;
 use nerf_infer::{Camera, Error, F32Renderer, FixedRenderer, Model, Pixel, RayRenderer, RenderOptions};
 use nerf_infer::{Ray, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{orbit_camera, quantise, random_model, OwnedModel};
+use nerf_train::export::{orbit_camera, quantise, quantise_acts, random_model, OwnedModel};
 use support::{small_config, unit_scene};
 
 /// What a model's weights are set to after random initialisation.
@@ -214,9 +214,11 @@ fn extreme_densities_and_weights_render_in_range_on_both_paths() {
                 let f = f32_model(&cfg, scene, w).to_bytes().unwrap();
                 renders += render_all(&f, &format!("{what} f32"));
                 let mf = Model::from_bytes(&f).unwrap();
-                for scheme in [Scheme::I16, Scheme::I8] {
-                    match quantise(&mf, scheme) {
-                        Ok(q) => renders += render_all(&q.to_bytes().unwrap(), &format!("{what} {scheme:?}")),
+                for (scheme, act_bits) in [(Scheme::I16, 16), (Scheme::I8, 16), (Scheme::I8, 8)] {
+                    match quantise_acts(&mf, scheme, act_bits) {
+                        Ok(q) => {
+                            renders += render_all(&q.to_bytes().unwrap(), &format!("{what} {scheme:?}/{act_bits}"))
+                        }
                         // weights beyond any scale the format can hold are refused at export
                         Err(e) => assert!(matches!(w, Weights::Every(_)), "{what} {scheme:?}: {e}"),
                     }
