@@ -27,6 +27,8 @@ enum Command {
     Render(cmd::render::Args),
     /// Write the model with 32-, 16- or 8-bit weights.
     Export(cmd::export::Args),
+    /// Try model sizes cheapest first; keep the first that reaches a target PSNR.
+    Fit(cmd::fit::Args),
     /// Sweep weight bits, samples and early termination: PSNR against µs/ray.
     Tradeoff(cmd::tradeoff::Args),
     /// Describe a model file.
@@ -46,6 +48,7 @@ fn dispatch(command: Command) -> cmd::CmdResult {
         Command::Export(a) => cmd::export::run(a),
         Command::Info(a) => cmd::info::run(a),
         Command::Tradeoff(a) => cmd::tradeoff::run(a),
+        Command::Fit(a) => cmd::fit::run(a),
         Command::Scene(a) => cmd::scene::run(a),
         Command::Demo(a) => cmd::demo::run(a),
     }

@@ -140,3 +140,35 @@ fn bad_inputs_give_one_line_errors() {
     let e = fails(&["train", "--data", s(&d), "--iters", "1", "--out", s(&d.join("r")), "--preset", "huge"]);
     assert!(e.contains("unknown preset"), "{e}");
 }
+
+#[test]
+fn fit_keeps_the_first_candidate_that_reaches_the_target_and_tables_what_it_tried() {
+    let d = tmp("fit");
+    let scene = d.join("scene");
+    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
+    let data = scene.join("blender");
+    let run = d.join("fit");
+    let out = ok(&["fit", "--data", s(&data), "--target-psnr", "8", "--minutes", "0.01", "--out", s(&run)]);
+    assert!(out.contains("| candidate |") && out.contains("fit: chose 2x32-noview"), "{out}");
+    let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 2, "{csv}");
+    let fixed = std::fs::read(run.join("model_fixed.nerf")).unwrap();
+    let m = nerf_infer::Model::from_bytes(&fixed).unwrap();
+    assert_eq!(m.scheme(), nerf_infer::Scheme::I8);
+    assert!(m.grid.is_some() && m.fine.is_none());
+    assert!(run.join("model.nerf").is_file() && run.join("2x32-noview/train.jsonl").is_file());
+    // an unreachable target: every candidate tried, cheapest first, and a
+    // one-line error naming the table
+    let run = d.join("fit-miss");
+    let o =
+        support::cli::nerf(&["fit", "--data", s(&data), "--target-psnr", "99", "--minutes", "0.002", "--out", s(&run)]);
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(!o.status.success());
+    assert!(err.trim_end().lines().last().unwrap().starts_with("error: no candidate reached 99.00 dB"), "{err}");
+    let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
+    let macs: Vec<usize> = csv.lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
+    assert_eq!(macs.len(), 4, "{csv}");
+    assert!(macs.windows(2).all(|w| w[0] < w[1]), "not cheapest first: {macs:?}");
+    assert!(!run.join("model.nerf").exists());
+    std::fs::remove_dir_all(&d).ok();
+}

@@ -54,7 +54,8 @@ impl fmt::Display for Error {
             Error::BadMagic => write!(f, "not a NeRF model (bad magic)"),
             Error::UnsupportedVersion(v) => write!(
                 f,
-                "model format version {v} is not supported (this build reads version {})",
+                "model format version {v} is not supported (this build reads versions {} and {})",
+                crate::format::FORMAT_VERSION_NO_GRID,
                 crate::format::FORMAT_VERSION
             ),
             Error::ChecksumMismatch => write!(f, "model checksum mismatch (corrupted file)"),

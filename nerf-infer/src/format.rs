@@ -1,14 +1,18 @@
-//! The model file format (version 1). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 and 2). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (= 1) |
+//! | 4      | 2    | format version, u16 little-endian (1, 2) |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
+//!
+//! Version 2 appends one field, the optional occupancy grid; a model
+//! without a grid is written as version 1, byte for byte what earlier
+//! builds wrote, so readers that predate the grid keep reading it.
 //!
 //! Tensors are borrowed from the blob ([`Model::from_bytes`] never copies or
 //! allocates), so a model can live in flash. Multi-byte tensor elements are
@@ -16,12 +20,15 @@
 
 use crate::error::{Error, Result};
 use crate::fixed::Requant;
+pub use crate::occupancy::Occupancy;
 use serde::{Deserialize, Serialize};
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
-/// The format version this build reads and writes.
-pub const FORMAT_VERSION: u16 = 1;
+/// The newest format version this build reads and writes (it reads 1 too).
+pub const FORMAT_VERSION: u16 = 2;
+/// The version of models without an occupancy grid.
+pub const FORMAT_VERSION_NO_GRID: u16 = 1;
 /// Length of the fixed header before the postcard payload, in bytes.
 pub const HEADER_LEN: usize = 14;
 /// Most layers a network may have (trunk + heads).
@@ -275,13 +282,42 @@ pub struct Model<'a> {
     /// The fine network evaluated on coarse + importance samples.
     #[serde(borrow)]
     pub fine: Option<Network<'a>>,
+    /// Occupancy grid (format version 2): samples in clear cells are
+    /// skipped by both numeric paths.
+    #[serde(borrow)]
+    pub grid: Option<Occupancy<'a>>,
+}
+
+/// The version-1 payload: [`Model`] without its last field.
+#[derive(Deserialize)]
+struct ModelV1<'a> {
+    scene: Scene,
+    encoding: Encoding,
+    topology: Topology,
+    samples: Samples,
+    meta: Meta,
+    #[serde(borrow)]
+    coarse: Network<'a>,
+    #[serde(borrow)]
+    fine: Option<Network<'a>>,
+}
+
+impl<'a> From<ModelV1<'a>> for Model<'a> {
+    fn from(m: ModelV1<'a>) -> Self {
+        let ModelV1 { scene, encoding, topology, samples, meta, coarse, fine } = m;
+        Model { scene, encoding, topology, samples, meta, coarse, fine, grid: None }
+    }
 }
 
 impl<'a> Model<'a> {
     /// Decodes and validates a model from `bytes` without copying or allocating.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self> {
-        let payload = check_header(bytes)?;
-        let model: Model<'a> = postcard::from_bytes(payload).map_err(|_| Error::Decode)?;
+        let (version, payload) = check_header(bytes)?;
+        let model: Model<'a> = if version == FORMAT_VERSION_NO_GRID {
+            postcard::from_bytes::<ModelV1<'a>>(payload).map_err(|_| Error::Decode)?.into()
+        } else {
+            postcard::from_bytes(payload).map_err(|_| Error::Decode)?
+        };
         model.validate()?;
         Ok(model)
     }
@@ -294,6 +330,20 @@ impl<'a> Model<'a> {
     /// Numeric scheme of the model (both networks share it).
     pub fn scheme(&self) -> Scheme {
         self.coarse.scheme
+    }
+
+    /// The format version this model is written as: 2 with a grid, else 1.
+    pub fn format_version(&self) -> u16 {
+        if self.grid.is_some() {
+            FORMAT_VERSION
+        } else {
+            FORMAT_VERSION_NO_GRID
+        }
+    }
+
+    /// Bytes of the occupancy bits (0 without a grid).
+    pub fn grid_bytes(&self) -> usize {
+        self.grid.map_or(0, |g| g.bits.len())
     }
 
     /// Total bytes of all tensors (weights, biases, scales, requant).
@@ -356,6 +406,9 @@ impl<'a> Model<'a> {
         }
         if (sm.fine > 0) != self.fine.is_some() {
             return Err(Error::InvalidTopology("fine samples without a fine network or vice versa"));
+        }
+        if self.grid.is_some_and(|g| !g.is_valid()) {
+            return Err(Error::InvalidTopology("occupancy grid resolution or length"));
         }
         self.validate_network(&self.coarse)?;
         if let Some(f) = &self.fine {
@@ -446,8 +499,8 @@ pub fn expected_shape(t: &Topology, e: &Encoding, i: usize) -> (usize, usize) {
     }
 }
 
-/// Checks magic, version, length and checksum; returns the payload.
-fn check_header(bytes: &[u8]) -> Result<&[u8]> {
+/// Checks magic, version, length and checksum; returns the version and the payload.
+fn check_header(bytes: &[u8]) -> Result<(u16, &[u8])> {
     if bytes.len() < 4 {
         return Err(Error::Truncated);
     }
@@ -458,7 +511,7 @@ fn check_header(bytes: &[u8]) -> Result<&[u8]> {
         return Err(Error::Truncated);
     }
     let version = u16::from_le_bytes([bytes[4], bytes[5]]);
-    if version != FORMAT_VERSION {
+    if version != FORMAT_VERSION && version != FORMAT_VERSION_NO_GRID {
         return Err(Error::UnsupportedVersion(version));
     }
     let len = u32::from_le_bytes([bytes[6], bytes[7], bytes[8], bytes[9]]) as usize;
@@ -473,7 +526,7 @@ fn check_header(bytes: &[u8]) -> Result<&[u8]> {
     if crc32(rest) != crc {
         return Err(Error::ChecksumMismatch);
     }
-    Ok(rest)
+    Ok((version, rest))
 }
 
 static CRC_TABLE: [u32; 256] = {
@@ -505,10 +558,14 @@ pub fn crc32(data: &[u8]) -> u32 {
 #[cfg(feature = "alloc")]
 pub fn to_bytes(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
     model.validate()?;
-    let payload = postcard::to_allocvec(model).map_err(|_| Error::Decode)?;
+    let mut payload = postcard::to_allocvec(model).map_err(|_| Error::Decode)?;
+    if model.grid.is_none() {
+        // version 1 is the same encoding without the trailing `None` byte
+        payload.pop();
+    }
     let mut out = alloc::vec::Vec::with_capacity(HEADER_LEN + payload.len());
     out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&model.format_version().to_le_bytes());
     out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
     out.extend_from_slice(&crc32(&payload).to_le_bytes());
     out.extend_from_slice(&payload);

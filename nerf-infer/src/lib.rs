@@ -5,7 +5,7 @@
 //! Pipeline, one module per stage: [`camera`] (pixel → ray) →
 //! [`sampling`] (where along the ray) → [`encoding`] (γ) → [`network`]
 //! (the MLP) → [`composite`] (the quadrature) → [`render`] (one ray, both
-//! passes) → [`tile`] (a rectangle of pixels). [`format`] decodes models;
+//! passes) → [`tile`] (a rectangle of pixels). [`occupancy`] skips empty space; [`format`] decodes models;
 //! [`fixed`] holds the Q formats and integer primitives.
 //!
 //! Memory: nothing is allocated. Working memory is a scratch value the
@@ -58,6 +58,7 @@ pub mod error;
 pub mod fixed;
 pub mod format;
 pub mod network;
+pub mod occupancy;
 pub mod render;
 pub mod sampling;
 pub mod tile;

@@ -1,6 +1,7 @@
 //! Rendering one ray: coarse pass over stratified samples, then (with a
 //! fine network) a fine pass over coarse + importance samples, composited
-//! front to back with early ray termination.
+//! front to back with early ray termination. With an occupancy grid
+//! ([`crate::occupancy`]) both passes skip the samples in empty cells.
 //!
 //! The two numeric paths share this structure and the [`RayRenderer`]
 //! trait: [`F32Renderer`] renders [`Scheme::F32`] models, [`FixedRenderer`]
@@ -14,6 +15,7 @@ use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
 use crate::format::{Model, Network, Scheme, MAX_COARSE, MAX_FINE};
 use crate::network::{check_i8_headroom, BlockF32, BlockFixed, IntWeight, W16, W8};
+use crate::occupancy::{clip_to_box, occupied_box};
 use crate::sampling::{
     jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_f32, stratified_fixed,
 };
@@ -52,6 +54,24 @@ impl RenderOptions {
 
     fn key(&self, pixel: (u32, u32)) -> Option<u32> {
         self.seed.map(|s| ray_key(s, pixel.0, pixel.1))
+    }
+}
+
+/// The occupied box of a model's grid: `None` without a grid, `Some(None)`
+/// if no cell is occupied.
+type OccBox = Option<Option<([f32; 3], [f32; 3])>>;
+
+fn occ_box(model: &Model<'_>) -> OccBox {
+    model.grid.as_ref().map(occupied_box)
+}
+
+/// The range of `t` worth sampling on `ray`: all of it without a grid, the
+/// part inside the occupied box with one, `None` if the ray misses it.
+fn occupied_span(b: &OccBox, ray: &Ray) -> Option<(f32, f32)> {
+    match b {
+        None => Some((f32::NEG_INFINITY, f32::INFINITY)),
+        Some(None) => None,
+        Some(Some(b)) => clip_to_box(b, ray.norm_origin.to_array(), ray.norm_dir.to_array()),
     }
 }
 
@@ -102,6 +122,7 @@ impl<const B: usize> Default for ScratchF32<B> {
 pub struct F32Renderer<'m, 'a> {
     model: &'m Model<'a>,
     opts: RenderOptions,
+    occ_box: OccBox,
 }
 
 /// Fine-pass CDF level of importance sample `j` of `n`, Q16 in `[0, 65536]`:
@@ -123,7 +144,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             return Err(Error::WrongNumericPath);
         }
         opts.validate(model)?;
-        Ok(Self { model, opts })
+        Ok(Self { model, opts, occ_box: occ_box(model) })
     }
 
     /// The options in use.
@@ -139,6 +160,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         net: &Network<'_>,
         ray: &Ray,
         t: &[f32],
+        span: (f32, f32),
         need_rgb: bool,
         block: &mut BlockF32<B>,
         mut weights: Option<&mut [f32]>,
@@ -150,24 +172,43 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             block.prepare_ray(m, net, ray.viewdir.to_array());
         }
         let mut comp = CompositorF32::default();
+        let grid = m.grid.as_ref();
         let n = t.len();
-        let mut start = 0;
-        while start < n {
+        let mut next = 0;
+        while next < n {
             if comp.transmittance < self.opts.early_stop {
                 if let Some(w) = weights.as_deref_mut() {
-                    w[start..n].fill(0.0);
+                    w[next..n].fill(0.0);
                 }
                 break;
             }
-            let len = B.min(n - start);
-            let mut pos = [[0.0f32; 3]; B];
-            for k in 0..len {
-                pos[k] = ray.at(t[start + k]).to_array();
+            // gather up to B samples in occupied cells (all of them without a grid)
+            let (mut idx, mut pos, mut len) = ([0usize; B], [[0.0f32; 3]; B], 0);
+            while next < n && len < B {
+                if t[next] > span.1 {
+                    // past the occupied box: nothing more to evaluate
+                    if let Some(w) = weights.as_deref_mut() {
+                        w[next..n].fill(0.0);
+                    }
+                    next = n;
+                    break;
+                }
+                let p = ray.at(t[next]).to_array();
+                if t[next] >= span.0 && grid.is_none_or(|g| g.at_f32(p)) {
+                    (idx[len], pos[len]) = (next, p);
+                    len += 1;
+                } else if let Some(w) = weights.as_deref_mut() {
+                    w[next] = 0.0;
+                }
+                next += 1;
+            }
+            if len == 0 {
+                break;
             }
             block.eval(m, net, &pos[..len], need_rgb);
             *evaluations += len as u64;
             for k in 0..len {
-                let i = start + k;
+                let i = idx[k];
                 let delta = if i + 1 < n { (t[i + 1] - t[i]) * ray.dir_len } else { f32::INFINITY };
                 let rgb = if need_rgb { block.rgb[k] } else { [0.0; 3] };
                 let w = comp.add(block.sigma[k], delta, rgb, t[i]);
@@ -175,7 +216,6 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
                     ws[i] = w;
                 }
             }
-            start += len;
         }
         comp.finish(m.scene.white_background, m.scene.far)
     }
@@ -210,6 +250,9 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         let Some(ray) = Ray::new(&m.scene, origin, dir) else {
             return self.background();
         };
+        let Some(span) = occupied_span(&self.occ_box, &ray) else {
+            return self.background();
+        };
         let key = self.opts.key(pixel);
         let nc = self.opts.coarse;
         let ScratchF32 { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
@@ -217,14 +260,14 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         stratified_f32(ray.near, ray.far, key, t_c);
         let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
         let Some(fine_net) = fine else {
-            return self.pass(&m.coarse, &ray, t_c, true, block, None, evaluations);
+            return self.pass(&m.coarse, &ray, t_c, span, true, block, None, evaluations);
         };
-        self.pass(&m.coarse, &ray, t_c, false, block, Some(&mut w_coarse[..nc]), evaluations);
+        self.pass(&m.coarse, &ray, t_c, span, false, block, Some(&mut w_coarse[..nc]), evaluations);
         let nf = self.opts.fine;
         sample_pdf_f32(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key) as f32 / 65536.0, cdf, &mut t_fine[..nf]);
         let all = &mut t_all[..nc + nf];
         merge_sorted(t_c, &t_fine[..nf], all);
-        self.pass(fine_net, &ray, all, true, block, None, evaluations)
+        self.pass(fine_net, &ray, all, span, true, block, None, evaluations)
     }
 }
 
@@ -296,6 +339,7 @@ pub struct FixedRenderer<'m, 'a> {
     opts: RenderOptions,
     early_stop_q30: u32,
     far: i32,
+    occ_box: OccBox,
 }
 
 impl<'m, 'a> FixedRenderer<'m, 'a> {
@@ -316,6 +360,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             opts,
             early_stop_q30: (opts.early_stop as f64 * T_ONE as f64) as u32,
             far: to_fixed(model.scene.far, POS_FRAC),
+            occ_box: occ_box(model),
         })
     }
 
@@ -330,6 +375,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         net: &Network<'_>,
         ray: &FixedRay,
         t: &[i32],
+        span: (i32, i32),
         need_rgb: bool,
         block: &mut BlockFixed<B>,
         mut weights: Option<&mut [u32]>,
@@ -340,24 +386,43 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             block.prepare_ray::<W>(m, net, ray.viewdir);
         }
         let mut comp = CompositorFixed::default();
+        let grid = m.grid.as_ref();
         let n = t.len();
-        let mut start = 0;
-        while start < n {
+        let mut next = 0;
+        while next < n {
             if comp.transmittance < self.early_stop_q30 {
                 if let Some(w) = weights.as_deref_mut() {
-                    w[start..n].fill(0);
+                    w[next..n].fill(0);
                 }
                 break;
             }
-            let len = B.min(n - start);
-            let mut pos = [[0i32; 3]; B];
-            for k in 0..len {
-                pos[k] = ray.at(t[start + k]);
+            // gather up to B samples in occupied cells (all of them without a grid)
+            let (mut idx, mut pos, mut len) = ([0usize; B], [[0i32; 3]; B], 0);
+            while next < n && len < B {
+                if t[next] > span.1 {
+                    // past the occupied box: nothing more to evaluate
+                    if let Some(w) = weights.as_deref_mut() {
+                        w[next..n].fill(0);
+                    }
+                    next = n;
+                    break;
+                }
+                let p = ray.at(t[next]);
+                if t[next] >= span.0 && grid.is_none_or(|g| g.at_fixed(p, NPOS_FRAC)) {
+                    (idx[len], pos[len]) = (next, p);
+                    len += 1;
+                } else if let Some(w) = weights.as_deref_mut() {
+                    w[next] = 0;
+                }
+                next += 1;
+            }
+            if len == 0 {
+                break;
             }
             block.eval::<W>(m, net, &pos[..len], need_rgb);
             *evaluations += len as u64;
             for k in 0..len {
-                let i = start + k;
+                let i = idx[k];
                 let delta = if i + 1 < n {
                     let dt = t[i + 1] as i64 - t[i] as i64;
                     shr_round_i64(dt * ray.dir_len as i64, POS_FRAC).clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
@@ -370,13 +435,17 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
                     ws[i] = w;
                 }
             }
-            start += len;
         }
         comp.finish(m.scene.white_background, self.far)
     }
 
     fn render<W: IntWeight, const B: usize>(&self, ray: &Ray, key: Option<u32>, s: &mut ScratchFixed<B>) -> FixedPixel {
         let m = self.model;
+        let Some((lo, hi)) = occupied_span(&self.occ_box, ray) else {
+            return CompositorFixed::default().finish(m.scene.white_background, self.far);
+        };
+        // Q16, widened outward (saturating casts; the box margin covers rounding)
+        let span = (libm::floorf(lo * 65536.0) as i32, libm::ceilf(hi * 65536.0) as i32);
         let fr = FixedRay::new(ray);
         let nc = self.opts.coarse;
         let ScratchFixed { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
@@ -384,14 +453,14 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         stratified_fixed(fr.near, fr.far, key, t_c);
         let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
         let Some(fine_net) = fine else {
-            return self.pass::<W, B>(&m.coarse, &fr, t_c, true, block, None, evaluations);
+            return self.pass::<W, B>(&m.coarse, &fr, t_c, span, true, block, None, evaluations);
         };
-        self.pass::<W, B>(&m.coarse, &fr, t_c, false, block, Some(&mut w_coarse[..nc]), evaluations);
+        self.pass::<W, B>(&m.coarse, &fr, t_c, span, false, block, Some(&mut w_coarse[..nc]), evaluations);
         let nf = self.opts.fine;
         sample_pdf_fixed(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key), cdf, &mut t_fine[..nf]);
         let all = &mut t_all[..nc + nf];
         merge_sorted(t_c, &t_fine[..nf], all);
-        self.pass::<W, B>(fine_net, &fr, all, true, block, None, evaluations)
+        self.pass::<W, B>(fine_net, &fr, all, span, true, block, None, evaluations)
     }
 
     /// The per-ray entry point ([`RayRenderer::render_ray`]).

@@ -68,6 +68,8 @@ pub struct OwnedModel {
     pub coarse: OwnedNetwork,
     /// Fine network.
     pub fine: Option<OwnedNetwork>,
+    /// Occupancy grid: cells per axis and the bits (format version 2).
+    pub grid: Option<(u16, Vec<u8>)>,
 }
 
 impl OwnedNetwork {
@@ -119,6 +121,7 @@ impl OwnedModel {
             meta: self.meta,
             coarse: self.coarse.view(),
             fine: self.fine.as_ref().map(|f| f.view()),
+            grid: self.grid.as_ref().map(|(res, bits)| format::Occupancy { res: *res, bits }),
         };
         format::to_bytes(&m)
     }
@@ -133,6 +136,7 @@ impl OwnedModel {
             meta: m.meta,
             coarse: OwnedNetwork::from_view(&m.coarse),
             fine: m.fine.as_ref().map(OwnedNetwork::from_view),
+            grid: m.grid.map(|g| (g.res, g.bits.to_vec())),
         }
     }
 }
@@ -182,6 +186,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample]) -> Owne
         meta: Meta { train_downscale: tr.downscale as u16, iterations: tr.step as u32 },
         coarse: f32_network(&mlp, tr.coarse_params(), &max_c),
         fine: tr.fine_params().map(|p| f32_network(&mlp, p, max_f.as_deref().unwrap_or(&[]))),
+        grid: tr.grid.as_ref().map(|g| (g.res, g.bits.clone())),
     }
 }
 

@@ -17,6 +17,7 @@ pub mod dataset;
 pub mod eval;
 pub mod export;
 pub mod gemm;
+pub mod grid;
 pub mod metrics;
 pub mod mlp;
 pub mod plot;

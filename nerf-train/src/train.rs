@@ -2,6 +2,11 @@
 //! stratified coarse samples, hierarchical fine samples, loss = coarse MSE
 //! + fine MSE, hand-written backward, Adam with exponential decay.
 //!
+//! With an occupancy grid (`grid_res > 0`) the run has one network: each
+//! ray's stratified samples are kept only where the grid is occupied (the
+//! others weigh nothing), and the grid is refreshed from the network's
+//! density every `grid_every` steps.
+//!
 //! Work is split into chunks of `chunk_rays` rays processed in parallel by
 //! rayon; each chunk draws its jitter from a hash of (seed, step, chunk), so
 //! a run is reproducible whatever the thread count.
@@ -9,9 +14,10 @@
 use crate::adam::Adam;
 use crate::config::TrainConfig;
 use crate::dataset::Dataset;
+use crate::grid::DensityGrid;
 use crate::mlp::{Acts, Mlp};
 use crate::rng::Rng;
-use crate::volume::{composite, composite_back};
+use crate::volume::{composite, composite_back, push_deltas, LAST_DELTA};
 use nerf_infer::camera::Ray;
 use nerf_infer::format::Scene;
 use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32, stratified_f32};
@@ -54,6 +60,8 @@ pub struct Trainer {
     pub seed: u64,
     /// Steps skipped for non-finite loss or gradients.
     pub skipped: u64,
+    /// Occupancy grid (runs with `grid_res > 0`).
+    pub grid: Option<DensityGrid>,
 }
 
 /// Per-chunk working memory.
@@ -61,6 +69,9 @@ pub struct Trainer {
 struct Workspace {
     pos: Vec<[f32; 3]>,
     dirs: Vec<[f32; 3]>,
+    /// Ray `i`'s samples are `offs[i]..offs[i + 1]` of `pos` and `delta`.
+    offs: Vec<usize>,
+    delta: Vec<f32>,
     t_c: Vec<f32>,
     w_c: Vec<f32>,
     t_f: Vec<f32>,
@@ -73,33 +84,34 @@ struct Workspace {
     drgb: Vec<f32>,
 }
 
-/// Composites each ray's `n` consecutive samples (weights into `w`) and
-/// writes the gradients of `scale · Σ (C − C_gt)²` with respect to the raw
-/// densities and colours into `dsig` and `drgb`; returns the summed
+/// Composites each ray's samples (`offs[i]..offs[i + 1]`, weights into
+/// `w`) and writes the gradients of `scale · Σ (C − C_gt)²` with respect to
+/// the raw densities and colours into `dsig` and `drgb`; returns the summed
 /// squared error over rays and channels.
 #[allow(clippy::too_many_arguments)]
 fn loss_gradients(
     rays: &[Sample],
-    n: usize,
+    offs: &[usize],
     bg: f32,
     scale: f32,
     acts: &Acts,
-    t: &[f32],
+    delta: &[f32],
     w: &mut [f32],
     dsig: &mut Vec<f32>,
     drgb: &mut Vec<f32>,
 ) -> f64 {
-    dsig.resize(rays.len() * n, 0.0);
-    drgb.resize(rays.len() * n * 3, 0.0);
+    let n = offs[rays.len()];
+    dsig.resize(n, 0.0);
+    drgb.resize(n * 3, 0.0);
     let mut sq = 0.0f64;
-    for (i, (ray, gt)) in rays.iter().enumerate() {
-        let s = i * n..(i + 1) * n;
+    for (i, (_, gt)) in rays.iter().enumerate() {
+        let s = offs[i]..offs[i + 1];
         let c = 3 * s.start..3 * s.end;
         let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[c.clone()]);
-        let col = composite(sig, rgb, &t[s.clone()], ray.dir_len, bg, &mut w[s.clone()]);
+        let col = composite(sig, rgb, &delta[s.clone()], bg, &mut w[s.clone()]);
         let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
         sq += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
-        composite_back(sig, rgb, &t[s.clone()], ray.dir_len, bg, &w[s.clone()], dc, &mut dsig[s], &mut drgb[c]);
+        composite_back(sig, rgb, &delta[s.clone()], bg, &w[s.clone()], dc, &mut dsig[s], &mut drgb[c]);
     }
     sq
 }
@@ -116,7 +128,8 @@ impl Trainer {
             params.extend(net.init(seed ^ 0x5EED_F1E0));
         }
         let adam = Adam::new(params.len());
-        Self { cfg, scene, downscale, params, adam, step: 0, elapsed: 0.0, seed, skipped: 0 }
+        let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
+        Self { cfg, scene, downscale, params, adam, step: 0, elapsed: 0.0, seed, skipped: 0, grid }
     }
 
     /// The network shape (both networks share it).
@@ -162,6 +175,13 @@ impl Trainer {
     /// One optimisation step on a batch drawn from `data`; `progress` is
     /// the fraction of the run done (for the learning-rate decay).
     pub fn train_step(&mut self, data: &Dataset, progress: f64) -> StepStats {
+        let c = &self.cfg;
+        if self.grid.is_some()
+            && self.step as usize >= c.grid_warmup
+            && (self.step as usize).is_multiple_of(c.grid_every)
+        {
+            self.update_grid();
+        }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
         let batch = Self::draw_batch(data, self.cfg.batch_rays, &mut rng);
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
@@ -195,35 +215,93 @@ impl Trainer {
         let np = self.params.len();
         let scale = 2.0 / (3.0 * batch.len() as f32);
         let chunk = self.cfg.chunk_rays;
-        let (grad, sq_c, sq_f) = batch
+        let (grad, sq_c, sq_f, samples) = batch
             .par_chunks(chunk)
             .enumerate()
             .fold(
-                || (vec![0.0f32; np], 0.0f64, 0.0f64, Workspace::default()),
-                |(mut g, mut c, mut f, mut ws), (ci, rays)| {
+                || (vec![0.0f32; np], 0.0f64, 0.0f64, 0usize, Workspace::default()),
+                |(mut g, c, f, n, mut ws), (ci, rays)| {
                     let key = hash32(step_key ^ hash32(ci as u32));
-                    let (a, b) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g);
-                    c += a;
-                    f += b;
-                    (g, c, f, ws)
+                    let (a, b, k) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g);
+                    (g, c + a, f + b, n + k, ws)
                 },
             )
-            .map(|(g, c, f, _)| (g, c, f))
+            .map(|(g, c, f, n, _)| (g, c, f, n))
             .reduce(
-                || (vec![0.0f32; np], 0.0, 0.0),
-                |(mut g1, c1, f1), (g2, c2, f2)| {
+                || (vec![0.0f32; np], 0.0, 0.0, 0),
+                |(mut g1, c1, f1, n1), (g2, c2, f2, n2)| {
                     g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
-                    (g1, c1 + c2, f1 + f2)
+                    (g1, c1 + c2, f1 + f2, n1 + n2)
                 },
             );
-        let nc = self.cfg.n_coarse as usize;
-        let nf = self.cfg.n_fine as usize;
-        let samples = batch.len() * if nf > 0 { 2 * nc + nf } else { nc };
         (grad, sq_c, sq_f, samples)
     }
 
+    /// Density σ threshold of the grid: the density at which a sample of
+    /// the default step (bounds diagonal / `n_coarse`, world units) has
+    /// opacity `grid_alpha`.
+    pub fn grid_threshold(&self) -> f32 {
+        let s = &self.scene;
+        let diag = (0..3).map(|k| (s.bounds_max[k] - s.bounds_min[k]).powi(2)).sum::<f32>().sqrt();
+        let step = diag / self.cfg.n_coarse as f32;
+        -(1.0 - self.cfg.grid_alpha).ln() / step
+    }
+
+    /// Refreshes the occupancy grid from the network's current density.
+    pub fn update_grid(&mut self) {
+        let Some(mut grid) = self.grid.take() else { return };
+        let net = self.mlp();
+        let thr = self.grid_threshold();
+        let params = &self.params[..net.n_params];
+        let key = hash32(self.seed as u32 ^ 0x6121_D000);
+        grid.update(key, thr, |pts| {
+            let mut acts = Acts::default();
+            net.forward(params, pts, &[[0.0, 0.0, 1.0]], false, &mut acts);
+            acts.sigma[..pts.len()].to_vec()
+        });
+        self.grid = Some(grid);
+    }
+
+    /// Stratified samples of every ray of a chunk (jitter key per ray from
+    /// `key`), kept where the grid is occupied: fills `t_c` (all `n_coarse`
+    /// per ray) and `pos`, `delta`, `offs`, `dirs` (per kept sample with a
+    /// grid, per ray without).
+    fn coarse_samples(&self, rays: &[Sample], key: impl Fn(usize) -> u32, ws: &mut Workspace) {
+        let nc = self.cfg.n_coarse as usize;
+        let grid = self.grid.as_ref().map(|g| g.view());
+        ws.t_c.resize(rays.len() * nc, 0.0);
+        ws.pos.clear();
+        ws.dirs.clear();
+        ws.delta.clear();
+        ws.offs.clear();
+        ws.offs.push(0);
+        for (i, (ray, _)) in rays.iter().enumerate() {
+            let t = &mut ws.t_c[i * nc..(i + 1) * nc];
+            stratified_f32(ray.near, ray.far, Some(key(i)), t);
+            match grid {
+                None => {
+                    ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
+                    push_deltas(t, ray.dir_len, &mut ws.delta);
+                    ws.dirs.push(ray.viewdir.to_array());
+                }
+                Some(g) => {
+                    for j in 0..nc {
+                        let p = ray.at(t[j]).to_array();
+                        if g.at_f32(p) {
+                            ws.pos.push(p);
+                            ws.delta.push(if j + 1 < nc { (t[j + 1] - t[j]) * ray.dir_len } else { LAST_DELTA });
+                            ws.dirs.push(ray.viewdir.to_array());
+                        }
+                    }
+                }
+            }
+            ws.offs.push(ws.pos.len());
+        }
+    }
+
     /// Forward and backward of one chunk; accumulates into `g` and returns
-    /// the squared errors (coarse, fine) summed over rays and channels.
+    /// the squared errors (coarse, fine) summed over rays and channels and
+    /// the number of network evaluations.
     fn chunk_gradient(
         &self,
         net: &Mlp,
@@ -232,7 +310,7 @@ impl Trainer {
         scale: f32,
         ws: &mut Workspace,
         g: &mut [f32],
-    ) -> (f64, f64) {
+    ) -> (f64, f64, usize) {
         let r = rays.len();
         let nc = self.cfg.n_coarse as usize;
         let nf = self.cfg.n_fine as usize;
@@ -240,28 +318,30 @@ impl Trainer {
         let np = net.n_params;
         let (pc, pf) = self.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np);
-        ws.t_c.resize(r * nc, 0.0);
-        ws.w_c.resize(r * nc, 0.0);
-        ws.pos.clear();
-        ws.dirs.clear();
-        for (i, (ray, _)) in rays.iter().enumerate() {
-            let t = &mut ws.t_c[i * nc..(i + 1) * nc];
-            stratified_f32(ray.near, ray.far, Some(hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B))), t);
-            ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
-            ws.dirs.push(ray.viewdir.to_array());
+        self.coarse_samples(rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), ws);
+        let n_c = ws.pos.len();
+        ws.w_c.resize(n_c, 0.0);
+        if n_c > 0 {
+            net.forward(pc, &ws.pos, &ws.dirs, true, &mut ws.acts_c);
         }
-        net.forward(pc, &ws.pos, &ws.dirs, true, &mut ws.acts_c);
-        let sq_c = loss_gradients(rays, nc, bg, scale, &ws.acts_c, &ws.t_c, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb);
-        net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
+        let sq_c =
+            loss_gradients(rays, &ws.offs, bg, scale, &ws.acts_c, &ws.delta, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb);
+        if n_c > 0 {
+            net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
+        }
         if nf == 0 {
-            return (sq_c, 0.0);
+            return (sq_c, 0.0, n_c);
         }
+        // no grid (validated): every ray has its nc coarse samples
         let na = nc + nf;
         ws.t_f.resize(nf, 0.0);
         ws.cdf.resize(nc, 0.0);
         ws.t_all.resize(r * na, 0.0);
         ws.w_f.resize(r * na, 0.0);
         ws.pos.clear();
+        ws.delta.clear();
+        ws.offs.clear();
+        ws.offs.push(0);
         for (i, (ray, _)) in rays.iter().enumerate() {
             let s = i * nc..(i + 1) * nc;
             let rk = hash32(key ^ 0xF1AE ^ (i as u32).wrapping_mul(0x27D4_EB2F));
@@ -275,11 +355,14 @@ impl Trainer {
             let all = &mut ws.t_all[i * na..(i + 1) * na];
             merge_sorted(&ws.t_c[s], &ws.t_f, all);
             ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
+            push_deltas(all, ray.dir_len, &mut ws.delta);
+            ws.offs.push(ws.pos.len());
         }
         net.forward(pf, &ws.pos, &ws.dirs, true, &mut ws.acts_f);
-        let sq_f = loss_gradients(rays, na, bg, scale, &ws.acts_f, &ws.t_all, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb);
+        let sq_f =
+            loss_gradients(rays, &ws.offs, bg, scale, &ws.acts_f, &ws.delta, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb);
         net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf);
-        (sq_c, sq_f)
+        (sq_c, sq_f, n_c + r * na)
     }
 
     /// Largest |activation| of every layer of each network, measured on
@@ -295,35 +378,31 @@ impl Trainer {
         let mut max_f = vec![0.0f32; net.slots.len()];
         let mut max_pos = 0.0f32;
         let mut acts = Acts::default();
+        let mut ws = Workspace::default();
         for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
-            let mut pos = Vec::new();
-            let mut dirs = Vec::new();
-            let mut ts = Vec::new();
-            for (i, (ray, _)) in rays.iter().enumerate() {
-                let mut t = vec![0.0; nc];
-                stratified_f32(ray.near, ray.far, Some(hash32((ci * 7919 + i) as u32)), &mut t);
-                pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
-                dirs.push(ray.viewdir.to_array());
-                ts.push(t);
+            self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
+            if ws.pos.is_empty() {
+                continue;
             }
-            net.forward(pc, &pos, &dirs, true, &mut acts);
+            net.forward(pc, &ws.pos, &ws.dirs, true, &mut acts);
             net.record_max_abs(&acts, &mut max_c);
-            max_pos = pos.iter().flatten().fold(max_pos, |m, v| m.max(v.abs()));
+            max_pos = ws.pos.iter().flatten().fold(max_pos, |m, v| m.max(v.abs()));
             if nf == 0 {
                 continue;
             }
             let mut pos_f = Vec::new();
             for (i, (ray, _)) in rays.iter().enumerate() {
                 let s = i * nc..(i + 1) * nc;
+                let ts = &ws.t_c[s.clone()];
                 let mut w = vec![0.0; nc];
-                composite(&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end], &ts[i], ray.dir_len, bg, &mut w);
+                composite(&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end], &ws.delta[s], bg, &mut w);
                 let (mut cdf, mut tf, mut all) = (vec![0.0; nc], vec![0.0; nf], vec![0.0; nc + nf]);
-                sample_pdf_f32(&ts[i], &w, |j| (j as f32 + 0.5) / nf as f32, &mut cdf, &mut tf);
-                merge_sorted(&ts[i], &tf, &mut all);
+                sample_pdf_f32(ts, &w, |j| (j as f32 + 0.5) / nf as f32, &mut cdf, &mut tf);
+                merge_sorted(ts, &tf, &mut all);
                 pos_f.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
             }
             let mut acts_f = Acts::default();
-            net.forward(pf, &pos_f, &dirs, true, &mut acts_f);
+            net.forward(pf, &pos_f, &ws.dirs, true, &mut acts_f);
             net.record_max_abs(&acts_f, &mut max_f);
         }
         (max_c, (nf > 0).then_some(max_f), max_pos)
@@ -337,6 +416,10 @@ impl Trainer {
     /// Restores a run from [`Trainer::to_bytes`].
     pub fn from_bytes(b: &[u8]) -> Option<Self> {
         let t: Self = postcard::from_bytes(b).ok()?;
-        (t.params.len() == t.adam.m.len() && t.cfg.validate().is_ok()).then_some(t)
+        let grid_ok = match &t.grid {
+            None => t.cfg.grid_res == 0,
+            Some(g) => g.res == t.cfg.grid_res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
+        };
+        (t.params.len() == t.adam.m.len() && t.cfg.validate().is_ok() && grid_ok).then_some(t)
     }
 }

@@ -8,16 +8,23 @@
 /// δ of the last sample (the paper's 1e10), also used by the f32 kernel.
 pub const LAST_DELTA: f32 = 1e10;
 
-/// Forward of one ray: writes each sample's weight into `w` and returns the
-/// composited colour. `t` sorted, `dir_len` = |d| (δ = Δt·|d|).
-pub fn composite(sigma: &[f32], rgb: &[f32], t: &[f32], dir_len: f32, bg: f32, w: &mut [f32]) -> [f32; 3] {
+/// Appends the δ of each sample of one ray to `out`: `δᵢ = (tᵢ₊₁ − tᵢ)·|d|`
+/// (world units) for sorted `t` and `dir_len = |d|`, [`LAST_DELTA`] for the last.
+pub fn push_deltas(t: &[f32], dir_len: f32, out: &mut Vec<f32>) {
     let n = t.len();
+    out.extend((0..n).map(|i| if i + 1 < n { (t[i + 1] - t[i]) * dir_len } else { LAST_DELTA }));
+}
+
+/// Forward of one ray: writes each sample's weight into `w` and returns the
+/// composited colour. `delta` holds each sample's δ in world units (see
+/// [`push_deltas`]; samples skipped in empty space simply are not there).
+pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: f32, w: &mut [f32]) -> [f32; 3] {
+    let n = delta.len();
     let mut trans = 1.0f32;
     let mut c = [0.0f32; 3];
     let mut acc = 0.0f32;
     for i in 0..n {
-        let delta = if i + 1 < n { (t[i + 1] - t[i]) * dir_len } else { LAST_DELTA };
-        let alpha = nerf_infer::composite::alpha_f32(sigma[i], delta);
+        let alpha = nerf_infer::composite::alpha_f32(sigma[i], delta[i]);
         let wi = trans * alpha;
         trans *= 1.0 - alpha;
         w[i] = wi;
@@ -35,15 +42,14 @@ pub fn composite(sigma: &[f32], rgb: &[f32], t: &[f32], dir_len: f32, bg: f32, w
 pub fn composite_back(
     sigma: &[f32],
     rgb: &[f32],
-    t: &[f32],
-    dir_len: f32,
+    delta: &[f32],
     bg: f32,
     w: &[f32],
     dc: [f32; 3],
     dsigma: &mut [f32],
     drgb: &mut [f32],
 ) {
-    let n = t.len();
+    let n = delta.len();
     // suffix[k] = Σ_{i>k} wᵢ (cᵢ − bg)·dc, and T_{k+1} = 1 − Σ_{i≤k} wᵢ.
     let mut suffix = 0.0f32;
     let total: f32 = w.iter().sum();
@@ -55,8 +61,8 @@ pub fn composite_back(
         }
         let t_next = (1.0 - prefix).max(0.0);
         let ds = t_next * ck - suffix;
-        let delta = if k + 1 < n { (t[k + 1] - t[k]) * dir_len } else { LAST_DELTA };
-        dsigma[k] = if sigma[k] > 0.0 && k + 1 < n { ds * delta } else { 0.0 };
+        // σ of a sample with δ = LAST_DELTA has no effect (α = 1 already)
+        dsigma[k] = if sigma[k] > 0.0 && delta[k] < LAST_DELTA { ds * delta[k] } else { 0.0 };
         suffix += w[k] * ck;
         prefix -= w[k];
     }
@@ -71,16 +77,18 @@ mod tests {
         let sigma = [0.0f32, 0.8, 2.5, -0.3, 1.2, 4.0];
         let rgb: Vec<f32> = (0..18).map(|i| ((i * 7) % 10) as f32 / 10.0).collect();
         let t = [2.0f32, 2.3, 2.7, 3.0, 3.4, 3.9];
+        let mut d = Vec::new();
+        push_deltas(&t, 1.3, &mut d);
         let dc = [0.7f32, -1.1, 0.4];
         let loss = |s: &[f32], c: &[f32]| {
             let mut w = [0.0; 6];
-            let col = composite(s, c, &t, 1.3, 1.0, &mut w);
+            let col = composite(s, c, &d, 1.0, &mut w);
             (0..3).map(|j| (col[j] * dc[j]) as f64).sum::<f64>()
         };
         let mut w = [0.0; 6];
-        composite(&sigma, &rgb, &t, 1.3, 1.0, &mut w);
+        composite(&sigma, &rgb, &d, 1.0, &mut w);
         let (mut ds, mut dr) = ([0.0; 6], [0.0; 18]);
-        composite_back(&sigma, &rgb, &t, 1.3, 1.0, &w, dc, &mut ds, &mut dr);
+        composite_back(&sigma, &rgb, &d, 1.0, &w, dc, &mut ds, &mut dr);
         let h = 1e-3;
         for k in 0..5 {
             if sigma[k] <= 0.0 {
@@ -107,7 +115,9 @@ mod tests {
         let rgb = [0.1f32, 0.2, 0.3, 0.9, 0.8, 0.7, 0.5, 0.5, 0.5, 0.0, 1.0, 0.0];
         let t = [1.0f32, 1.5, 2.5, 3.0];
         let mut w = [0.0; 4];
-        let c = composite(&sigma, &rgb, &t, 1.0, 0.0, &mut w);
+        let mut d = Vec::new();
+        push_deltas(&t, 1.0, &mut d);
+        let c = composite(&sigma, &rgb, &d, 0.0, &mut w);
         let mut k = nerf_infer::composite::CompositorF32::default();
         for i in 0..4 {
             let d = if i < 3 { t[i + 1] - t[i] } else { LAST_DELTA };

@@ -32,7 +32,10 @@ pub fn run(a: Args) -> CmdResult {
         "file": a.model.display().to_string(),
         "file_bytes": bytes.len(),
         "tensor_bytes": m.tensor_bytes(),
-        "format_version": nerf_infer::format::FORMAT_VERSION,
+        "format_version": m.format_version(),
+        "grid": m.grid.map(|g| serde_json::json!({
+            "res": g.res, "occupied_cells": g.occupied_cells(), "bytes": g.bits.len(),
+        })),
         "scheme": format!("{:?}", m.scheme()),
         "scene": { "bounds_min": m.scene.bounds_min, "bounds_max": m.scene.bounds_max, "near": m.scene.near, "far": m.scene.far,
                    "white_background": m.scene.white_background, "ndc": m.scene.ndc.is_some() },
@@ -53,7 +56,7 @@ pub fn run(a: Args) -> CmdResult {
     println!(
         "{}: NeRF model, format version {}, {} bytes ({} in tensors)",
         a.model.display(),
-        nerf_infer::format::FORMAT_VERSION,
+        m.format_version(),
         bytes.len(),
         m.tensor_bytes()
     );
@@ -86,6 +89,19 @@ pub fn run(a: Args) -> CmdResult {
         if m.scene.white_background { "white" } else { "black" },
         if m.scene.ndc.is_some() { ", NDC rays" } else { "" }
     );
+    match m.grid {
+        Some(g) => {
+            let cells = (g.res as usize).pow(3);
+            let occ = g.occupied_cells();
+            println!(
+                "  occupancy grid: {r}x{r}x{r}, {occ} of {cells} cells occupied ({:.1} %), {} bytes",
+                100.0 * occ as f64 / cells as f64,
+                g.bits.len(),
+                r = g.res
+            );
+        }
+        None => println!("  occupancy grid: none (every sample is evaluated)"),
+    }
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);
     println!("  parameters: {} per network", info["coarse"]["parameters"]);
     Ok(())

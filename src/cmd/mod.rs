@@ -3,6 +3,7 @@
 pub mod demo;
 pub mod eval;
 pub mod export;
+pub mod fit;
 pub mod info;
 pub mod render;
 pub mod runlog;

@@ -30,7 +30,7 @@ pub struct Args {
     /// Downscale images by this integer factor (area averaging).
     #[arg(long, default_value_t = 1)]
     downscale: u32,
-    /// Named configuration: `fast` (default, best in 10 CPU minutes) or `paper`.
+    /// Named configuration: `fast` (default), `grid` (occupancy grid, one network) or `paper`.
     #[arg(long, conflicts_with = "config")]
     preset: Option<String>,
     /// Configuration as JSON (fields of the preset to override; see README).
@@ -70,7 +70,9 @@ pub struct Args {
 
 fn load_config(a: &Args) -> Result<TrainConfig, String> {
     let cfg = match (&a.preset, &a.config) {
-        (Some(p), _) => TrainConfig::preset(p).ok_or_else(|| format!("unknown preset '{p}' (known: fast, paper)"))?,
+        (Some(p), _) => {
+            TrainConfig::preset(p).ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, paper)"))?
+        }
         (None, Some(path)) => {
             let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
             serde_json::from_str(&text).map_err(|e| format!("{}: invalid configuration: {e}", path.display()))?

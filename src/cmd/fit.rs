@@ -1,0 +1,226 @@
+//! `nerf fit`: sizes the model to the scene. Trains candidate
+//! configurations in order of cost (multiply-accumulates per sample, all
+//! with the occupancy grid), quantises each to the fixed-point path, scores
+//! it on the validation views, and keeps the first (cheapest) that reaches
+//! the target PSNR. Writes the table of what it tried.
+
+use super::{create_dir, eval, train, write_atomic, CmdResult, FormatArg};
+use clap::Parser;
+use nerf_infer::{Model, Scheme};
+use nerf_train::config::TrainConfig;
+use nerf_train::export::quantise;
+use nerf_train::mlp::Mlp;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `nerf fit`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Dataset directory (with validation views).
+    #[arg(long)]
+    data: PathBuf,
+    /// Dataset layout.
+    #[arg(long, value_enum, default_value = "auto")]
+    format: FormatArg,
+    /// Downscale images by this integer factor.
+    #[arg(long, default_value_t = 1)]
+    downscale: u32,
+    /// PSNR (dB) the fixed-point render must reach on the validation views.
+    #[arg(long)]
+    target_psnr: f64,
+    /// Training minutes per candidate.
+    #[arg(long, default_value_t = 10.0)]
+    minutes: f64,
+    /// Weight bits of the fixed-point model that is scored and timed.
+    #[arg(long, default_value = "8", value_parser = ["8", "16"])]
+    bits: String,
+    /// Early ray termination (transmittance threshold) of the scored render.
+    #[arg(long, default_value_t = 1e-3)]
+    early_stop: f32,
+    /// Run directory: one sub-directory per candidate, fit.csv, fit.md and
+    /// the chosen model.nerf (f32) and model_fixed.nerf.
+    #[arg(long)]
+    out: PathBuf,
+    /// Seed of every candidate's training.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads for training (0: all cores); timing uses one.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+/// The candidates, cheapest first: (name, configuration).
+pub fn candidates() -> Vec<(&'static str, TrainConfig)> {
+    let g = TrainConfig::grid();
+    let mut c = vec![
+        ("2x32-noview", TrainConfig { depth: 2, width: 32, pos_freqs: 6, view_dependent: false, ..g.clone() }),
+        ("3x48", TrainConfig { depth: 3, width: 48, view_width: 24, ..g.clone() }),
+        ("4x64", g.clone()),
+        ("6x96", TrainConfig { depth: 6, width: 96, view_width: 48, pos_freqs: 10, dir_freqs: 4, ..g }),
+    ];
+    c.sort_by_key(|(_, cfg)| macs(cfg));
+    c
+}
+
+/// Multiply-accumulates per sample of a configuration's network.
+pub fn macs(cfg: &TrainConfig) -> usize {
+    Mlp::new(cfg.topology(), cfg.encoding()).macs_per_sample()
+}
+
+/// `nerf train` with `cfg`, through its own argument parser.
+#[derive(Parser)]
+struct TrainCli {
+    #[command(flatten)]
+    a: train::Args,
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// One tried candidate.
+struct Row {
+    name: &'static str,
+    macs: usize,
+    steps: u32,
+    psnr_f32: f64,
+    psnr_fixed: f64,
+    us_per_ray: f64,
+    samples_per_ray: f64,
+    bytes: usize,
+}
+
+fn score(a: &Args, model: &Path, threads: usize) -> Result<serde_json::Value, String> {
+    let argv = [
+        "eval".into(),
+        s(model),
+        "--data".into(),
+        s(&a.data),
+        "--split".into(),
+        "val".into(),
+        "--downscale".into(),
+        a.downscale.to_string(),
+        "--threads".into(),
+        threads.to_string(),
+        "--early-stop".into(),
+        a.early_stop.to_string(),
+    ];
+    eval::evaluate(eval::Args::try_parse_from(argv).map_err(|e| e.to_string())?)
+}
+
+fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, String> {
+    let dir = a.out.join(name);
+    create_dir(&dir)?;
+    let cfg_path = dir.join("config.json");
+    write_atomic(&cfg_path, serde_json::to_string_pretty(cfg).map_err(|e| e.to_string())?.as_bytes())?;
+    let fmt = format!("{:?}", a.format).to_lowercase();
+    let argv = [
+        "train".to_string(),
+        "--data".into(),
+        s(&a.data),
+        "--format".into(),
+        fmt,
+        "--downscale".into(),
+        a.downscale.to_string(),
+        "--config".into(),
+        s(&cfg_path),
+        "--minutes".into(),
+        a.minutes.to_string(),
+        "--out".into(),
+        s(&dir),
+        "--seed".into(),
+        a.seed.to_string(),
+        "--threads".into(),
+        a.threads.to_string(),
+        "--val-views".into(),
+        "0".into(),
+    ];
+    train::run(TrainCli::try_parse_from(argv).map_err(|e| e.to_string())?.a)?;
+    let f32_path = dir.join("model.nerf");
+    let bytes = super::read_model(&f32_path)?;
+    let m = super::decode(&f32_path, &bytes)?;
+    let scheme = if a.bits == "16" { Scheme::I16 } else { Scheme::I8 };
+    let q = quantise(&m, scheme).and_then(|q| q.to_bytes().map_err(|e| e.to_string()));
+    let q = q.map_err(|e| format!("{}: {e}", f32_path.display()))?;
+    let fixed_path = dir.join("model_fixed.nerf");
+    write_atomic(&fixed_path, &q)?;
+    let rf = score(a, &f32_path, a.threads)?;
+    let rq = score(a, &fixed_path, 1)?;
+    let num = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    Ok(Row {
+        name,
+        macs: macs(cfg),
+        steps: Model::from_bytes(&q).map(|m| m.meta.iterations).unwrap_or(0),
+        psnr_f32: num(&rf, "psnr"),
+        psnr_fixed: num(&rq, "psnr"),
+        us_per_ray: num(&rq, "us_per_ray"),
+        samples_per_ray: num(&rq, "samples_per_ray"),
+        bytes: q.len(),
+    })
+}
+
+fn tables(rows: &[Row], bits: &str) -> (String, String) {
+    let mut csv =
+        String::from("name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes\n");
+    let mut md = format!(
+        "| candidate | MAC/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|\n"
+    );
+    for r in rows {
+        csv += &format!(
+            "{},{},{},{:.3},{:.3},{:.2},{:.2},{}\n",
+            r.name, r.macs, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes
+        );
+        md += &format!(
+            "| {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} |\n",
+            r.name, r.macs, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes
+        );
+    }
+    (csv, md)
+}
+
+/// Runs `nerf fit`.
+pub fn run(a: Args) -> CmdResult {
+    if !(a.minutes > 0.0 && a.minutes.is_finite() && a.target_psnr.is_finite()) {
+        return Err("--minutes must be positive and --target-psnr finite".into());
+    }
+    create_dir(&a.out)?;
+    let mut rows = Vec::new();
+    let mut chosen = None;
+    for (name, cfg) in candidates() {
+        println!("fit: training {name} ({} MAC/sample) for {} min", macs(&cfg), a.minutes);
+        let row = try_one(&a, name, &cfg)?;
+        println!(
+            "fit: {name}: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray",
+            a.bits, row.psnr_fixed, row.psnr_f32, row.us_per_ray, row.samples_per_ray
+        );
+        let reached = row.psnr_fixed >= a.target_psnr;
+        rows.push(row);
+        let (csv, md) = tables(&rows, &a.bits);
+        write_atomic(&a.out.join("fit.csv"), csv.as_bytes())?;
+        write_atomic(&a.out.join("fit.md"), md.as_bytes())?;
+        if reached {
+            chosen = Some(name);
+            break;
+        }
+    }
+    let (_, md) = tables(&rows, &a.bits);
+    println!("{md}");
+    let Some(name) = chosen else {
+        let best = rows.iter().map(|r| r.psnr_fixed).fold(f64::NEG_INFINITY, f64::max);
+        return Err(format!(
+            "no candidate reached {:.2} dB in {} min (best {best:.2} dB); table in {}",
+            a.target_psnr,
+            a.minutes,
+            a.out.join("fit.md").display()
+        ));
+    };
+    for f in ["model.nerf", "model_fixed.nerf"] {
+        let b = super::read_model(&a.out.join(name).join(f))?;
+        write_atomic(&a.out.join(f), &b)?;
+    }
+    println!(
+        "fit: chose {name}; wrote {} and {}",
+        a.out.join("model.nerf").display(),
+        a.out.join("model_fixed.nerf").display()
+    );
+    Ok(())
+}

@@ -1,0 +1,113 @@
+//! Empty-space skipping in the kernel: a grid with every cell occupied
+//! changes nothing (bit for bit, both numeric paths), an empty one renders
+//! the background without evaluating the network, and a half-empty one
+//! skips exactly the rays and samples in its clear half. Format: a model
+//! with a grid is version 2, one without stays version 1.
+
+mod support;
+
+use nerf_infer::format::Scheme;
+use nerf_infer::{
+    render_tile, Camera, Error, F32Renderer, FixedRenderer, Model, RenderOptions, ScratchF32, ScratchFixed, Tile,
+};
+use nerf_train::config::TrainConfig;
+use nerf_train::export::{quantise, random_model, OwnedModel};
+use support::*;
+
+const N: u32 = 16;
+
+/// Looks down −z from z = 4 with a narrow field of view: columns 0..8 see
+/// only x < 0 inside the bounds, columns 8..16 only x > 0.
+fn camera() -> Camera {
+    Camera::from_fov(N, N, 0.3, [[1., 0., 0., 0.], [0., 1., 0., 0.], [0., 0., 1., 4.]]).unwrap()
+}
+
+fn with_grid(m: &OwnedModel, grid: Option<(u16, Vec<u8>)>) -> Vec<u8> {
+    OwnedModel { grid, ..m.clone() }.to_bytes().unwrap()
+}
+
+/// (pixels as comparable integers, network evaluations) of both paths.
+fn render(bytes: &[u8]) -> (Vec<[u32; 3]>, u64) {
+    let m = Model::from_bytes(bytes).unwrap();
+    let opts = RenderOptions::from_model(&m);
+    let tile = Tile { x0: 0, y0: 0, width: N, height: N };
+    if m.scheme() == Scheme::F32 {
+        let r = F32Renderer::new(&m, opts).unwrap();
+        let mut s: ScratchF32 = ScratchF32::default();
+        let mut px = vec![Default::default(); tile.len()];
+        render_tile(&r, &camera(), tile, &mut s, &mut px).unwrap();
+        (px.iter().map(|p: &nerf_infer::Pixel| p.rgb.map(f32::to_bits)).collect(), s.evaluations)
+    } else {
+        let r = FixedRenderer::new(&m, opts).unwrap();
+        let mut s: ScratchFixed = ScratchFixed::default();
+        let mut px = vec![Default::default(); tile.len()];
+        render_tile(&r, &camera(), tile, &mut s, &mut px).unwrap();
+        (px.iter().map(|p: &nerf_infer::FixedPixel| p.rgb.map(|c| c as u32)).collect(), s.evaluations)
+    }
+}
+
+fn models() -> Vec<OwnedModel> {
+    let cfg = TrainConfig { n_fine: 0, n_coarse: 40, ..small_config() };
+    let f = random_model(&cfg, unit_scene(), 3, 6.0);
+    let fb = f.to_bytes().unwrap();
+    let m = Model::from_bytes(&fb).unwrap();
+    vec![f.clone(), quantise(&m, Scheme::I16).unwrap(), quantise(&m, Scheme::I8).unwrap()]
+}
+
+#[test]
+fn a_full_grid_changes_nothing_and_an_empty_one_shows_the_background() {
+    for m in models() {
+        let plain = with_grid(&m, None);
+        assert_eq!(u16::from_le_bytes([plain[4], plain[5]]), 1, "no grid: still format version 1");
+        let (base, evals) = render(&plain);
+        assert_eq!(evals, (N * N) as u64 * 40);
+        let full = with_grid(&m, Some((4, vec![0xFF; 8])));
+        assert_eq!(u16::from_le_bytes([full[4], full[5]]), 2);
+        assert_eq!(render(&full), (base.clone(), evals), "{:?}: a full grid changed the render", m.coarse.scheme);
+        let (bg, evals) = render(&with_grid(&m, Some((4, vec![0; 8]))));
+        assert_eq!(evals, 0);
+        let white = bg[0];
+        assert!(bg.iter().all(|p| *p == white));
+        assert_ne!(base, bg);
+    }
+}
+
+#[test]
+fn a_half_grid_skips_the_clear_half_only() {
+    for m in models() {
+        let (base, all) = render(&with_grid(&m, None));
+        let (bg, _) = render(&with_grid(&m, Some((2, vec![0]))));
+        // cells with x index 1 (x > 0) occupied: bits 1, 3, 5, 7
+        let (half, evals) = render(&with_grid(&m, Some((2, vec![0xAA]))));
+        for (k, p) in half.iter().enumerate() {
+            let expect = if k as u32 % N >= N / 2 { base[k] } else { bg[k] };
+            assert_eq!(*p, expect, "{:?}: pixel {k}", m.coarse.scheme);
+        }
+        assert_eq!(evals, all / 2);
+    }
+}
+
+#[test]
+fn a_grid_of_the_wrong_size_is_refused() {
+    let m = &models()[0];
+    for grid in [(4u16, vec![0xFF; 7]), (4, vec![0xFF; 9]), (0, vec![]), (257, vec![0; 2_122_945])] {
+        let mut bytes = OwnedModel { grid: None, ..m.clone() }.to_bytes().unwrap();
+        // write the payload by hand: validation in to_bytes would refuse it
+        let payload_len = u32::from_le_bytes(bytes[6..10].try_into().unwrap()) as usize;
+        let mut payload = bytes.split_off(14);
+        assert_eq!(payload.len(), payload_len);
+        payload.push(1);
+        payload.extend(postcard::to_stdvec(&nerf_infer::format::Occupancy { res: grid.0, bits: &grid.1 }).unwrap());
+        bytes[4..6].copy_from_slice(&2u16.to_le_bytes());
+        bytes[6..10].copy_from_slice(&(payload.len() as u32).to_le_bytes());
+        bytes[10..14].copy_from_slice(&nerf_infer::format::crc32(&payload).to_le_bytes());
+        bytes.extend(payload);
+        assert_eq!(
+            Model::from_bytes(&bytes).unwrap_err(),
+            Error::InvalidTopology("occupancy grid resolution or length"),
+            "res {}, {} bytes",
+            grid.0,
+            grid.1.len()
+        );
+    }
+}
