@@ -53,3 +53,38 @@ fn shipped_int16_and_int8_models_stay_within_their_bounds() {
     assert!(q8a8_f >= 30.0, "int8/8-bit activations vs f32 {q8a8_f:.2} dB < 30 dB");
     assert!(q8a8_gt >= f_gt - 1.0, "int8/8-bit activations lose {:.3} dB against ground truth", f_gt - q8a8_gt);
 }
+
+#[test]
+fn the_shipped_grid_model_renders_in_fixed_point_within_the_same_bounds() {
+    // scene_grid.nerf: one network and an occupancy grid (models/README.md);
+    // issue 6 holds its int8 render to 0.5 dB of the f32 one
+    let dir = std::env::temp_dir().join(format!("nerf-qbounds-grid-{}", std::process::id()));
+    write_blender(&dir, SceneSpec::default()).unwrap();
+    let test = load(&dir, Split::Test, LoadOptions::default()).unwrap();
+    let f = model("scene_grid.nerf");
+    let mf = Model::from_bytes(&f).unwrap();
+    let grid = mf.grid.expect("the grid model carries its grid");
+    assert!(mf.fine.is_none());
+    let q16 = quantise_acts(&mf, Scheme::I16, 16).unwrap().to_bytes().unwrap();
+    let q8 = quantise_acts(&mf, Scheme::I8, 16).unwrap().to_bytes().unwrap();
+    let (m16, m8) = (Model::from_bytes(&q16).unwrap(), Model::from_bytes(&q8).unwrap());
+    assert_eq!(m8.grid, Some(grid), "quantisation keeps the grid");
+    let (mut gt, mut rf, mut r16, mut r8) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut samples = 0.0;
+    for v in test.views.iter().take(3) {
+        gt.extend_from_slice(&v.rgb);
+        let r = nerf_train::eval::render_view(&mf, nerf_infer::RenderOptions::from_model(&mf), &v.camera).unwrap();
+        samples += r.samples_per_ray / 3.0;
+        rf.extend(r.rgb);
+        r16.extend(render(&m16, &v.camera));
+        r8.extend(render(&m8, &v.camera));
+    }
+    let (f_gt, q16_gt, q8_gt) = (psnr(&rf, &gt), psnr(&r16, &gt), psnr(&r8, &gt));
+    let (q16_f, q8_f) = (psnr(&r16, &rf), psnr(&r8, &rf));
+    println!("grid model: f32 {f_gt:.3} dB, int16 {q16_gt:.3} dB, int8 {q8_gt:.3} dB vs ground truth; int16 {q16_f:.2} dB, int8 {q8_f:.2} dB vs f32; {samples:.1} of {} samples per ray", mf.samples.coarse);
+    assert!(f_gt > 25.0, "the shipped grid model is not trained ({f_gt:.2} dB)");
+    assert!(samples < mf.samples.coarse as f64 / 4.0, "the grid skips too little: {samples:.1} samples per ray");
+    assert!(q16_f >= 45.0 && q16_gt >= f_gt - 0.1, "int16: {q16_f:.2} dB vs f32, {q16_gt:.3} vs {f_gt:.3} dB");
+    assert!(q8_f >= 30.0 && q8_gt >= f_gt - 0.5, "int8: {q8_f:.2} dB vs f32, {q8_gt:.3} vs {f_gt:.3} dB");
+    std::fs::remove_dir_all(&dir).ok();
+}

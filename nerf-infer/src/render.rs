@@ -193,8 +193,8 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
                     next = n;
                     break;
                 }
-                let p = ray.at(t[next]).to_array();
-                if t[next] >= span.0 && grid.is_none_or(|g| g.at_f32(p)) {
+                let p = (t[next] >= span.0).then(|| ray.at(t[next]).to_array());
+                if let Some(p) = p.filter(|&p| grid.is_none_or(|g| g.at_f32(p))) {
                     (idx[len], pos[len]) = (next, p);
                     len += 1;
                 } else if let Some(w) = weights.as_deref_mut() {
@@ -407,8 +407,8 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
                     next = n;
                     break;
                 }
-                let p = ray.at(t[next]);
-                if t[next] >= span.0 && grid.is_none_or(|g| g.at_fixed(p, NPOS_FRAC)) {
+                let p = (t[next] >= span.0).then(|| ray.at(t[next]));
+                if let Some(p) = p.filter(|&p| grid.is_none_or(|g| g.at_fixed(p, NPOS_FRAC))) {
                     (idx[len], pos[len]) = (next, p);
                     len += 1;
                 } else if let Some(w) = weights.as_deref_mut() {

@@ -60,18 +60,37 @@ pub fn stratified_f32(near: f32, far: f32, jitter: Option<u32>, out: &mut [f32])
 /// Fixed-point [`stratified_f32`]: `near`, `far` and `out` in Q16 (`far`
 /// below `near` reads as `near`).
 pub fn stratified_fixed(near: i32, far: i32, jitter: Option<u32>, out: &mut [i32]) {
-    let n = out.len() as i64;
+    let n = out.len();
+    if n < 2 {
+        out.fill(near);
+        return;
+    }
+    // lin(i) = near + ⌊span·i/(n−1)⌋, stepped exactly: quotient and
+    // remainder advance by those of span/(n−1) (no division per sample)
     let span = (far as i64 - near as i64).max(0);
-    let lin = |i: i64| if n < 2 { near } else { (near as i64 + span * i / (n - 1)) as i32 };
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = lin(i as i64);
+    let d = (n - 1) as i64;
+    let (step_q, step_r) = (span / d, span % d);
+    let (mut q, mut r) = (0i64, 0i64);
+    for o in out.iter_mut() {
+        *o = (near as i64 + q) as i32;
+        q += step_q;
+        r += step_r;
+        if r >= d {
+            q += 1;
+            r -= d;
+        }
     }
     if let Some(key) = jitter {
+        // each point moves inside its stratum, between the midpoints of its
+        // neighbours (out[i + 1] still holds lin(i + 1) when point i moves)
+        let mut prev = out[0] as i64;
         for i in 0..n {
-            let lo = if i == 0 { lin(0) as i64 } else { (lin(i - 1) as i64 + lin(i) as i64) >> 1 };
-            let hi = if i + 1 == n { lin(i) as i64 } else { (lin(i) as i64 + lin(i + 1) as i64) >> 1 };
-            let u = jitter_q16(key, i as usize) as i64;
-            out[i as usize] = (lo + (((hi - lo) * u) >> 16)) as i32;
+            let cur = out[i] as i64;
+            let lo = if i == 0 { cur } else { (prev + cur) >> 1 };
+            let hi = if i + 1 == n { cur } else { (cur + out[i + 1] as i64) >> 1 };
+            let u = jitter_q16(key, i) as i64;
+            out[i] = (lo + (((hi - lo) * u) >> 16)) as i32;
+            prev = cur;
         }
     }
 }
@@ -204,6 +223,20 @@ mod tests {
         sample_pdf_fixed(&tq, &wq, |j| ((j as u64 * 65536) / 31) as u32, &mut cq, &mut oq);
         for (a, b) in out.iter().zip(oq.iter()) {
             assert!((a - *b as f32 / 65536.0).abs() < 1e-3, "{a} vs {}", *b as f32 / 65536.0);
+        }
+    }
+
+    #[test]
+    fn stratified_fixed_steps_exactly() {
+        for &(near, far) in &[(0, 1), (131_072, 393_216), (7, 1_966_080_000), (5, 5), (100, 3)] {
+            for n in [2usize, 3, 7, 64, 192, 256] {
+                let mut out = [0i32; 256];
+                stratified_fixed(near, far, None, &mut out[..n]);
+                let span = (far as i64 - near as i64).max(0);
+                for i in 0..n {
+                    assert_eq!(out[i] as i64, near as i64 + span * i as i64 / (n as i64 - 1), "{near} {far} {n} {i}");
+                }
+            }
         }
     }
 }
