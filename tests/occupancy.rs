@@ -111,3 +111,30 @@ fn a_grid_of_the_wrong_size_is_refused() {
         );
     }
 }
+
+#[test]
+fn a_coarsened_grid_keeps_every_occupied_point() {
+    let mut m = models().remove(0);
+    // a sparse random 16³ grid
+    let bits: Vec<u8> = (0..512u32).map(|i| (nerf_infer::sampling::hash32(i) % 16 == 0) as u8).collect();
+    m.grid = Some((16, bits));
+    let fine = m.clone();
+    nerf_train::export::coarsen_grid(&mut m, 4).unwrap();
+    assert_eq!(m.grid.as_ref().unwrap().1.len(), 8);
+    assert!(nerf_train::export::coarsen_grid(&mut m.clone(), 3).is_err());
+    let (f, c) = (fine.grid.as_ref().unwrap(), m.grid.as_ref().unwrap());
+    let (f, c) = (
+        nerf_infer::format::Occupancy { res: f.0, bits: &f.1 },
+        nerf_infer::format::Occupancy { res: c.0, bits: &c.1 },
+    );
+    let mut both = 0;
+    for k in 0..20_000u32 {
+        let h = |j: u32| (nerf_infer::sampling::hash32(k * 3 + j) >> 8) as f32 / (1 << 23) as f32 - 1.0;
+        let p = [h(0), h(1), h(2)];
+        if f.at_f32(p) {
+            assert!(c.at_f32(p), "{p:?} occupied in the fine grid, clear in the coarse one");
+            both += 1;
+        }
+    }
+    assert!(both > 50 && c.occupied_cells() < 40, "{both} {}", c.occupied_cells());
+}

@@ -315,6 +315,31 @@ pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<Owne
     Ok(out)
 }
 
+/// The occupancy grid of `m` coarsened to `res` cells per axis (a divisor
+/// of the model's resolution): a coarse cell is occupied if any of the
+/// fine cells it covers is, so nothing occupied is ever skipped; only
+/// more empty space is sampled. Bits shrink by `(old/res)³`.
+pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
+    let Some((old, bits)) = &m.grid else {
+        return Err("the model has no occupancy grid".into());
+    };
+    let (old, new) = (*old as usize, res as usize);
+    if new == 0 || new > old || old % new != 0 {
+        return Err(format!("--grid-res {res} must divide the model's grid resolution {old}"));
+    }
+    let f = old / new;
+    let mut out = vec![0u8; nerf_infer::occupancy::grid_bytes(res)];
+    for i in 0..old * old * old {
+        if bits[i / 8] >> (i % 8) & 1 == 1 {
+            let (x, y, z) = (i % old / f, i / old % old / f, i / (old * old) / f);
+            let j = x + new * (y + new * z);
+            out[j / 8] |= 1 << (j % 8);
+        }
+    }
+    m.grid = Some((res, out));
+    Ok(())
+}
+
 /// A model with random weights for tests and benchmarks: He-uniform
 /// weights (PyTorch's default scaled by √6, so activations keep their
 /// magnitude through the layers and the image has structure), the density
