@@ -116,7 +116,7 @@ fn a_grid_of_the_wrong_size_is_refused() {
 fn a_coarsened_grid_keeps_every_occupied_point() {
     let mut m = models().remove(0);
     // a sparse random 16³ grid
-    let bits: Vec<u8> = (0..512u32).map(|i| (nerf_infer::sampling::hash32(i) % 16 == 0) as u8).collect();
+    let bits: Vec<u8> = (0..512u32).map(|i| nerf_infer::sampling::hash32(i).is_multiple_of(16) as u8).collect();
     m.grid = Some((16, bits));
     let fine = m.clone();
     nerf_train::export::coarsen_grid(&mut m, 4).unwrap();
