@@ -8,6 +8,9 @@
 //! Per tile: an 8×8 tile (64 rays) through `render_tile`, the entry point
 //! an embedding binary calls.
 //!
+//! Empty-space skipping: a whole view of the shipped grid model, with and
+//! without its occupancy grid and early termination (`frame/grid-model`).
+//!
 //! `cargo bench --bench per_ray` — criterion reports each time with its
 //! throughput in MAC/s (`thrpt`, elements = multiply-accumulates); compare
 //! with the machine's peak from `cargo bench --bench peak`.
@@ -17,7 +20,7 @@ use nerf_infer::format::{CameraConvention, Scene};
 use nerf_infer::tile::{render_tile, Tile};
 use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, Scheme, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{orbit_camera, quantise, random_model};
+use nerf_train::export::{orbit_camera, quantise, random_model, OwnedModel};
 use std::hint::black_box;
 
 fn scene() -> Scene {
@@ -109,5 +112,53 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+/// Empty-space skipping on the shipped grid model of the built-in scene
+/// (`models/scene_grid.nerf`, 4×64, 192 samples): a whole 32×32 orbit view
+/// (throughput in rays), f32 and int8, with the grid and with it removed,
+/// without and with early termination at 10⁻³.
+fn bench_grid(c: &mut Criterion) {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/scene_grid.nerf");
+    let f = std::fs::read(path).expect("models/scene_grid.nerf");
+    let mf = Model::from_bytes(&f).unwrap();
+    let owned = OwnedModel::from_model(&mf);
+    let q8 = quantise(&mf, Scheme::I8).unwrap();
+    let mut bytes = Vec::new();
+    for (label, m) in [("f32", &owned), ("int8", &q8)] {
+        bytes.push((format!("{label}/grid"), m.to_bytes().unwrap()));
+        bytes.push((format!("{label}/no-grid"), OwnedModel { grid: None, ..m.clone() }.to_bytes().unwrap()));
+    }
+    let cam = orbit_camera(&mf.scene, 0.2, 32, 32);
+    let frame = Tile { x0: 0, y0: 0, width: 32, height: 32 };
+    let mut g = c.benchmark_group("frame/grid-model");
+    g.sample_size(10).throughput(Throughput::Elements(frame.len() as u64));
+    for (label, b) in &bytes {
+        let m = Model::from_bytes(b).unwrap();
+        for ert in [0.0, 1e-3] {
+            let opts = RenderOptions { early_stop: ert, ..RenderOptions::from_model(&m) };
+            let name = if ert > 0.0 { format!("{label}/ert") } else { label.clone() };
+            if m.scheme() == Scheme::F32 {
+                let r = F32Renderer::new(&m, opts).unwrap();
+                let mut s = Box::<ScratchF32>::default();
+                let mut out = vec![Default::default(); frame.len()];
+                render_tile(&r, &cam, frame, &mut s, &mut out).unwrap();
+                println!("{name}: {:.1} samples per ray", s.evaluations as f64 / frame.len() as f64);
+                g.bench_function(name, |b| {
+                    b.iter(|| render_tile(&r, &cam, frame, &mut s, black_box(&mut out)).unwrap())
+                });
+            } else {
+                let r = FixedRenderer::new(&m, opts).unwrap();
+                let mut s = Box::<ScratchFixed>::default();
+                let mut out = vec![Default::default(); frame.len()];
+                render_tile(&r, &cam, frame, &mut s, &mut out).unwrap();
+                println!("{name}: {:.1} samples per ray", s.evaluations as f64 / frame.len() as f64);
+                g.bench_function(name, |b| {
+                    b.iter(|| render_tile(&r, &cam, frame, &mut s, black_box(&mut out)).unwrap())
+                });
+            }
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_grid);
 criterion_main!(benches);

@@ -7,7 +7,7 @@ use nerf_infer::{Model, RenderOptions};
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::score_view;
-use nerf_train::export::trainer_model;
+use nerf_train::export::{trainer_model, Prune};
 use nerf_train::rng::Rng;
 use nerf_train::train::Trainer;
 use support::small_config;
@@ -33,7 +33,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     assert_eq!(back.step, tr.step);
     // the exported model renders a validation view far better than a constant
     let calib = Trainer::draw_batch(&data, 512, &mut Rng::new(3));
-    let bytes = trainer_model(&tr, &calib).to_bytes().unwrap();
+    let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     let m = Model::from_bytes(&bytes).unwrap();
     let (_, s) = score_view(&m, RenderOptions::from_model(&m), &val.views[0]).unwrap();
     let white = vec![[1.0f32; 3]; val.views[0].rgb.len()];
@@ -135,7 +135,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     // the model file carries the grid (format version 2), no second network,
     // and renders the validation view well
     let calib = Trainer::draw_batch(&data, 512, &mut Rng::new(3));
-    let bytes = trainer_model(&tr, &calib).to_bytes().unwrap();
+    let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 2);
     let m = Model::from_bytes(&bytes).unwrap();
     assert!(m.fine.is_none());

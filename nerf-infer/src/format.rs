@@ -283,7 +283,8 @@ pub struct Model<'a> {
     #[serde(borrow)]
     pub fine: Option<Network<'a>>,
     /// Occupancy grid (format version 2): samples in clear cells are
-    /// skipped by both numeric paths.
+    /// skipped by both numeric paths. (Version 2 also lets trunk and view
+    /// layers be narrower than the topology: pruned neurons.)
     #[serde(borrow)]
     pub grid: Option<Occupancy<'a>>,
 }
@@ -319,6 +320,9 @@ impl<'a> Model<'a> {
             postcard::from_bytes(payload).map_err(|_| Error::Decode)?
         };
         model.validate()?;
+        if version == FORMAT_VERSION_NO_GRID && model.is_pruned() {
+            return Err(Error::InvalidTopology("pruned layers need format version 2"));
+        }
         Ok(model)
     }
 
@@ -332,9 +336,32 @@ impl<'a> Model<'a> {
         self.coarse.scheme
     }
 
-    /// The format version this model is written as: 2 with a grid, else 1.
+    /// True if a network has a layer narrower than the topology (pruned).
+    pub fn is_pruned(&self) -> bool {
+        let (t, e) = (&self.topology, &self.encoding);
+        core::iter::once(&self.coarse)
+            .chain(self.fine.as_ref())
+            .any(|n| n.layers.iter().enumerate().any(|(i, l)| l.out_dim as usize != expected_shape(t, e, i).1))
+    }
+
+    /// Tensor bytes the model would have without pruning.
+    pub fn unpruned_tensor_bytes(&self) -> usize {
+        let (t, e) = (&self.topology, &self.encoding);
+        let per_layer = |n: &Network<'_>, i: usize| {
+            let (din, dout) = expected_shape(t, e, i);
+            let b = n.scheme.weight_bytes();
+            din * dout * b + 4 * dout + if n.scheme.is_fixed() { 12 * dout } else { 0 }
+        };
+        core::iter::once(&self.coarse)
+            .chain(self.fine.as_ref())
+            .map(|n| (0..n.layers.len()).map(|i| per_layer(n, i)).sum::<usize>())
+            .sum()
+    }
+
+    /// The format version this model is written as: 2 with a grid or
+    /// pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.grid.is_some() {
+        if self.grid.is_some() || self.is_pruned() {
             FORMAT_VERSION
         } else {
             FORMAT_VERSION_NO_GRID
@@ -435,9 +462,10 @@ impl<'a> Model<'a> {
             return Err(Error::InvalidTopology("unsupported activation width"));
         }
         for (i, l) in n.layers.iter().enumerate() {
-            let (din, dout) = expected_shape(t, e, i);
+            let (din, dout) = pruned_shape(t, e, &n.layers, i);
             let idx = i as u8;
-            if l.in_dim as usize != din || l.out_dim as usize != dout {
+            let full = expected_shape(t, e, i).1;
+            if l.in_dim as usize != din || l.out_dim as usize != dout || dout == 0 || dout > full {
                 return Err(Error::LayerShape(idx));
             }
             if !(l.act_max.is_finite() && l.act_max >= 0.0) {
@@ -497,6 +525,40 @@ pub fn expected_shape(t: &Topology, e: &Encoding, i: usize) -> (usize, usize) {
         (1, false) => (w, 3),
         _ => (0, 0),
     }
+}
+
+/// Whether layer `i` may be narrower than the topology says: trunk layers
+/// and the view layer (ReLU outputs, pruned at export when never active).
+pub const fn prunable(t: &Topology, i: usize) -> bool {
+    i < t.depth as usize || (t.view_dependent && i == t.depth as usize + 2)
+}
+
+/// Input and output width layer `i` must have given the widths of the
+/// layers before it (format version 2: pruned layers are narrower).
+/// Output: the layer's own `out_dim` for prunable layers (checked to be in
+/// `1..=` the topology's width by the reader), the topology's otherwise.
+pub fn pruned_shape(t: &Topology, e: &Encoding, layers: &[Layer<'_>], i: usize) -> (usize, usize) {
+    let d = t.depth as usize;
+    let out = |k: usize| layers.get(k).map_or(0, |l| l.out_dim as usize);
+    let dout = if prunable(t, i) { out(i) } else { expected_shape(t, e, i).1 };
+    if i < d {
+        let din = if i == 0 {
+            e.pos_dim()
+        } else if t.is_skip(i) {
+            out(i - 1) + e.pos_dim()
+        } else {
+            out(i - 1)
+        };
+        return (din, dout);
+    }
+    let trunk = out(d - 1);
+    let din = match (i - d, t.view_dependent) {
+        (0, _) | (1, _) => trunk,
+        (2, true) => out(d + 1) + e.dir_dim(),
+        (3, true) => out(d + 2),
+        _ => 0,
+    };
+    (din, dout)
 }
 
 /// Checks magic, version, length and checksum; returns the version and the payload.
@@ -559,7 +621,7 @@ pub fn crc32(data: &[u8]) -> u32 {
 pub fn to_bytes(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
     model.validate()?;
     let mut payload = postcard::to_allocvec(model).map_err(|_| Error::Decode)?;
-    if model.grid.is_none() {
+    if model.format_version() == FORMAT_VERSION_NO_GRID {
         // version 1 is the same encoding without the trailing `None` byte
         payload.pop();
     }

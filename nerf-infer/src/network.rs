@@ -94,6 +94,11 @@ const TILE_S: usize = 4;
 /// Outputs per register tile.
 const TILE_C: usize = 32;
 
+/// Outputs per register tile of both kernels: a layer whose width is a
+/// multiple of this runs only whole tiles (the remainder takes a slower
+/// loop), so pruning at export keeps widths on this grain by default.
+pub const OUTPUT_TILE: usize = TILE_C;
+
 /// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
 /// samples and the outputs `c ≥ c_start`, `W` being `weights` with `od`
 /// outputs per row.
@@ -211,7 +216,7 @@ impl<const B: usize> BlockF32<B> {
         let mut enc = [0.0f32; ENC_MAX];
         let nd = encode_f32(viewdir, e.dir_freqs as usize, e.include_input, &mut enc);
         let od = l.out_dim as usize;
-        let w = t.width as usize;
+        let w = l.in_dim as usize - nd; // the feature layer's width
         for c in 0..od {
             self.view_bias[c] = read_f32(l.bias, c);
         }
@@ -232,28 +237,30 @@ impl<const B: usize> BlockF32<B> {
         for (s, p) in pos.iter().enumerate() {
             pd = encode_f32(*p, e.pos_freqs as usize, e.include_input, &mut self.enc[s]);
         }
-        let w = t.width as usize;
         let layers = &net.layers;
+        // layer widths come from the layers: pruned ones are narrower
+        let width = |k: usize| layers[k].out_dim as usize;
         // Trunk: h ← layer 0, then alternate between h and g.
         let l0 = &layers[0];
-        init_f32(|c| read_f32(l0.bias, c), w, n, &mut self.h);
+        init_f32(|c| read_f32(l0.bias, c), width(0), n, &mut self.h);
         accumulate_f32(l0, 0, &self.enc, pd, n, &mut self.h);
-        relu_f32(w, n, &mut self.h);
+        relu_f32(width(0), n, &mut self.h);
         let mut in_h = true;
         for (i, l) in layers.iter().enumerate().take(t.depth as usize).skip(1) {
             let (src, dst) = if in_h { (&self.h, &mut self.g) } else { (&self.g, &mut self.h) };
-            init_f32(|c| read_f32(l.bias, c), w, n, dst);
+            init_f32(|c| read_f32(l.bias, c), width(i), n, dst);
             let mut row0 = 0;
             if t.is_skip(i) {
                 accumulate_f32(l, 0, &self.enc, pd, n, dst);
                 row0 = pd;
             }
-            accumulate_f32(l, row0, src, w, n, dst);
-            relu_f32(w, n, dst);
+            accumulate_f32(l, row0, src, width(i - 1), n, dst);
+            relu_f32(width(i), n, dst);
             in_h = !in_h;
         }
         let (trunk, spare) = if in_h { (&mut self.h, &mut self.g) } else { (&mut self.g, &mut self.h) };
         let ls = &layers[sigma_layer(t)];
+        let w = width(sigma_layer(t) - 1);
         for s in 0..n {
             let mut acc = read_f32(ls.bias, 0);
             for j in 0..w {
@@ -266,13 +273,14 @@ impl<const B: usize> BlockF32<B> {
         }
         let (rgb_in, rgb_dim, lr) = if t.view_dependent {
             let lf = &layers[sigma_layer(t) + 1];
-            init_f32(|c| read_f32(lf.bias, c), w, n, spare);
+            let fw = lf.out_dim as usize;
+            init_f32(|c| read_f32(lf.bias, c), fw, n, spare);
             accumulate_f32(lf, 0, trunk, w, n, spare);
             let lv = &layers[sigma_layer(t) + 2];
-            let vw = t.view_width as usize;
+            let vw = lv.out_dim as usize;
             let vb = &self.view_bias;
             init_f32(|c| vb[c], vw, n, trunk);
-            accumulate_f32(lv, 0, spare, w, n, trunk);
+            accumulate_f32(lv, 0, spare, fw, n, trunk);
             relu_f32(vw, n, trunk);
             (&*trunk, vw, &layers[sigma_layer(t) + 3])
         } else {
@@ -552,7 +560,7 @@ impl<const B: usize> BlockFixed<B> {
         let mut enc = [0i16; ENC_MAX];
         let nd = encode_fixed(viewdir_q24, e.dir_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc);
         let od = l.out_dim as usize;
-        let w = t.width as usize;
+        let w = l.in_dim as usize - nd; // the feature layer's width
         for c in 0..od {
             let mut acc: W::Acc = W::from_i64(read_i32(l.bias, c) as i64);
             for (j, &a) in enc[..nd].iter().enumerate() {
@@ -575,8 +583,9 @@ impl<const B: usize> BlockFixed<B> {
         for (s, p) in pos.iter().enumerate() {
             pd = encode_fixed(*p, e.pos_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc[s]);
         }
-        let w = t.width as usize;
         let layers = &net.layers;
+        // layer widths come from the layers: pruned ones are narrower
+        let width = |k: usize| layers[k].out_dim as usize;
         // hidden activations: i16, or 8-bit (ReLU outputs u8, the linear
         // feature layer i8) when the network says so
         let (relu_max, lin_min, lin_max) = if net.act_bits == 8 { (255, -127, 127) } else { (32767, -32768, 32767) };
@@ -595,12 +604,13 @@ impl<const B: usize> BlockFixed<B> {
                 accumulate_int::<W, ENC_MAX>(l, 0, enc, pd, n, acc);
                 row0 = pd;
             }
-            accumulate_int::<W, MAX_WIDTH>(l, row0, src, w, n, acc);
+            accumulate_int::<W, MAX_WIDTH>(l, row0, src, width(i - 1), n, acc);
             requant_each::<W, i16>(l, n, acc, dst, relu);
             in_h = !in_h;
         }
         let (trunk, spare) = if in_h { (h, g) } else { (g, h) };
         let si = sigma_layer(t);
+        let w = width(si - 1);
         let ls = &layers[si];
         init_int::<W>(ls, None, n, acc);
         accumulate_int::<W, MAX_WIDTH>(ls, 0, trunk, w, n, acc);
@@ -618,9 +628,9 @@ impl<const B: usize> BlockFixed<B> {
             requant_each::<W, i16>(lf, n, acc, spare, linear);
             let lv = &layers[si + 2];
             init_int::<W>(lv, Some(view_acc), n, acc);
-            accumulate_int::<W, MAX_WIDTH>(lv, 0, spare, w, n, acc);
+            accumulate_int::<W, MAX_WIDTH>(lv, 0, spare, width(si + 1), n, acc);
             requant_each::<W, i16>(lv, n, acc, trunk, relu);
-            (&*trunk, t.view_width as usize, &layers[si + 3])
+            (&*trunk, width(si + 2), &layers[si + 3])
         } else {
             (&*trunk, w, &layers[si + 1])
         };

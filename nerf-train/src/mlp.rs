@@ -329,6 +329,27 @@ impl Mlp {
         }
     }
 
+    /// Marks in `active[l][c]` every ReLU output `c` of layer `l` (trunk and
+    /// view layer) that is positive for some sample of `a`; `active` holds
+    /// one `Vec` of the layer's width per layer.
+    pub fn record_active(&self, a: &Acts, active: &mut [Vec<bool>]) {
+        let mark = |v: &[f32], w: usize, act: &mut Vec<bool>| {
+            for row in v.chunks_exact(w) {
+                for (f, x) in act.iter_mut().zip(row) {
+                    *f |= *x > 0.0;
+                }
+            }
+        };
+        let d = self.topo.depth as usize;
+        for i in 0..d {
+            mark(&a.h[i][..a.s * self.slots[i].dout], self.slots[i].dout, &mut active[i]);
+        }
+        if self.topo.view_dependent && !a.view.is_empty() {
+            let vw = self.slots[d + 2].dout;
+            mark(&a.view[..a.s * vw], vw, &mut active[d + 2]);
+        }
+    }
+
     /// Multiply-accumulates of one forward evaluation (per sample), with
     /// the view layer's direction part counted per sample.
     pub fn macs_per_sample(&self) -> usize {

@@ -116,6 +116,22 @@ fn loss_gradients(
     sq
 }
 
+/// What [`Trainer::calibrate`] measures on calibration rays, per network
+/// (coarse, and fine if the run has one).
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// Largest |output| of every layer of the coarse network.
+    pub max_c: Vec<f32>,
+    /// The same for the fine network.
+    pub max_f: Option<Vec<f32>>,
+    /// Largest |normalised coordinate| met.
+    pub max_pos: f32,
+    /// Per layer and output: was this ReLU output ever positive (coarse)?
+    pub active_c: Vec<Vec<bool>>,
+    /// The same for the fine network.
+    pub active_f: Option<Vec<Vec<bool>>>,
+}
+
 /// A training ray and its ground-truth colour.
 pub type Sample = (Ray, [f32; 3]);
 
@@ -366,9 +382,10 @@ impl Trainer {
     }
 
     /// Largest |activation| of every layer of each network, measured on
-    /// `batch` with the training-time sampling (for quantisation), and the
-    /// largest |normalised coordinate| met.
-    pub fn calibrate(&self, batch: &[Sample]) -> (Vec<f32>, Option<Vec<f32>>, f32) {
+    /// `batch` with the training-time sampling (for quantisation), the
+    /// largest |normalised coordinate| met, and which ReLU outputs were
+    /// ever active (for pruning).
+    pub fn calibrate(&self, batch: &[Sample]) -> Calibration {
         let net = self.mlp();
         let nc = self.cfg.n_coarse as usize;
         let nf = self.cfg.n_fine as usize;
@@ -377,6 +394,8 @@ impl Trainer {
         let mut max_c = vec![0.0f32; net.slots.len()];
         let mut max_f = vec![0.0f32; net.slots.len()];
         let mut max_pos = 0.0f32;
+        let fresh = || net.slots.iter().map(|s| vec![false; s.dout]).collect::<Vec<_>>();
+        let (mut active_c, mut active_f) = (fresh(), fresh());
         let mut acts = Acts::default();
         let mut ws = Workspace::default();
         for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
@@ -386,6 +405,7 @@ impl Trainer {
             }
             net.forward(pc, &ws.pos, &ws.dirs, true, &mut acts);
             net.record_max_abs(&acts, &mut max_c);
+            net.record_active(&acts, &mut active_c);
             max_pos = ws.pos.iter().flatten().fold(max_pos, |m, v| m.max(v.abs()));
             if nf == 0 {
                 continue;
@@ -404,8 +424,15 @@ impl Trainer {
             let mut acts_f = Acts::default();
             net.forward(pf, &pos_f, &ws.dirs, true, &mut acts_f);
             net.record_max_abs(&acts_f, &mut max_f);
+            net.record_active(&acts_f, &mut active_f);
         }
-        (max_c, (nf > 0).then_some(max_f), max_pos)
+        Calibration {
+            max_c,
+            max_f: (nf > 0).then_some(max_f),
+            max_pos,
+            active_c,
+            active_f: (nf > 0).then_some(active_f),
+        }
     }
 
     /// Serialises the run (postcard) for a checkpoint.

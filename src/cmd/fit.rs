@@ -57,7 +57,7 @@ pub fn candidates() -> Vec<(&'static str, TrainConfig)> {
         ("3x32", TrainConfig { depth: 3, width: 32, ..g.clone() }),
         ("3x64", TrainConfig { depth: 3, ..g.clone() }),
         ("4x64", g.clone()),
-        ("6x96", TrainConfig { depth: 6, width: 96, view_width: 48, pos_freqs: 10, dir_freqs: 4, ..g }),
+        ("6x96", TrainConfig { depth: 6, width: 96, view_width: 32, pos_freqs: 10, dir_freqs: 4, ..g }),
     ];
     c.sort_by_key(|(_, cfg)| macs(cfg));
     c

@@ -32,6 +32,8 @@ pub fn run(a: Args) -> CmdResult {
         "file": a.model.display().to_string(),
         "file_bytes": bytes.len(),
         "tensor_bytes": m.tensor_bytes(),
+        "unpruned_tensor_bytes": m.unpruned_tensor_bytes(),
+        "pruned": m.is_pruned(),
         "format_version": m.format_version(),
         "grid": m.grid.map(|g| serde_json::json!({
             "res": g.res, "occupied_cells": g.occupied_cells(), "bytes": g.bits.len(),
@@ -104,5 +106,33 @@ pub fn run(a: Args) -> CmdResult {
     }
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);
     println!("  parameters: {} per network", info["coarse"]["parameters"]);
+    println!("  pruning: {}", pruning(&m));
     Ok(())
+}
+
+/// One line on pruning: the kept widths of the prunable layers and the
+/// tensor bytes before and after.
+fn pruning(m: &nerf_infer::Model<'_>) -> String {
+    let (after, before) = (m.tensor_bytes(), m.unpruned_tensor_bytes());
+    if !m.is_pruned() {
+        return format!("none (every neuron kept; {after} tensor bytes)");
+    }
+    let t = &m.topology;
+    let widths = |n: &nerf_infer::format::Network<'_>| {
+        let w: Vec<String> = (0..n.layers.len())
+            .filter(|&i| nerf_infer::format::prunable(t, i))
+            .map(|i| n.layers[i].out_dim.to_string())
+            .collect();
+        w.join("/")
+    };
+    let nets = match &m.fine {
+        Some(f) => format!("coarse {}, fine {}", widths(&m.coarse), widths(f)),
+        None => widths(&m.coarse),
+    };
+    format!(
+        "kept widths {nets} (of {}{}); tensor bytes {before} before, {after} after ({:.1} % fewer)",
+        t.width,
+        if t.view_dependent { format!(", view {}", t.view_width) } else { String::new() },
+        100.0 * (before - after) as f64 / before as f64
+    )
 }

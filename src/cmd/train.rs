@@ -7,7 +7,7 @@ use nerf_infer::{Model, RenderOptions};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::{Dataset, Split};
 use nerf_train::eval::score_view;
-use nerf_train::export::trainer_model;
+use nerf_train::export::{trainer_model, Prune};
 use nerf_train::rng::Rng;
 use nerf_train::train::Trainer;
 use std::path::{Path, PathBuf};
@@ -66,6 +66,30 @@ pub struct Args {
     /// Steps between lines of train.jsonl.
     #[arg(long, default_value_t = 10)]
     log_every: u64,
+    /// Neurons never active on the calibration rays that model.nerf drops.
+    #[arg(long, value_enum, default_value = "tiles")]
+    prune: PruneArg,
+}
+
+/// `--prune` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum PruneArg {
+    /// Keep every neuron.
+    Off,
+    /// Drop dead neurons in groups of 32 (layer widths stay on the kernels' register tile: no slowdown).
+    Tiles,
+    /// Drop every dead neuron (fewest bytes; widths off the 32 grain render slower on x86).
+    Exact,
+}
+
+impl From<PruneArg> for Prune {
+    fn from(p: PruneArg) -> Prune {
+        match p {
+            PruneArg::Off => Prune::Off,
+            PruneArg::Tiles => Prune::Tiles,
+            PruneArg::Exact => Prune::Exact,
+        }
+    }
 }
 
 fn load_config(a: &Args) -> Result<TrainConfig, String> {
@@ -93,7 +117,7 @@ fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
 
 /// Mean PSNR of the first `n` validation views rendered by the kernel's f32 path.
 fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::Sample]) -> Result<f64, String> {
-    let bytes = trainer_model(tr, calib).to_bytes().map_err(|e| e.to_string())?;
+    let bytes = trainer_model(tr, calib, Prune::Off).to_bytes().map_err(|e| e.to_string())?;
     let model = Model::from_bytes(&bytes).map_err(|e| e.to_string())?;
     let views = &val.views[..n.min(val.views.len())];
     let mut sum = 0.0;
@@ -103,9 +127,9 @@ fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::S
     Ok(sum / views.len() as f64)
 }
 
-fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample]) -> Result<(), String> {
+fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Prune) -> Result<(), String> {
     write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes())?;
-    let bytes = trainer_model(tr, calib).to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
+    let bytes = trainer_model(tr, calib, prune).to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
     write_atomic(&out.join("model.nerf"), &bytes)
 }
 
@@ -214,7 +238,7 @@ fn train(a: Args) -> CmdResult {
         });
         if INTERRUPTS.load(Ordering::SeqCst) > 0 {
             pb.finish_and_clear();
-            save(&tr, &a.out, &calib)?;
+            save(&tr, &a.out, &calib, a.prune.into())?;
             return Err(format!(
                 "interrupted at step {}: checkpoint saved to {}; continue with --resume",
                 tr.step,
@@ -222,12 +246,12 @@ fn train(a: Args) -> CmdResult {
             ));
         }
         if tr.elapsed - last_ckpt >= a.checkpoint_secs {
-            save(&tr, &a.out, &calib)?;
+            save(&tr, &a.out, &calib, a.prune.into())?;
             last_ckpt = tr.elapsed;
         }
     }
     pb.finish_and_clear();
-    save(&tr, &a.out, &calib)?;
+    save(&tr, &a.out, &calib, a.prune.into())?;
     let val_psnr = match &val {
         Some(v) => Some(validate(&tr, v, a.val_views, &calib[..256])?),
         None => None,
