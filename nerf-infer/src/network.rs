@@ -533,17 +533,12 @@ fn requant_each<W: IntWeight, T>(
     f: impl Fn(i64) -> T,
 ) {
     let od = l.out_dim as usize;
-    let mut c0 = 0;
-    while c0 < od {
-        // factors of 16 channels decoded once, applied sample by sample
-        let k = (od - c0).min(16);
-        let r: [Requant; 16] = core::array::from_fn(|i| l.requant(c0 + i.min(k - 1)));
-        for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
-            for i in 0..k {
-                o[c0 + i] = f(r[i].apply(a[c0 + i].into()));
-            }
+    let rq = &l.requant[..8 * od];
+    for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
+        for c in 0..od {
+            let r = Requant { multiplier: read_i32(rq, 2 * c), shift: read_i32(rq, 2 * c + 1) };
+            o[c] = f(r.apply(a[c].into()));
         }
-        c0 += k;
     }
 }
 

@@ -60,38 +60,69 @@ pub fn stratified_f32(near: f32, far: f32, jitter: Option<u32>, out: &mut [f32])
 /// Fixed-point [`stratified_f32`]: `near`, `far` and `out` in Q16 (`far`
 /// below `near` reads as `near`).
 pub fn stratified_fixed(near: i32, far: i32, jitter: Option<u32>, out: &mut [i32]) {
-    let n = out.len();
+    stratified_fixed_from(near, far, out.len(), jitter, 0, out);
+}
+
+/// Samples `first .. first + out.len()` of the `n` that [`stratified_fixed`]
+/// would place between `near` and `far` (Q16), bit-identical to those
+/// entries of its output: a ray clipped to the occupied box needs only the
+/// samples around the box. Requires `first + out.len() ≤ n`.
+pub fn stratified_fixed_from(near: i32, far: i32, n: usize, jitter: Option<u32>, first: usize, out: &mut [i32]) {
+    debug_assert!(first + out.len() <= n);
     if n < 2 {
         out.fill(near);
         return;
     }
-    // lin(i) = near + ⌊span·i/(n−1)⌋, stepped exactly: quotient and
-    // remainder advance by those of span/(n−1) (no division per sample)
-    let span = (far as i64 - near as i64).max(0);
-    let d = (n - 1) as i64;
-    let (step_q, step_r) = (span / d, span % d);
-    let (mut q, mut r) = (0i64, 0i64);
-    for o in out.iter_mut() {
-        *o = (near as i64 + q) as i32;
-        q += step_q;
-        r += step_r;
-        if r >= d {
-            q += 1;
-            r -= d;
-        }
+    let Some(key) = jitter else {
+        let mut lin = Linspace::new(near, far, n, first);
+        out.iter_mut().for_each(|o| *o = lin.next() as i32);
+        return;
+    };
+    // each point moves inside its stratum, between the midpoints of its
+    // neighbours: lin(i − 1), lin(i) and lin(i + 1) are kept in step
+    let mut lin = Linspace::new(near, far, n, first.saturating_sub(1));
+    let mut prev = lin.next();
+    let mut cur = if first == 0 { prev } else { lin.next() };
+    for (j, o) in out.iter_mut().enumerate() {
+        let i = first + j;
+        let next = if i + 1 < n { lin.next() } else { cur };
+        let lo = if i == 0 { cur } else { (prev + cur) >> 1 };
+        let hi = if i + 1 == n { cur } else { (cur + next) >> 1 };
+        let u = jitter_q16(key, i) as i64;
+        *o = (lo + (((hi - lo) * u) >> 16)) as i32;
+        (prev, cur) = (cur, next);
     }
-    if let Some(key) = jitter {
-        // each point moves inside its stratum, between the midpoints of its
-        // neighbours (out[i + 1] still holds lin(i + 1) when point i moves)
-        let mut prev = out[0] as i64;
-        for i in 0..n {
-            let cur = out[i] as i64;
-            let lo = if i == 0 { cur } else { (prev + cur) >> 1 };
-            let hi = if i + 1 == n { cur } else { (cur + out[i + 1] as i64) >> 1 };
-            let u = jitter_q16(key, i) as i64;
-            out[i] = (lo + (((hi - lo) * u) >> 16)) as i32;
-            prev = cur;
-        }
+}
+
+/// `lin(i) = near + ⌊span·i/(n−1)⌋` for `i = first, first + 1, …`, stepped
+/// exactly: quotient and remainder advance by those of `span/(n−1)` (no
+/// division per sample). Q16.
+struct Linspace {
+    near: i64,
+    d: i64,
+    step: (i64, i64),
+    q: i64,
+    r: i64,
+}
+
+impl Linspace {
+    fn new(near: i32, far: i32, n: usize, first: usize) -> Self {
+        let span = (far as i64 - near as i64).max(0);
+        let d = (n - 1) as i64;
+        let at = span * first as i64;
+        Self { near: near as i64, d, step: (span / d, span % d), q: at / d, r: at % d }
+    }
+
+    #[inline(always)]
+    fn next(&mut self) -> i64 {
+        let v = self.near + self.q;
+        self.q += self.step.0;
+        self.r += self.step.1;
+        // branch-free carry: the remainder's pattern defeats prediction
+        let carry = (self.r >= self.d) as i64;
+        self.q += carry;
+        self.r -= carry * self.d;
+        v
     }
 }
 
@@ -235,6 +266,30 @@ mod tests {
                 let span = (far as i64 - near as i64).max(0);
                 for i in 0..n {
                     assert_eq!(out[i] as i64, near as i64 + span * i as i64 / (n as i64 - 1), "{near} {far} {n} {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn any_run_of_stratified_samples_matches_the_whole_set() {
+        for &(near, far) in &[(0, 1), (131_072, 393_216), (7, 1_966_080_000), (5, 5), (-9, 70_000)] {
+            for n in [2usize, 3, 7, 192] {
+                for jitter in [None, Some(1), Some(0xdead_beef)] {
+                    let mut all = [0i32; 192];
+                    stratified_fixed(near, far, jitter, &mut all[..n]);
+                    for first in 0..n {
+                        for len in [0, 1, 2, n - first] {
+                            let len = len.min(n - first);
+                            let mut part = [0i32; 192];
+                            stratified_fixed_from(near, far, n, jitter, first, &mut part[..len]);
+                            assert_eq!(
+                                part[..len],
+                                all[first..first + len],
+                                "{near} {far} {n} {jitter:?} {first} {len}"
+                            );
+                        }
+                    }
                 }
             }
         }
