@@ -569,10 +569,21 @@ impl<const B: usize> BlockFixed<B> {
     /// Evaluates `net` at Q24 normalised positions `pos` (≤ `B`), filling
     /// `sigma` (Q10) and, if `need_rgb`, `rgb` (Q15). Integer only.
     pub fn eval<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[i32; 3]], need_rgb: bool) {
+        self.eval_density::<W>(model, net, pos);
+        if need_rgb {
+            let all: [usize; B] = core::array::from_fn(|k| k);
+            self.eval_colour::<W>(model, net, &all[..pos.len()]);
+        }
+    }
+
+    /// The trunk and density head at Q24 normalised positions `pos` (≤ `B`):
+    /// fills `sigma` (Q10) and keeps the trunk's output for
+    /// [`BlockFixed::eval_colour`].
+    pub fn eval_density<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[i32; 3]]) {
         let n = pos.len();
         let t = &model.topology;
         let e = &model.encoding;
-        let Self { enc, h, g, acc64, acc32, view_acc, sigma, rgb } = self;
+        let Self { enc, h, g, acc64, acc32, sigma, .. } = self;
         let acc = W::pick(acc64, acc32);
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
@@ -581,11 +592,7 @@ impl<const B: usize> BlockFixed<B> {
         let layers = &net.layers;
         // layer widths come from the layers: pruned ones are narrower
         let width = |k: usize| layers[k].out_dim as usize;
-        // hidden activations: i16, or 8-bit (ReLU outputs u8, the linear
-        // feature layer i8) when the network says so
-        let (relu_max, lin_min, lin_max) = if net.act_bits == 8 { (255, -127, 127) } else { (32767, -32768, 32767) };
-        let relu = |v: i64| v.clamp(0, relu_max) as i16;
-        let linear = |v: i64| v.clamp(lin_min, lin_max) as i16;
+        let relu = relu_of(net);
         let l0 = &layers[0];
         init_int::<W>(l0, None, n, acc);
         accumulate_int::<W, ENC_MAX>(l0, 0, enc, pd, n, acc);
@@ -603,19 +610,41 @@ impl<const B: usize> BlockFixed<B> {
             requant_each::<W, i16>(l, n, acc, dst, relu);
             in_h = !in_h;
         }
-        let (trunk, spare) = if in_h { (h, g) } else { (g, h) };
+        debug_assert_eq!(in_h, trunk_in_h(t.depth));
+        let trunk = if in_h { &*h } else { &*g };
         let si = sigma_layer(t);
-        let w = width(si - 1);
         let ls = &layers[si];
         init_int::<W>(ls, None, n, acc);
-        accumulate_int::<W, MAX_WIDTH>(ls, 0, trunk, w, n, acc);
+        accumulate_int::<W, MAX_WIDTH>(ls, 0, trunk, width(si - 1), n, acc);
         let rs = ls.requant(0);
         for s in 0..n {
             sigma[s] = sat_i32(rs.apply(acc[s][0].into()));
         }
-        if !need_rgb {
-            return;
+    }
+
+    /// The colour branch for samples `rows` (ascending, each < the count
+    /// given to the last [`BlockFixed::eval_density`]): `rgb[j]` (Q15) is the
+    /// colour of sample `rows[j]`. Samples whose weight is zero need none.
+    pub fn eval_colour<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, rows: &[usize]) {
+        let n = rows.len();
+        let t = &model.topology;
+        let Self { h, g, acc64, acc32, view_acc, rgb, .. } = self;
+        let acc = W::pick(acc64, acc32);
+        let (trunk, spare) = if trunk_in_h(t.depth) { (h, g) } else { (g, h) };
+        // gather the chosen rows to the front (rows[j] ≥ j: a forward copy)
+        let layers = &net.layers;
+        let width = |k: usize| layers[k].out_dim as usize;
+        let tw = width(sigma_layer(t) - 1);
+        for (j, &k) in rows.iter().enumerate() {
+            if k != j {
+                let (to, from) = trunk.split_at_mut(k);
+                to[j][..tw].copy_from_slice(&from[0][..tw]);
+            }
         }
+        let relu = relu_of(net);
+        let linear = linear_of(net);
+        let si = sigma_layer(t);
+        let w = width(si - 1);
         let (rgb_in, rgb_dim, lr) = if t.view_dependent {
             let lf = &layers[si + 1];
             init_int::<W>(lf, None, n, acc);
@@ -638,6 +667,25 @@ impl<const B: usize> BlockFixed<B> {
             }
         }
     }
+}
+
+/// The linear feature layer's saturation: i16, or i8 when the network
+/// says so.
+fn linear_of(net: &Network<'_>) -> impl Fn(i64) -> i16 + Copy {
+    let (min, max) = if net.act_bits == 8 { (-127, 127) } else { (-32768, 32767) };
+    move |v: i64| v.clamp(min, max) as i16
+}
+
+/// Whether the trunk of a `depth`-layer network ends in `h` (layers
+/// alternate `h`, `g`, `h`, … starting with `h`).
+fn trunk_in_h(depth: u8) -> bool {
+    depth % 2 == 1
+}
+
+/// The ReLU of hidden activations: i16, or u8 when the network says so.
+fn relu_of(net: &Network<'_>) -> impl Fn(i64) -> i16 + Copy {
+    let max = if net.act_bits == 8 { 255 } else { 32767 };
+    move |v: i64| v.clamp(0, max) as i16
 }
 
 #[cfg(test)]

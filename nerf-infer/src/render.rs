@@ -210,6 +210,13 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             *evaluations += len as u64;
             for k in 0..len {
                 let i = idx[k];
+                if comp.transmittance < self.opts.early_stop {
+                    // the ray stops before this sample (as in the fixed path)
+                    if let Some(ws) = weights.as_deref_mut() {
+                        idx[k..len].iter().for_each(|&i| ws[i] = 0.0);
+                    }
+                    break;
+                }
                 let delta = if i + 1 < n { (t[i + 1] - t[i]) * ray.dir_len } else { f32::INFINITY };
                 let rgb = if need_rgb { block.rgb[k] } else { [0.0; 3] };
                 let w = comp.add(block.sigma[k], delta, rgb, t[i]);
@@ -457,20 +464,45 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             if len == 0 {
                 break;
             }
-            block.eval::<W>(m, net, &pos[..len], need_rgb);
+            block.eval_density::<W>(m, net, &pos[..len]);
             *evaluations += len as u64;
-            for k in 0..len {
-                let i = idx[k];
-                let delta = if i + 1 < n {
+            let delta = |i: usize| {
+                if i + 1 < n {
                     let dt = t[i + 1] as i64 - t[i] as i64;
                     shr_round_i64(dt * ray.dir_len as i64, POS_FRAC).clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
                 } else {
                     DELTA_INF_Q16
+                }
+            };
+            // which samples are composited (the ray stops before the first
+            // one met with transmittance below the threshold) and which of
+            // those carry weight: only they need the colour branch
+            let (mut probe, mut used, mut rows, mut n_rows) = (comp, 0, [0usize; B], 0);
+            while used < len && probe.transmittance >= self.early_stop_q30 {
+                let w = probe.add(block.sigma[used], delta(idx[used]), [0; 3], 0);
+                rows[n_rows] = used;
+                n_rows += (need_rgb && w > 0) as usize;
+                used += 1;
+            }
+            if n_rows > 0 {
+                block.eval_colour::<W>(m, net, &rows[..n_rows]);
+            }
+            let mut j = 0;
+            for k in 0..used {
+                let rgb = if j < n_rows && rows[j] == k {
+                    j += 1;
+                    block.rgb[j - 1]
+                } else {
+                    [0; 3] // weight 0: the colour adds nothing
                 };
-                let rgb = if need_rgb { block.rgb[k] } else { [0; 3] };
-                let w = comp.add(block.sigma[k], delta, rgb, t[i]);
+                let w = comp.add(block.sigma[k], delta(idx[k]), rgb, t[idx[k]]);
                 if let Some(ws) = weights.as_deref_mut() {
-                    ws[i] = w;
+                    ws[idx[k]] = w;
+                }
+            }
+            if used < len {
+                if let Some(ws) = weights.as_deref_mut() {
+                    idx[used..len].iter().for_each(|&i| ws[i] = 0);
                 }
             }
         }
