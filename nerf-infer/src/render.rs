@@ -30,8 +30,9 @@ pub struct RenderOptions {
     /// Importance samples for the fine pass (0..=256; 0 renders the coarse
     /// network only; must be 0 if the model has no fine network).
     pub fine: usize,
-    /// Early ray termination: stop once transmittance < this (in `[0, 1)`;
-    /// 0 disables).
+    /// Early ray termination: a sample met with transmittance below this is
+    /// not composited, nor any after it (in `[0, 1)`; 0 disables). Decided
+    /// sample by sample, so the result does not depend on the block size.
     pub early_stop: f32,
     /// Jitter seed for stratified samples; `None` samples deterministically
     /// (evenly spaced, the paper's test-time sampling).
