@@ -7,22 +7,32 @@
 //!   multiply and add separate so results match targets without FMA);
 //! - `f32_fma`: `vfmadd231ps` on 16 lanes (the FPU's ceiling);
 //! - `i16_vnni`: `vpdpwssd`, 32 i16 multiply-accumulates per instruction
-//!   (the int8-weight kernel).
+//!   (the int8-weight kernel on AVX-512 VNNI);
+//! - `avx2_f32_mul_add`, `avx2_f32_fma`: the same on 8 lanes (AVX2 + FMA);
+//! - `avx2_i16_madd`: `vpmaddwd` + `vpaddd`, 16 i16 multiply-accumulates per
+//!   pair (the int8-weight kernel on AVX2 without VNNI).
+//!
+//! Each group is built when the target has its features
+//! (`target-cpu=native` in `.cargo/config.toml`).
 //!
 //! `cargo bench --bench peak` — `thrpt` is MAC/s (one thread).
+
+// a target with none of these features measures nothing
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_imports))]
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
 /// Loop trips per measured iteration.
 const TRIPS: u64 = 4096;
-/// Independent accumulators (enough to hide every latency).
-const ACCS: usize = 24;
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx512f", target_feature = "avx512vnni"))]
 mod x86 {
-    use super::{ACCS, TRIPS};
+    use super::TRIPS;
     use std::arch::x86_64::*;
     use std::hint::black_box;
+
+    /// Independent accumulators (enough to hide every latency; 32 registers).
+    pub const ACCS: usize = 24;
 
     type Step = fn(__m512, __m512, __m512) -> __m512;
 
@@ -79,17 +89,92 @@ mod x86 {
     }
 }
 
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2", target_feature = "fma"))]
+mod avx2 {
+    use super::TRIPS;
+    use std::arch::x86_64::*;
+    use std::hint::black_box;
+
+    /// Independent accumulators (16 registers).
+    pub const ACCS_AVX2: usize = 12;
+
+    type Step = fn(__m256, __m256, __m256) -> __m256;
+
+    /// Runs `step` on `ACCS_AVX2` accumulators `TRIPS` times; 8 lanes each.
+    #[inline(always)]
+    fn run_f32(step: Step) -> f32 {
+        // SAFETY: the module is compiled only with avx2 enabled.
+        unsafe {
+            let x = _mm256_set1_ps(black_box(0.999));
+            let w = _mm256_set1_ps(black_box(1e-6));
+            let mut acc = [_mm256_setzero_ps(); ACCS_AVX2];
+            for _ in 0..TRIPS {
+                for a in acc.iter_mut() {
+                    *a = step(*a, x, w);
+                }
+            }
+            let mut s = _mm256_setzero_ps();
+            for a in acc {
+                s = _mm256_add_ps(s, a);
+            }
+            let mut lanes = [0f32; 8];
+            _mm256_storeu_ps(lanes.as_mut_ptr(), s);
+            lanes.iter().sum()
+        }
+    }
+
+    pub fn f32_mul_add() -> f32 {
+        // SAFETY: avx2 is enabled for this build.
+        run_f32(|a, x, w| unsafe { _mm256_add_ps(_mm256_mul_ps(a, x), w) })
+    }
+
+    pub fn f32_fma() -> f32 {
+        // SAFETY: fma is enabled for this build.
+        run_f32(|a, x, w| unsafe { _mm256_fmadd_ps(a, x, w) })
+    }
+
+    pub fn i16_madd() -> i32 {
+        // SAFETY: avx2 is enabled for this build.
+        unsafe {
+            let x = _mm256_set1_epi32(black_box(0x0001_0001));
+            let w = _mm256_set1_epi32(black_box(0x0001_0001));
+            let mut acc = [_mm256_setzero_si256(); ACCS_AVX2];
+            for _ in 0..TRIPS {
+                for a in acc.iter_mut() {
+                    *a = _mm256_add_epi32(*a, _mm256_madd_epi16(x, w));
+                }
+            }
+            let mut s = _mm256_setzero_si256();
+            for a in acc {
+                s = _mm256_add_epi32(s, a);
+            }
+            let mut lanes = [0i32; 8];
+            _mm256_storeu_si256(lanes.as_mut_ptr().cast(), s);
+            lanes.iter().sum()
+        }
+    }
+}
+
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("peak");
     g.sample_size(30);
     #[cfg(all(target_arch = "x86_64", target_feature = "avx512f", target_feature = "avx512vnni"))]
     {
-        let per = TRIPS * ACCS as u64;
+        let per = TRIPS * x86::ACCS as u64;
         g.throughput(Throughput::Elements(per * 16));
         g.bench_function("f32_mul_add", |b| b.iter(x86::f32_mul_add));
         g.bench_function("f32_fma", |b| b.iter(x86::f32_fma));
         g.throughput(Throughput::Elements(per * 32));
         g.bench_function("i16_vnni", |b| b.iter(x86::i16_vnni));
+    }
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2", target_feature = "fma"))]
+    {
+        let per = TRIPS * avx2::ACCS_AVX2 as u64;
+        g.throughput(Throughput::Elements(per * 8));
+        g.bench_function("avx2_f32_mul_add", |b| b.iter(avx2::f32_mul_add));
+        g.bench_function("avx2_f32_fma", |b| b.iter(avx2::f32_fma));
+        g.throughput(Throughput::Elements(per * 16));
+        g.bench_function("avx2_i16_madd", |b| b.iter(avx2::i16_madd));
     }
     g.finish();
 }

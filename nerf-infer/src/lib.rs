@@ -42,7 +42,7 @@
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
-// Unsafe code only in `vnni` (SIMD loads and stores of checked slices).
+// Unsafe code only in `vnni` and `avx2` (SIMD loads and stores of checked slices).
 #![deny(unsafe_code)]
 // Numeric kernels index several arrays by the same sample/channel index;
 // iterator chains would hide that symmetry.
@@ -51,6 +51,12 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+))]
+mod avx2;
 pub mod camera;
 pub mod composite;
 pub mod encoding;

@@ -314,7 +314,7 @@ pub trait IntWeight {
     fn from_i64(b: i64) -> Self::Acc;
     /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for a layer at
     /// least 32 outputs wide: the portable register-tiled kernel; int8
-    /// weights use AVX-512 VNNI where the build enables it.
+    /// weights use AVX-512 VNNI or AVX2 where the build enables it.
     #[inline]
     fn accumulate_wide<const N: usize>(
         l: &Layer<'_>,
@@ -327,6 +327,26 @@ pub trait IntWeight {
         Self: Sized,
     {
         accumulate::<MacInt<Self>, N>(l.weights, l.out_dim as usize, 0, row0, input, in_dim, n, acc);
+    }
+    /// `out[s][c] = clamp(requantised acc[s][c], lo, hi)` for the first
+    /// `n` samples and every output of `l` (the portable loop; int8 weights
+    /// use AVX2 where the build enables it without AVX-512 VNNI).
+    #[inline]
+    fn requant_rows(
+        l: &Layer<'_>,
+        n: usize,
+        acc: &[[Self::Acc; MAX_WIDTH]],
+        out: &mut [[i16; MAX_WIDTH]],
+        (lo, hi): (i16, i16),
+    ) {
+        let od = l.out_dim as usize;
+        let rq = &l.requant[..8 * od];
+        for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
+            for c in 0..od {
+                let r = Requant { multiplier: read_i32(rq, 2 * c), shift: read_i32(rq, 2 * c + 1) };
+                o[c] = r.apply(a[c].into()).clamp(lo as i64, hi as i64) as i16;
+            }
+        }
     }
     /// Picks this type's accumulator buffer.
     fn pick<'a, const B: usize>(
@@ -390,6 +410,42 @@ impl IntWeight for W8 {
         let od = l.out_dim as usize;
         crate::vnni::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc);
         accumulate::<MacInt<W8>, N>(l.weights, od, od - od % TILE_C, row0, input, in_dim, n, acc);
+    }
+    /// AVX2 `vpmaddwd` for whole groups of 8 outputs, the portable loop for
+    /// the rest.
+    #[cfg(all(
+        target_arch = "x86_64",
+        target_feature = "avx2",
+        not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+    ))]
+    #[inline]
+    fn accumulate_wide<const N: usize>(
+        l: &Layer<'_>,
+        row0: usize,
+        input: &[[i16; N]],
+        in_dim: usize,
+        n: usize,
+        acc: &mut [[i32; MAX_WIDTH]],
+    ) {
+        let od = l.out_dim as usize;
+        crate::avx2::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc);
+        let done = od - od % crate::avx2::TILE_C;
+        accumulate::<MacInt<W8>, N>(l.weights, od, done, row0, input, in_dim, n, acc);
+    }
+    #[cfg(all(
+        target_arch = "x86_64",
+        target_feature = "avx2",
+        not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+    ))]
+    #[inline]
+    fn requant_rows(
+        l: &Layer<'_>,
+        n: usize,
+        acc: &[[i32; MAX_WIDTH]],
+        out: &mut [[i16; MAX_WIDTH]],
+        bounds: (i16, i16),
+    ) {
+        crate::avx2::requant_i32(l.requant, l.out_dim as usize, n, acc, out, bounds);
     }
     #[inline(always)]
     fn decode(b: &[u8]) -> i32 {
@@ -523,25 +579,6 @@ fn init_int<W: IntWeight>(l: &Layer<'_>, view: Option<&[i64; MAX_WIDTH]>, n: usi
     }
 }
 
-/// Requantises accumulators into `out` with `f(requantised value)`.
-#[inline]
-fn requant_each<W: IntWeight, T>(
-    l: &Layer<'_>,
-    n: usize,
-    acc: &[[W::Acc; MAX_WIDTH]],
-    out: &mut [[T; MAX_WIDTH]],
-    f: impl Fn(i64) -> T,
-) {
-    let od = l.out_dim as usize;
-    let rq = &l.requant[..8 * od];
-    for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
-        for c in 0..od {
-            let r = Requant { multiplier: read_i32(rq, 2 * c), shift: read_i32(rq, 2 * c + 1) };
-            o[c] = f(r.apply(a[c].into()));
-        }
-    }
-}
-
 impl<const B: usize> BlockFixed<B> {
     /// Per-ray setup: folds the encoded direction (Q24 unit vector) into the
     /// view layer's accumulator bias. No-op without the view branch.
@@ -592,11 +629,11 @@ impl<const B: usize> BlockFixed<B> {
         let layers = &net.layers;
         // layer widths come from the layers: pruned ones are narrower
         let width = |k: usize| layers[k].out_dim as usize;
-        let relu = relu_of(net);
+        let relu = relu_bounds(net);
         let l0 = &layers[0];
         init_int::<W>(l0, None, n, acc);
         accumulate_int::<W, ENC_MAX>(l0, 0, enc, pd, n, acc);
-        requant_each::<W, i16>(l0, n, acc, h, relu);
+        W::requant_rows(l0, n, acc, h, relu);
         let mut in_h = true;
         for (i, l) in layers.iter().enumerate().take(t.depth as usize).skip(1) {
             let (src, dst) = if in_h { (&*h, &mut *g) } else { (&*g, &mut *h) };
@@ -607,7 +644,7 @@ impl<const B: usize> BlockFixed<B> {
                 row0 = pd;
             }
             accumulate_int::<W, MAX_WIDTH>(l, row0, src, width(i - 1), n, acc);
-            requant_each::<W, i16>(l, n, acc, dst, relu);
+            W::requant_rows(l, n, acc, dst, relu);
             in_h = !in_h;
         }
         debug_assert_eq!(in_h, trunk_in_h(t.depth));
@@ -641,19 +678,19 @@ impl<const B: usize> BlockFixed<B> {
                 to[j][..tw].copy_from_slice(&from[0][..tw]);
             }
         }
-        let relu = relu_of(net);
-        let linear = linear_of(net);
+        let relu = relu_bounds(net);
+        let linear = linear_bounds(net);
         let si = sigma_layer(t);
         let w = width(si - 1);
         let (rgb_in, rgb_dim, lr) = if t.view_dependent {
             let lf = &layers[si + 1];
             init_int::<W>(lf, None, n, acc);
             accumulate_int::<W, MAX_WIDTH>(lf, 0, trunk, w, n, acc);
-            requant_each::<W, i16>(lf, n, acc, spare, linear);
+            W::requant_rows(lf, n, acc, spare, linear);
             let lv = &layers[si + 2];
             init_int::<W>(lv, Some(view_acc), n, acc);
             accumulate_int::<W, MAX_WIDTH>(lv, 0, spare, width(si + 1), n, acc);
-            requant_each::<W, i16>(lv, n, acc, trunk, relu);
+            W::requant_rows(lv, n, acc, trunk, relu);
             (&*trunk, width(si + 2), &layers[si + 3])
         } else {
             (&*trunk, w, &layers[si + 1])
@@ -671,9 +708,12 @@ impl<const B: usize> BlockFixed<B> {
 
 /// The linear feature layer's saturation: i16, or i8 when the network
 /// says so.
-fn linear_of(net: &Network<'_>) -> impl Fn(i64) -> i16 + Copy {
-    let (min, max) = if net.act_bits == 8 { (-127, 127) } else { (-32768, 32767) };
-    move |v: i64| v.clamp(min, max) as i16
+fn linear_bounds(net: &Network<'_>) -> (i16, i16) {
+    if net.act_bits == 8 {
+        (-127, 127)
+    } else {
+        (i16::MIN, i16::MAX)
+    }
 }
 
 /// Whether the trunk of a `depth`-layer network ends in `h` (layers
@@ -683,9 +723,8 @@ fn trunk_in_h(depth: u8) -> bool {
 }
 
 /// The ReLU of hidden activations: i16, or u8 when the network says so.
-fn relu_of(net: &Network<'_>) -> impl Fn(i64) -> i16 + Copy {
-    let max = if net.act_bits == 8 { 255 } else { 32767 };
-    move |v: i64| v.clamp(0, max) as i16
+fn relu_bounds(net: &Network<'_>) -> (i16, i16) {
+    (0, if net.act_bits == 8 { 255 } else { i16::MAX })
 }
 
 #[cfg(test)]
@@ -693,7 +732,7 @@ mod tests {
     extern crate std;
     use super::*;
 
-    /// The dispatching integer kernel (VNNI where built, heads as dot
+    /// The dispatching integer kernel (VNNI or AVX2 where built, heads as dot
     /// products) against the plain triple loop, over the shapes the format
     /// allows: odd and even inputs, narrow and wide outputs, short tiles.
     fn check_against_naive<W: IntWeight>() {
@@ -705,8 +744,8 @@ mod tests {
             h
         };
         for &in_dim in &[1usize, 2, 51, 64, 79, 255, 256] {
-            for &od in &[1usize, 3, 32, 48, 64, 256] {
-                for &n in &[1usize, 3, 8] {
+            for &od in &[1usize, 3, 32, 40, 48, 64, 256] {
+                for &n in &[1usize, 3, 5, 8] {
                     let row0 = (next() % 3) as usize;
                     let rows = row0 + in_dim;
                     let weights: std::vec::Vec<u8> = (0..rows * od * W::BYTES).map(|_| next() as u8).collect();
@@ -738,6 +777,72 @@ mod tests {
                                 }
                             }
                             assert_eq!(acc[s][c].into(), want, "in {in_dim} out {od} n {n} s {s} c {c}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The requantiser in use for int8 accumulators (AVX2 where built)
+    /// against `Requant::apply` and a clamp, over every shift, multipliers
+    /// at the ends of their range, accumulators at the ends of i32, and the
+    /// ReLU and linear bounds of both activation widths.
+    #[test]
+    fn int8_requantisation_matches_requant_apply() {
+        let mut h = 0x2545_f491u32;
+        let mut next = move || {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            h
+        };
+        let od = 67; // 16 groups of 4 and a remainder
+        let mut acc = [[0i32; MAX_WIDTH]; 8];
+        let edges = [i32::MIN, i32::MIN + 1, -1, 0, 1, i32::MAX];
+        for (s, row) in acc.iter_mut().enumerate() {
+            for (c, a) in row[..od].iter_mut().enumerate() {
+                *a = if (s + c) % 5 == 0 { edges[(s * 7 + c) % edges.len()] } else { next() as i32 >> (next() % 31) };
+            }
+        }
+        for shift in Requant::MIN_SHIFT..=Requant::MAX_SHIFT {
+            let mut requant = std::vec::Vec::new();
+            let factors: std::vec::Vec<Requant> = (0..od)
+                .map(|c| {
+                    let multiplier = match c % 4 {
+                        0 => 1 << 30,
+                        1 => i32::MAX,
+                        2 if shift == 0 => 0,
+                        _ => (1 << 30) + (next() as i32 & 0x3fff_ffff),
+                    };
+                    Requant { multiplier, shift }
+                })
+                .collect();
+            for r in &factors {
+                requant.extend_from_slice(&r.multiplier.to_le_bytes());
+                requant.extend_from_slice(&r.shift.to_le_bytes());
+            }
+            let l = Layer {
+                in_dim: 1,
+                out_dim: od as u16,
+                act_max: 0.0,
+                weights: &[],
+                bias: &[],
+                scales: &[],
+                requant: &requant,
+            };
+            for bounds in [(0, i16::MAX), (0, 255), (i16::MIN, i16::MAX), (-127, 127)] {
+                for n in [1, 5, 8] {
+                    let mut out = [[0x5555i16; MAX_WIDTH]; 8];
+                    W8::requant_rows(&l, n, &acc, &mut out, bounds);
+                    for s in 0..8 {
+                        for c in 0..od {
+                            let want = if s < n {
+                                factors[c].apply(acc[s][c] as i64).clamp(bounds.0 as i64, bounds.1 as i64) as i16
+                            } else {
+                                0x5555
+                            };
+                            assert_eq!(out[s][c], want, "shift {shift} bounds {bounds:?} n {n} s {s} c {c}");
                         }
                     }
                 }
