@@ -21,7 +21,7 @@ use crate::format::{read_i32, MAX_INPUT, MAX_WIDTH};
 /// Samples per register tile.
 const TILE_S: usize = 8;
 /// Outputs per register (8 i32 lanes).
-pub(crate) const TILE_C: usize = 8;
+const TILE_C: usize = 8;
 const MAX_PAIRS: usize = MAX_INPUT.div_ceil(2);
 
 /// Interleaved weights of rows `ja` and `jb` for outputs `c0..c0 + 8`,
@@ -36,9 +36,19 @@ fn pair_weights(weights: &[u8], od: usize, ja: usize, jb: usize, c0: usize) -> _
     _mm256_cvtepi8_epi16(_mm_unpacklo_epi8(a, b))
 }
 
-/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for `s < n` and the
-/// outputs `c < od - od % 8`, `W` being int8 `weights` with `od` outputs
-/// per row (the caller does the rest).
+/// [`pair_weights`] for the last `od - c0 < 8` outputs, the missing ones 0.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn pair_weights_tail(weights: &[u8], od: usize, ja: usize, jb: usize, c0: usize) -> __m256i {
+    let (mut a, mut b) = ([0u8; TILE_C], [0u8; TILE_C]);
+    a[..od - c0].copy_from_slice(&weights[ja * od + c0..(ja + 1) * od]);
+    b[..od - c0].copy_from_slice(&weights[jb * od + c0..(jb + 1) * od]);
+    let (a, b) = (_mm_set1_epi64x(i64::from_le_bytes(a)), _mm_set1_epi64x(i64::from_le_bytes(b)));
+    _mm256_cvtepi8_epi16(_mm_unpacklo_epi8(a, b))
+}
+
+/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for `s < n` and every
+/// output `c < od`, `W` being int8 `weights` with `od` outputs per row.
 #[inline]
 pub(crate) fn accumulate_i8<const N: usize>(
     weights: &[u8],
@@ -96,8 +106,8 @@ fn pair<const N: usize>(r: &[i16; N], p: usize, in_dim: usize) -> i32 {
     (r[2 * p] as u16 as u32 | hi << 16) as i32
 }
 
-/// One tile of `S` samples over every whole group of 8 outputs, summing
-/// the input pairs `live_p` whose values per sample are `live_x`.
+/// One tile of `S` samples over all `od` outputs, 8 at a time, summing the
+/// input pairs `live_p` whose values per sample are `live_x`.
 #[target_feature(enable = "avx2")]
 fn tile<const S: usize>(
     weights: &[u8],
@@ -108,17 +118,17 @@ fn tile<const S: usize>(
     live_x: &[[i32; TILE_S]],
     out: &mut [[i32; MAX_WIDTH]],
 ) {
+    // rows `ja`, `jb` of input pair `p`
+    let rows = |p: u16| {
+        let ja = row0 + 2 * p as usize;
+        (ja, if 2 * p as usize + 1 < in_dim { ja + 1 } else { ja })
+    };
     let mut c0 = 0;
     while c0 + TILE_C <= od {
-        let mut acc = [_mm256_setzero_si256(); S];
-        for (&p, xs) in live_p.iter().zip(live_x) {
-            let ja = row0 + 2 * p as usize;
-            let jb = if 2 * p as usize + 1 < in_dim { ja + 1 } else { ja };
-            let w = pair_weights(weights, od, ja, jb, c0);
-            for s in 0..S {
-                acc[s] = _mm256_add_epi32(acc[s], _mm256_madd_epi16(_mm256_set1_epi32(xs[s]), w));
-            }
-        }
+        let acc = sums::<S>(live_p, live_x, |p| {
+            let (ja, jb) = rows(p);
+            pair_weights(weights, od, ja, jb, c0)
+        });
         for (a, row) in acc.iter().zip(out.iter_mut()) {
             let dst = &mut row[c0..c0 + TILE_C];
             // SAFETY: `dst` is 8 i32 long.
@@ -128,6 +138,37 @@ fn tile<const S: usize>(
             }
         }
         c0 += TILE_C;
+    }
+    if c0 < od {
+        // a pruned width off the 8 grain: one short group
+        let acc = sums::<S>(live_p, live_x, |p| {
+            let (ja, jb) = rows(p);
+            pair_weights_tail(weights, od, ja, jb, c0)
+        });
+        for (a, row) in acc.iter().zip(out.iter_mut()) {
+            let mut sum = [0i32; TILE_C];
+            // SAFETY: `sum` is 8 i32 long.
+            unsafe { _mm256_storeu_si256(sum.as_mut_ptr().cast(), *a) };
+            for (o, x) in row[c0..od].iter_mut().zip(sum) {
+                *o += x;
+            }
+        }
+    }
+}
+
+/// `Σ_p madd(x_s[p], w(p))` over the live pairs, for each of `S` samples.
+#[inline(always)]
+fn sums<const S: usize>(live_p: &[u16], live_x: &[[i32; TILE_S]], w: impl Fn(u16) -> __m256i) -> [__m256i; S] {
+    // SAFETY: only called from `tile`, which requires AVX2.
+    unsafe {
+        let mut acc = [_mm256_setzero_si256(); S];
+        for (&p, xs) in live_p.iter().zip(live_x) {
+            let w = w(p);
+            for s in 0..S {
+                acc[s] = _mm256_add_epi32(acc[s], _mm256_madd_epi16(_mm256_set1_epi32(xs[s]), w));
+            }
+        }
+        acc
     }
 }
 
