@@ -13,7 +13,6 @@
 #![allow(unsafe_code)]
 
 use core::arch::x86_64::*;
-use core::mem::MaybeUninit;
 
 use crate::fixed::Requant;
 use crate::format::{read_i32, MAX_INPUT, MAX_WIDTH};
@@ -22,27 +21,36 @@ use crate::format::{read_i32, MAX_INPUT, MAX_WIDTH};
 const TILE_S: usize = 8;
 /// Outputs per register (8 i32 lanes).
 const TILE_C: usize = 8;
-const MAX_PAIRS: usize = MAX_INPUT.div_ceil(2);
+const MAX_PAIRS: usize = MAX_INPUT / 2;
 
 /// Interleaved weights of rows `ja` and `jb` for outputs `c0..c0 + 8`,
-/// sign-extended to i16.
+/// sign-extended to i16; `jb = None` pairs row `ja` with zeros.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn pair_weights(weights: &[u8], od: usize, ja: usize, jb: usize, c0: usize) -> __m256i {
+fn pair_weights(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, c0: usize) -> __m256i {
     let a = &weights[ja * od + c0..ja * od + c0 + TILE_C];
-    let b = &weights[jb * od + c0..jb * od + c0 + TILE_C];
-    // SAFETY: both slices are 8 bytes long (checked by the indexing above).
-    let (a, b) = unsafe { (_mm_loadl_epi64(a.as_ptr().cast()), _mm_loadl_epi64(b.as_ptr().cast())) };
+    // SAFETY: `a` is 8 bytes long (checked by the indexing above).
+    let a = unsafe { _mm_loadl_epi64(a.as_ptr().cast()) };
+    let b = match jb {
+        Some(jb) => {
+            let b = &weights[jb * od + c0..jb * od + c0 + TILE_C];
+            // SAFETY: as for `a`.
+            unsafe { _mm_loadl_epi64(b.as_ptr().cast()) }
+        }
+        None => _mm_setzero_si128(),
+    };
     _mm256_cvtepi8_epi16(_mm_unpacklo_epi8(a, b))
 }
 
 /// [`pair_weights`] for the last `od - c0 < 8` outputs, the missing ones 0.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn pair_weights_tail(weights: &[u8], od: usize, ja: usize, jb: usize, c0: usize) -> __m256i {
+fn pair_weights_tail(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, c0: usize) -> __m256i {
     let (mut a, mut b) = ([0u8; TILE_C], [0u8; TILE_C]);
     a[..od - c0].copy_from_slice(&weights[ja * od + c0..(ja + 1) * od]);
-    b[..od - c0].copy_from_slice(&weights[jb * od + c0..(jb + 1) * od]);
+    if let Some(jb) = jb {
+        b[..od - c0].copy_from_slice(&weights[jb * od + c0..(jb + 1) * od]);
+    }
     let (a, b) = (_mm_set1_epi64x(i64::from_le_bytes(a)), _mm_set1_epi64x(i64::from_le_bytes(b)));
     _mm256_cvtepi8_epi16(_mm_unpacklo_epi8(a, b))
 }
@@ -60,75 +68,61 @@ pub(crate) fn accumulate_i8<const N: usize>(
     out: &mut [[i32; MAX_WIDTH]],
 ) {
     let mut live_p = [0u16; MAX_PAIRS];
-    // written up to the live count before each use (no 5 KiB zeroing per call)
-    let mut live_x = [MaybeUninit::<[i32; TILE_S]>::uninit(); MAX_PAIRS];
     let mut s0 = 0;
     while s0 < n {
         let sn = (n - s0).min(TILE_S);
         let rows = &input[s0..s0 + sn];
-        // the input pairs of each sample, keeping only the pairs that are
-        // non-zero for some sample
-        let mut live = 0;
-        for p in 0..in_dim.div_ceil(2) {
-            let mut xs = [0i32; TILE_S];
-            for (x, r) in xs.iter_mut().zip(rows) {
-                *x = pair(r, p, in_dim);
+        // the inputs that are non-zero for some sample, then the pairs
+        // (2p, 2p + 1) that hold one; an odd last input goes alone
+        let mut any = rows[0];
+        for r in &rows[1..] {
+            for (a, &x) in any[..in_dim].iter_mut().zip(&r[..in_dim]) {
+                *a |= x;
             }
-            live_p[live] = p as u16;
-            live_x[live] = MaybeUninit::new(xs);
-            live += xs.iter().any(|&x| x != 0) as usize;
         }
-        // SAFETY: entries 0..live were written in the loop above.
-        let x: &[[i32; TILE_S]] = unsafe { core::slice::from_raw_parts(live_x.as_ptr().cast(), live) };
+        let mut live = 0;
+        for p in 0..in_dim / 2 {
+            live_p[live] = p as u16;
+            live += (any[2 * p] | any[2 * p + 1] != 0) as usize;
+        }
+        let odd = in_dim % 2 == 1 && any[in_dim - 1] != 0;
         let (p, out) = (&live_p[..live], &mut out[s0..s0 + sn]);
         // SAFETY: this module is compiled only with AVX2 enabled.
         unsafe {
             match sn {
-                1 => tile::<1>(weights, od, row0, in_dim, p, x, out),
-                2 => tile::<2>(weights, od, row0, in_dim, p, x, out),
-                3 => tile::<3>(weights, od, row0, in_dim, p, x, out),
-                4 => tile::<4>(weights, od, row0, in_dim, p, x, out),
-                5 => tile::<5>(weights, od, row0, in_dim, p, x, out),
-                6 => tile::<6>(weights, od, row0, in_dim, p, x, out),
-                7 => tile::<7>(weights, od, row0, in_dim, p, x, out),
-                _ => tile::<8>(weights, od, row0, in_dim, p, x, out),
+                1 => tile::<1, N>(weights, od, row0, in_dim, p, odd, rows, out),
+                2 => tile::<2, N>(weights, od, row0, in_dim, p, odd, rows, out),
+                3 => tile::<3, N>(weights, od, row0, in_dim, p, odd, rows, out),
+                4 => tile::<4, N>(weights, od, row0, in_dim, p, odd, rows, out),
+                5 => tile::<5, N>(weights, od, row0, in_dim, p, odd, rows, out),
+                6 => tile::<6, N>(weights, od, row0, in_dim, p, odd, rows, out),
+                7 => tile::<7, N>(weights, od, row0, in_dim, p, odd, rows, out),
+                _ => tile::<8, N>(weights, od, row0, in_dim, p, odd, rows, out),
             }
         }
         s0 += TILE_S;
     }
 }
 
-/// Inputs `2p` (low half) and `2p + 1` (high half, 0 past `in_dim`) of a
-/// sample as one i32.
-#[inline(always)]
-fn pair<const N: usize>(r: &[i16; N], p: usize, in_dim: usize) -> i32 {
-    let hi = if 2 * p + 1 < in_dim { r[2 * p + 1] as u16 as u32 } else { 0 };
-    (r[2 * p] as u16 as u32 | hi << 16) as i32
-}
-
-/// One tile of `S` samples over all `od` outputs, 8 at a time, summing the
-/// input pairs `live_p` whose values per sample are `live_x`.
+/// One tile of `S` samples (`rows`) over all `od` outputs, 8 at a time,
+/// summing the input pairs `live_p` (each `< in_dim / 2`) and, if `odd`,
+/// the odd last input.
+#[allow(clippy::too_many_arguments)]
 #[target_feature(enable = "avx2")]
-fn tile<const S: usize>(
+fn tile<const S: usize, const N: usize>(
     weights: &[u8],
     od: usize,
     row0: usize,
     in_dim: usize,
     live_p: &[u16],
-    live_x: &[[i32; TILE_S]],
+    odd: bool,
+    rows: &[[i16; N]],
     out: &mut [[i32; MAX_WIDTH]],
 ) {
-    // rows `ja`, `jb` of input pair `p`
-    let rows = |p: u16| {
-        let ja = row0 + 2 * p as usize;
-        (ja, if 2 * p as usize + 1 < in_dim { ja + 1 } else { ja })
-    };
+    let rows: &[[i16; N]; S] = rows.try_into().expect("S rows");
     let mut c0 = 0;
     while c0 + TILE_C <= od {
-        let acc = sums::<S>(live_p, live_x, |p| {
-            let (ja, jb) = rows(p);
-            pair_weights(weights, od, ja, jb, c0)
-        });
+        let acc = group::<S, N, false>(weights, od, row0, in_dim, live_p, odd, rows, c0);
         for (a, row) in acc.iter().zip(out.iter_mut()) {
             let dst = &mut row[c0..c0 + TILE_C];
             // SAFETY: `dst` is 8 i32 long.
@@ -141,10 +135,7 @@ fn tile<const S: usize>(
     }
     if c0 < od {
         // a pruned width off the 8 grain: one short group
-        let acc = sums::<S>(live_p, live_x, |p| {
-            let (ja, jb) = rows(p);
-            pair_weights_tail(weights, od, ja, jb, c0)
-        });
+        let acc = group::<S, N, true>(weights, od, row0, in_dim, live_p, odd, rows, c0);
         for (a, row) in acc.iter().zip(out.iter_mut()) {
             let mut sum = [0i32; TILE_C];
             // SAFETY: `sum` is 8 i32 long.
@@ -156,16 +147,46 @@ fn tile<const S: usize>(
     }
 }
 
-/// `Σ_p madd(x_s[p], w(p))` over the live pairs, for each of `S` samples.
+/// The sums of one group of 8 outputs from `c0` (fewer if `TAIL`) for `S`
+/// samples.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn sums<const S: usize>(live_p: &[u16], live_x: &[[i32; TILE_S]], w: impl Fn(u16) -> __m256i) -> [__m256i; S] {
+fn group<const S: usize, const N: usize, const TAIL: bool>(
+    weights: &[u8],
+    od: usize,
+    row0: usize,
+    in_dim: usize,
+    live_p: &[u16],
+    odd: bool,
+    rows: &[[i16; N]; S],
+    c0: usize,
+) -> [__m256i; S] {
     // SAFETY: only called from `tile`, which requires AVX2.
     unsafe {
+        let weights_of = |ja: usize, jb: Option<usize>| {
+            if TAIL {
+                pair_weights_tail(weights, od, ja, jb, c0)
+            } else {
+                pair_weights(weights, od, ja, jb, c0)
+            }
+        };
         let mut acc = [_mm256_setzero_si256(); S];
-        for (&p, xs) in live_p.iter().zip(live_x) {
-            let w = w(p);
+        for &p in live_p {
+            let j = 2 * p as usize;
+            let w = weights_of(row0 + j, Some(row0 + j + 1));
             for s in 0..S {
-                acc[s] = _mm256_add_epi32(acc[s], _mm256_madd_epi16(_mm256_set1_epi32(xs[s]), w));
+                // inputs j and j + 1 < in_dim ≤ N as one i32 (low half j)
+                let (lo, hi) = (rows[s][j] as u16 as u32, rows[s][j + 1] as u16 as u32);
+                let x = (lo | hi << 16) as i32;
+                acc[s] = _mm256_add_epi32(acc[s], _mm256_madd_epi16(_mm256_set1_epi32(x), w));
+            }
+        }
+        if odd {
+            let j = in_dim - 1;
+            let w = weights_of(row0 + j, None);
+            for s in 0..S {
+                let x = _mm256_set1_epi32(rows[s][j] as u16 as i32);
+                acc[s] = _mm256_add_epi32(acc[s], _mm256_madd_epi16(x, w));
             }
         }
         acc
@@ -203,17 +224,17 @@ fn requant_avx2(
     let low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
     let mut c0 = 0;
     while c0 + 4 <= od {
-        let f: [Requant; 4] = core::array::from_fn(|k| factor(c0 + k));
-        let bits = f.map(|r| (31 + r.shift) as u32 & 63);
-        let m = _mm256_setr_epi64x(
-            f[0].multiplier as i64,
-            f[1].multiplier as i64,
-            f[2].multiplier as i64,
-            f[3].multiplier as i64,
+        // channel c's (multiplier, shift) pair as one 64-bit lane: the
+        // multiply reads the low half, the shift is the high half
+        let f = &rq[8 * c0..8 * c0 + 32];
+        // SAFETY: `f` is 32 bytes long.
+        let m = unsafe { _mm256_loadu_si256(f.as_ptr().cast()) };
+        // (31 + shift) & 63 with the shift taken as u32: 2³² vanishes mod 64
+        let bits = _mm256_and_si256(
+            _mm256_add_epi64(_mm256_srli_epi64::<32>(m), _mm256_set1_epi64x(31)),
+            _mm256_set1_epi64x(63),
         );
-        let round = bits.map(|b| (1i64 << b) >> 1);
-        let round = _mm256_setr_epi64x(round[0], round[1], round[2], round[3]);
-        let bits = _mm256_setr_epi64x(bits[0] as i64, bits[1] as i64, bits[2] as i64, bits[3] as i64);
+        let round = _mm256_srli_epi64::<1>(_mm256_sllv_epi64(_mm256_set1_epi64x(1), bits));
         for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
             let src = &a[c0..c0 + 4];
             // SAFETY: `src` is 4 i32 (16 bytes) long.
