@@ -136,12 +136,13 @@ mod avx2 {
     pub fn i16_madd() -> i32 {
         // SAFETY: avx2 is enabled for this build.
         unsafe {
-            let x = _mm256_set1_epi32(black_box(0x0001_0001));
             let w = _mm256_set1_epi32(black_box(0x0001_0001));
-            let mut acc = [_mm256_setzero_si256(); ACCS_AVX2];
+            let mut acc = [_mm256_set1_epi32(black_box(1)); ACCS_AVX2];
             for _ in 0..TRIPS {
                 for a in acc.iter_mut() {
-                    *a = _mm256_add_epi32(*a, _mm256_madd_epi16(x, w));
+                    // the accumulator is also the multiplicand, so the
+                    // product cannot be hoisted out of the loop
+                    *a = _mm256_add_epi32(*a, _mm256_madd_epi16(*a, w));
                 }
             }
             let mut s = _mm256_setzero_si256();
