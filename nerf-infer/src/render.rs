@@ -169,10 +169,9 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         evaluations: &mut u64,
     ) -> Pixel {
         let m = self.model;
-        if need_rgb {
-            // the view branch only feeds colour; a density-only pass skips it
-            block.prepare_ray(m, net, ray.viewdir.to_array());
-        }
+        // the view branch only feeds colour (a density-only pass skips it),
+        // folded in before the first block (many rays have none)
+        let mut prepared = !need_rgb;
         let mut comp = CompositorF32::default();
         let grid = m.grid.as_ref();
         let n = t.len();
@@ -206,6 +205,10 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             }
             if len == 0 {
                 break;
+            }
+            if !prepared {
+                block.prepare_ray(m, net, ray.viewdir.to_array());
+                prepared = true;
             }
             block.eval(m, net, &pos[..len], need_rgb);
             *evaluations += len as u64;
@@ -427,9 +430,9 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         evaluations: &mut u64,
     ) -> FixedPixel {
         let m = self.model;
-        if need_rgb {
-            block.prepare_ray::<W>(m, net, ray.viewdir);
-        }
+        // the view direction's part of the colour branch, folded in at the
+        // first sample that needs colour (many rays have none)
+        let mut prepared = false;
         let mut comp = CompositorFixed::default();
         let grid = m.grid.as_ref();
         let n = t.len();
@@ -486,6 +489,10 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
                 used += 1;
             }
             if n_rows > 0 {
+                if !prepared {
+                    block.prepare_ray::<W>(m, net, ray.viewdir);
+                    prepared = true;
+                }
                 block.eval_colour::<W>(m, net, &rows[..n_rows]);
             }
             let mut j = 0;
