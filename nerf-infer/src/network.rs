@@ -539,8 +539,20 @@ fn accumulate_int<W: IntWeight, const N: usize>(
     acc: &mut [[W::Acc; MAX_WIDTH]],
 ) {
     let od = l.out_dim as usize;
+    if od == 1 {
+        // the density head: contiguous weights, a dot product that vectorises
+        let w = &l.weights[row0 * W::BYTES..(row0 + in_dim) * W::BYTES];
+        for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
+            let mut sum = W::Acc::default();
+            for (&x, w) in x[..in_dim].iter().zip(w.chunks_exact(W::BYTES)) {
+                sum += W::mul(x, w);
+            }
+            a[0] += sum;
+        }
+        return;
+    }
     if od < TILE_C {
-        // the density and colour heads: one dot product per output
+        // the colour head: one dot product per output
         for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
             for c in 0..od {
                 let mut sum = W::Acc::default();
