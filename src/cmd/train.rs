@@ -78,7 +78,7 @@ pub enum PruneArg {
     Off,
     /// Drop dead neurons in groups of 32 (layer widths stay on the kernels' register tile: no slowdown).
     Tiles,
-    /// Drop every dead neuron (fewest bytes; widths off the 32 grain render slower on x86).
+    /// Drop every dead neuron (fewest bytes; widths off the 32 grain render slower with AVX-512 VNNI).
     Exact,
 }
 
