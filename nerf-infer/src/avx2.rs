@@ -14,8 +14,7 @@
 
 use core::arch::x86_64::*;
 
-use crate::fixed::Requant;
-use crate::format::{read_i32, MAX_INPUT, MAX_WIDTH};
+use crate::format::{Layer, MAX_INPUT, MAX_WIDTH};
 
 /// Samples per register tile.
 const TILE_S: usize = 8;
@@ -194,31 +193,22 @@ fn group<const S: usize, const N: usize, const TAIL: bool>(
 }
 
 /// `out[s][c] = clamp((acc[s][c] · m_c + 2^(n_c − 1)) >> n_c, lo, hi)` for
-/// `s < n`, `c < od`: [`crate::fixed::Requant::apply`] on i32 accumulators
-/// (`rq` holds the layer's multiplier and shift pairs), four channels per
-/// register in 64-bit lanes.
+/// `s < n` and every output `c` of `l`: [`crate::fixed::Requant::apply`]
+/// on i32 accumulators, four channels per register in 64-bit lanes.
 pub(crate) fn requant_i32(
-    rq: &[u8],
-    od: usize,
+    l: &Layer<'_>,
     n: usize,
     acc: &[[i32; MAX_WIDTH]],
     out: &mut [[i16; MAX_WIDTH]],
     (lo, hi): (i16, i16),
 ) {
     // SAFETY: this module is compiled only with AVX2 enabled.
-    unsafe { requant_avx2(rq, od, n, acc, out, (lo, hi)) }
+    unsafe { requant_avx2(l, n, acc, out, (lo, hi)) }
 }
 
 #[target_feature(enable = "avx2")]
-fn requant_avx2(
-    rq: &[u8],
-    od: usize,
-    n: usize,
-    acc: &[[i32; MAX_WIDTH]],
-    out: &mut [[i16; MAX_WIDTH]],
-    (lo, hi): (i16, i16),
-) {
-    let factor = |c: usize| Requant { multiplier: read_i32(rq, 2 * c), shift: read_i32(rq, 2 * c + 1) };
+fn requant_avx2(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], (lo, hi): (i16, i16)) {
+    let (rq, od) = (l.requant, l.out_dim as usize);
     let (lov, hiv) = (_mm256_set1_epi64x(lo as i64), _mm256_set1_epi64x(hi as i64));
     // the low 32 bits of the four 64-bit lanes, in order
     let low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
@@ -255,7 +245,7 @@ fn requant_avx2(
         c0 += 4;
     }
     for c in c0..od {
-        let r = factor(c);
+        let r = l.requant(c);
         for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
             o[c] = r.apply(a[c] as i64).clamp(lo as i64, hi as i64) as i16;
         }

@@ -13,7 +13,7 @@
 
 use crate::encoding::{encode_f32, encode_fixed};
 use crate::error::{Error, Result};
-use crate::fixed::{sat_i32, sigmoid_q12_q15, Requant};
+use crate::fixed::{sat_i32, sigmoid_q12_q15};
 use crate::format::{read_f32, read_i32, sigma_layer, Layer, Model, Network, Scheme, MAX_FREQS, MAX_WIDTH};
 
 /// Longest encoded position or direction: `3 + 6·16`.
@@ -339,12 +339,9 @@ pub trait IntWeight {
         out: &mut [[i16; MAX_WIDTH]],
         (lo, hi): (i16, i16),
     ) {
-        let od = l.out_dim as usize;
-        let rq = &l.requant[..8 * od];
         for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
-            for c in 0..od {
-                let r = Requant { multiplier: read_i32(rq, 2 * c), shift: read_i32(rq, 2 * c + 1) };
-                o[c] = r.apply(a[c].into()).clamp(lo as i64, hi as i64) as i16;
+            for c in 0..l.out_dim as usize {
+                o[c] = l.requant(c).apply(a[c].into()).clamp(lo as i64, hi as i64) as i16;
             }
         }
     }
@@ -441,7 +438,7 @@ impl IntWeight for W8 {
         out: &mut [[i16; MAX_WIDTH]],
         bounds: (i16, i16),
     ) {
-        crate::avx2::requant_i32(l.requant, l.out_dim as usize, n, acc, out, bounds);
+        crate::avx2::requant_i32(l, n, acc, out, bounds);
     }
     #[inline(always)]
     fn decode(b: &[u8]) -> i32 {
@@ -741,6 +738,7 @@ fn relu_bounds(net: &Network<'_>) -> (i16, i16) {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::fixed::Requant;
 
     /// The dispatching integer kernel (VNNI or AVX2 where built, heads as dot
     /// products) against the plain triple loop, over the shapes the format
