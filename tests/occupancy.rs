@@ -8,7 +8,8 @@ mod support;
 
 use nerf_infer::format::Scheme;
 use nerf_infer::{
-    render_tile, Camera, Error, F32Renderer, FixedRenderer, Model, RenderOptions, ScratchF32, ScratchFixed, Tile,
+    render_tile, Camera, Error, F32Renderer, FixedPixel, FixedRenderer, Model, RenderOptions, ScratchF32, ScratchFixed,
+    Tile,
 };
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, random_model, OwnedModel};
@@ -137,4 +138,57 @@ fn a_coarsened_grid_keeps_every_occupied_point() {
         }
     }
     assert!(both > 50 && c.occupied_cells() < 40, "{both} {}", c.occupied_cells());
+}
+
+/// The coarse level only rules out samples whose cells are all clear: on
+/// random grids (resolutions that do and do not divide into coarse cells,
+/// sparse to dense), with jitter and early termination, both numeric paths
+/// render the same pixels and evaluate the same samples with it as without.
+#[test]
+fn the_coarse_level_changes_no_pixel_and_skips_no_occupied_sample() {
+    let cameras = [
+        camera(),
+        Camera::from_fov(N, N, 0.9, [[0.6, 0., 0.8, 3.2], [0., 1., 0., 0.4], [-0.8, 0., 0.6, 2.4]]).unwrap(),
+    ];
+    let tile = Tile { x0: 0, y0: 0, width: N, height: N };
+    let mut evaluated = 0;
+    for (k, m) in models().into_iter().enumerate() {
+        for (res, per_mille) in [(3u16, 300u32), (16, 20), (37, 100), (64, 8), (64, 150), (200, 2)] {
+            let cells = (res as u32).pow(3);
+            let mut bits = vec![0u8; cells.div_ceil(8) as usize];
+            for i in (0..cells).filter(|&i| nerf_infer::sampling::hash32(i ^ (res as u32) << 24) % 1000 < per_mille) {
+                bits[i as usize / 8] |= 1 << (i % 8);
+            }
+            let bytes = with_grid(&m, Some((res, bits)));
+            let model = Model::from_bytes(&bytes).unwrap();
+            let opts = RenderOptions { seed: Some(7), early_stop: 0.01, ..RenderOptions::from_model(&model) };
+            for cam in &cameras {
+                let what = format!("{:?}, res {res}, {per_mille}‰", m.coarse.scheme);
+                if k == 0 {
+                    let r = F32Renderer::new(&model, opts).unwrap();
+                    let run = |r: &F32Renderer| {
+                        let (mut s, mut px) =
+                            (ScratchF32::<8>::default(), vec![nerf_infer::Pixel::default(); tile.len()]);
+                        render_tile(r, cam, tile, &mut s, &mut px).unwrap();
+                        (px.iter().map(|p| p.rgb.map(f32::to_bits)).collect::<Vec<_>>(), s.evaluations)
+                    };
+                    let (on, off) = (run(&r), run(&r.with_coarse_skipping(false)));
+                    assert_eq!(on, off, "{what}");
+                    evaluated += on.1;
+                } else {
+                    let r = FixedRenderer::new(&model, opts).unwrap();
+                    let run = |r: &FixedRenderer| {
+                        let (mut s, mut px) = (ScratchFixed::<8>::default(), vec![FixedPixel::default(); tile.len()]);
+                        render_tile(r, cam, tile, &mut s, &mut px).unwrap();
+                        (px, s.evaluations)
+                    };
+                    let (on, off) = (run(&r), run(&r.with_coarse_skipping(false)));
+                    assert_eq!(on, off, "{what}");
+                    evaluated += on.1;
+                }
+            }
+        }
+    }
+    // the grids leave samples to evaluate, so a lost one would show
+    assert!(evaluated > 5_000, "{evaluated} evaluations");
 }

@@ -24,18 +24,18 @@ const MAX_PAIRS: usize = MAX_INPUT / 2;
 
 /// Interleaved weights of rows `ja` and `jb` for outputs `c0..c0 + 8`,
 /// sign-extended to i16; `jb = None` pairs row `ja` with zeros.
+///
+/// # Safety
+/// AVX2, and `(j + 1) · od ≤ weights.len()` and `c0 + 8 ≤ od` for both rows.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn pair_weights(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, c0: usize) -> __m256i {
-    let a = &weights[ja * od + c0..ja * od + c0 + TILE_C];
-    // SAFETY: `a` is 8 bytes long (checked by the indexing above).
-    let a = unsafe { _mm_loadl_epi64(a.as_ptr().cast()) };
+unsafe fn pair_weights(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, c0: usize) -> __m256i {
+    debug_assert!(c0 + TILE_C <= od && (ja.max(jb.unwrap_or(0)) + 1) * od <= weights.len());
+    // SAFETY: both 8-byte reads are inside `weights` (the contract above).
+    let a = unsafe { _mm_loadl_epi64(weights.as_ptr().add(ja * od + c0).cast()) };
     let b = match jb {
-        Some(jb) => {
-            let b = &weights[jb * od + c0..jb * od + c0 + TILE_C];
-            // SAFETY: as for `a`.
-            unsafe { _mm_loadl_epi64(b.as_ptr().cast()) }
-        }
+        // SAFETY: as for `a`.
+        Some(jb) => unsafe { _mm_loadl_epi64(weights.as_ptr().add(jb * od + c0).cast()) },
         None => _mm_setzero_si128(),
     };
     _mm256_cvtepi8_epi16(_mm_unpacklo_epi8(a, b))
@@ -66,6 +66,8 @@ pub(crate) fn accumulate_i8<const N: usize>(
     n: usize,
     out: &mut [[i32; MAX_WIDTH]],
 ) {
+    // every weight the tiles read is in rows row0 .. row0 + in_dim
+    assert!((row0 + in_dim) * od <= weights.len() && in_dim <= N);
     let mut live_p = [0u16; MAX_PAIRS];
     let mut s0 = 0;
     while s0 < n {
@@ -160,7 +162,9 @@ fn group<const S: usize, const N: usize, const TAIL: bool>(
     rows: &[[i16; N]; S],
     c0: usize,
 ) -> [__m256i; S] {
-    // SAFETY: only called from `tile`, which requires AVX2.
+    // SAFETY: only called from `tile`, which requires AVX2, with rows
+    // row0 .. row0 + in_dim of `weights` present (asserted in
+    // `accumulate_i8`) and, unless TAIL, c0 + 8 ≤ od.
     unsafe {
         let weights_of = |ja: usize, jb: Option<usize>| {
             if TAIL {
@@ -173,10 +177,11 @@ fn group<const S: usize, const N: usize, const TAIL: bool>(
         for &p in live_p {
             let j = 2 * p as usize;
             let w = weights_of(row0 + j, Some(row0 + j + 1));
+            debug_assert!(j + 1 < in_dim && in_dim <= N);
             for s in 0..S {
-                // inputs j and j + 1 < in_dim ≤ N as one i32 (low half j)
-                let (lo, hi) = (rows[s][j] as u16 as u32, rows[s][j + 1] as u16 as u32);
-                let x = (lo | hi << 16) as i32;
+                // inputs j and j + 1 as one little-endian i32 (low half j):
+                // one broadcast load. SAFETY: j + 1 < in_dim ≤ N.
+                let x = core::ptr::read_unaligned(rows[s].as_ptr().add(j).cast::<i32>());
                 acc[s] = _mm256_add_epi32(acc[s], _mm256_madd_epi16(_mm256_set1_epi32(x), w));
             }
         }

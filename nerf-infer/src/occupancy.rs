@@ -51,20 +51,115 @@ impl<'a> Occupancy<'a> {
     /// read the nearest edge cell.
     #[inline(always)]
     pub fn at_f32(&self, p: [f32; 3]) -> bool {
+        self.cell(self.index(self.cell_f32(p)))
+    }
+
+    /// The cell `(x, y, z)` holding normalised position `p` (f32), each
+    /// coordinate in `0..res` (outside the bounds: the nearest edge cell;
+    /// NaN: 0). Non-decreasing in each coordinate of `p`.
+    #[inline(always)]
+    pub fn cell_f32(&self, p: [f32; 3]) -> [usize; 3] {
         let r = self.res as i32;
         let half = 0.5 * self.res as f32;
-        let c = p.map(|x| (((x + 1.0) * half) as i32).clamp(0, r - 1) as usize);
-        self.cell(c[0] + self.res as usize * (c[1] + self.res as usize * c[2]))
+        p.map(|x| (((x + 1.0) * half) as i32).clamp(0, r - 1) as usize)
+    }
+
+    /// [`Occupancy::cell_f32`] for a position in Q`frac` fixed point.
+    #[inline(always)]
+    pub fn cell_fixed(&self, p: [i32; 3], frac: u32) -> [usize; 3] {
+        let r = self.res as i64;
+        let one = 1i64 << frac;
+        p.map(|x| (((x as i64 + one) * r) >> (frac + 1)).clamp(0, r - 1) as usize)
+    }
+
+    /// Cell number of cell `(x, y, z)` (layout in the module doc).
+    #[inline(always)]
+    pub fn index(&self, c: [usize; 3]) -> usize {
+        c[0] + self.res as usize * (c[1] + self.res as usize * c[2])
     }
 
     /// [`Occupancy::at_f32`] for a position in Q`frac` fixed point (the
     /// fixed path's Q24): integer arithmetic only.
     #[inline(always)]
     pub fn at_fixed(&self, p: [i32; 3], frac: u32) -> bool {
-        let r = self.res as i64;
-        let one = 1i64 << frac;
-        let c = p.map(|x| (((x as i64 + one) * r) >> (frac + 1)).clamp(0, r - 1) as usize);
-        self.cell(c[0] + self.res as usize * (c[1] + self.res as usize * c[2]))
+        self.cell(self.index(self.cell_fixed(p, frac)))
+    }
+}
+
+/// Coarse cells per axis of a [`CoarseOccupancy`], at most.
+pub const COARSE_RES: usize = 16;
+
+/// A coarse level over an [`Occupancy`] grid, so a march can rule out a
+/// run of samples with one test instead of one per sample
+/// ([`CoarseOccupancy::box_is_empty`]).
+///
+/// Fine cell coordinate `c` falls in coarse coordinate `c >> shift`, the
+/// smallest shift that leaves at most [`COARSE_RES`] coarse cells per axis
+/// (4 fine cells per coarse cell at `res = 64`); a coarse cell is set if
+/// any of its fine cells is occupied. 512 bytes, built from the grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CoarseOccupancy {
+    /// Fine cells per axis.
+    res: usize,
+    shift: u32,
+    /// Coarse cells per axis, `1..=16`.
+    m: usize,
+    bits: [u8; COARSE_RES * COARSE_RES * COARSE_RES / 8],
+}
+
+impl CoarseOccupancy {
+    /// The coarse level of `g` (a valid grid).
+    pub fn new(g: &Occupancy<'_>) -> Self {
+        let r = g.res as usize;
+        let mut shift = 0;
+        while (r - 1) >> shift >= COARSE_RES {
+            shift += 1;
+        }
+        let mut c =
+            Self { res: r, shift, m: ((r - 1) >> shift) + 1, bits: [0; COARSE_RES * COARSE_RES * COARSE_RES / 8] };
+        for (b, &byte) in g.bits.iter().enumerate() {
+            for k in (0..8).filter(|&k| byte >> k & 1 != 0 && 8 * b + k < r * r * r) {
+                let i = 8 * b + k;
+                let j = c.index([i % r, (i / r) % r, i / (r * r)].map(|x| x >> shift));
+                c.bits[j >> 3] |= 1 << (j & 7);
+            }
+        }
+        c
+    }
+
+    #[inline(always)]
+    fn index(&self, c: [usize; 3]) -> usize {
+        c[0] + self.m * (c[1] + self.m * c[2])
+    }
+
+    /// How many consecutive samples to test together: those that cover
+    /// about one coarse cell when consecutive samples are `step_q24` apart
+    /// (Q24 normalised units) along the axis the ray moves fastest on;
+    /// `1..=64`. Only speed depends on it, never the result.
+    pub fn run_len(&self, step_q24: u64) -> usize {
+        let cell_q24 = ((2u64 << 24) << self.shift) / self.res as u64;
+        (cell_q24 / step_q24.max(1)).clamp(1, 64) as usize
+    }
+
+    /// True if no fine cell in the box spanned by fine cells `a` and `b`
+    /// (inclusive, corners in any order) is occupied. Since a ray's cells
+    /// are monotone in `t` along each axis, the cells of every sample
+    /// between two samples lie in the box of those two samples' cells.
+    #[inline]
+    pub fn box_is_empty(&self, a: [usize; 3], b: [usize; 3]) -> bool {
+        let lo: [usize; 3] = core::array::from_fn(|k| a[k].min(b[k]) >> self.shift);
+        let hi: [usize; 3] = core::array::from_fn(|k| a[k].max(b[k]) >> self.shift);
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    let j = self.index([x, y, z]);
+                    if self.bits[j >> 3] >> (j & 7) & 1 != 0 {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
     }
 }
 
@@ -166,5 +261,31 @@ mod tests {
         assert!((t0 - (2.5 - m)).abs() < 1e-6 && (t1 - (3.5 + m)).abs() < 1e-6);
         assert_eq!(clip_to_box(&b, [-3.0, 0.9, 0.0], [1.0, 0.0, 0.0]), None);
         assert_eq!(clip_to_box(&b, [-3.0, 0.0, 0.0], [-1.0, 0.0, 0.0]).map(|s| s.1 < 0.0), Some(true));
+    }
+
+    #[test]
+    fn a_coarse_box_is_empty_exactly_when_its_coarse_cells_are() {
+        // res 37: coarse cells of 4 fine cells (the last one partial)
+        let mut bits = [0u8; 6332];
+        for c in [[0usize, 0, 0], [36, 20, 5], [13, 13, 13]] {
+            let i = c[0] + 37 * (c[1] + 37 * c[2]);
+            bits[i / 8] |= 1 << (i % 8);
+        }
+        let g = Occupancy { res: 37, bits: &bits };
+        assert!(g.is_valid());
+        let c = CoarseOccupancy::new(&g);
+        assert_eq!((c.m, c.shift), (10, 2));
+        // a box holding an occupied cell is never empty, in either corner order
+        assert!(!c.box_is_empty([36, 20, 5], [36, 20, 5]));
+        assert!(!c.box_is_empty([30, 25, 8], [36, 17, 4]));
+        assert!(!c.box_is_empty([12, 12, 12], [15, 15, 15]));
+        // one in the same coarse cell as an occupied one is not empty either
+        assert!(!c.box_is_empty([14, 14, 14], [15, 15, 15]));
+        // the next coarse cell over is
+        assert!(c.box_is_empty([16, 12, 12], [19, 15, 15]));
+        assert!(c.box_is_empty([4, 4, 4], [11, 36, 36]));
+        // a coarse cell is 4·2/37 normalised units: 3.46 samples 2⁻⁴ apart
+        assert_eq!(c.run_len(1 << 20), 3);
+        assert_eq!((c.run_len(0), c.run_len(u64::MAX)), (64, 1));
     }
 }

@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
 use crate::format::{Model, Network, Scheme, MAX_COARSE, MAX_FINE};
 use crate::network::{check_i8_headroom, BlockF32, BlockFixed, IntWeight, W16, W8};
-use crate::occupancy::{clip_to_box, occupied_box};
+use crate::occupancy::{clip_to_box, occupied_box, CoarseOccupancy};
 use crate::sampling::{
     jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_f32, stratified_fixed,
     stratified_fixed_from,
@@ -125,6 +125,7 @@ pub struct F32Renderer<'m, 'a> {
     model: &'m Model<'a>,
     opts: RenderOptions,
     occ_box: OccBox,
+    coarse: Option<CoarseOccupancy>,
 }
 
 /// Fine-pass CDF level of importance sample `j` of `n`, Q16 in `[0, 65536]`:
@@ -146,12 +147,21 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             return Err(Error::WrongNumericPath);
         }
         opts.validate(model)?;
-        Ok(Self { model, opts, occ_box: occ_box(model) })
+        Ok(Self { model, opts, occ_box: occ_box(model), coarse: model.grid.as_ref().map(CoarseOccupancy::new) })
     }
 
     /// The options in use.
     pub fn options(&self) -> &RenderOptions {
         &self.opts
+    }
+
+    /// With `false`, the march tests every sample's grid cell instead of
+    /// first ruling out runs of samples with the coarse level
+    /// ([`CoarseOccupancy`], on by default). The pixels are the same
+    /// either way; only the time differs.
+    pub fn with_coarse_skipping(mut self, on: bool) -> Self {
+        self.coarse = if on { self.model.grid.as_ref().map(CoarseOccupancy::new) } else { None };
+        self
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -173,9 +183,13 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         // folded in before the first block (many rays have none)
         let mut prepared = !need_rgb;
         let mut comp = CompositorF32::default();
-        let grid = m.grid.as_ref();
+        let (grid, coarse) = (m.grid.as_ref(), self.coarse.as_ref().filter(|_| m.grid.is_some()));
         let n = t.len();
-        let mut next = 0;
+        let run = coarse.map_or(0, |c| {
+            let spacing = if n > 1 { (t[n - 1] - t[0]) / (n - 1) as f32 } else { 0.0 };
+            c.run_len((spacing * ray.norm_dir.abs().max_element() * (1u32 << 24) as f32) as u64)
+        });
+        let (mut next, mut tested) = (0, 0);
         while next < n {
             if comp.transmittance < self.opts.early_stop {
                 if let Some(w) = weights.as_deref_mut() {
@@ -193,6 +207,20 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
                     }
                     next = n;
                     break;
+                }
+                if let (Some(g), Some(c), true) = (grid, coarse, next >= tested) {
+                    // the next `run` samples, ruled out together if their
+                    // coarse cells are all empty
+                    let last = (next + run).min(n) - 1;
+                    let cell = |i: usize| g.cell_f32(ray.at(t[i]).to_array());
+                    if c.box_is_empty(cell(next), cell(last)) {
+                        if let Some(w) = weights.as_deref_mut() {
+                            w[next..=last].fill(0.0);
+                        }
+                        next = last + 1;
+                        continue;
+                    }
+                    tested = last + 1;
                 }
                 let p = (t[next] >= span.0).then(|| ray.at(t[next]).to_array());
                 if let Some(p) = p.filter(|&p| grid.is_none_or(|g| g.at_f32(p))) {
@@ -388,6 +416,7 @@ pub struct FixedRenderer<'m, 'a> {
     early_stop_q30: u32,
     far: i32,
     occ_box: OccBox,
+    coarse: Option<CoarseOccupancy>,
 }
 
 impl<'m, 'a> FixedRenderer<'m, 'a> {
@@ -409,12 +438,22 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             early_stop_q30: (opts.early_stop as f64 * T_ONE as f64) as u32,
             far: to_fixed(model.scene.far, POS_FRAC),
             occ_box: occ_box(model),
+            coarse: model.grid.as_ref().map(CoarseOccupancy::new),
         })
     }
 
     /// The options in use.
     pub fn options(&self) -> &RenderOptions {
         &self.opts
+    }
+
+    /// With `false`, the march tests every sample's grid cell instead of
+    /// first ruling out runs of samples with the coarse level
+    /// ([`CoarseOccupancy`], on by default). The pixels are the same
+    /// either way; only the time differs.
+    pub fn with_coarse_skipping(mut self, on: bool) -> Self {
+        self.coarse = if on { self.model.grid.as_ref().map(CoarseOccupancy::new) } else { None };
+        self
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -434,9 +473,14 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         // first sample that needs colour (many rays have none)
         let mut prepared = false;
         let mut comp = CompositorFixed::default();
-        let grid = m.grid.as_ref();
+        let (grid, coarse) = (m.grid.as_ref(), self.coarse.as_ref().filter(|_| m.grid.is_some()));
         let n = t.len();
-        let mut next = 0;
+        let run = coarse.map_or(0, |c| {
+            let spacing = if n > 1 { (t[n - 1] as i64 - t[0] as i64) / (n - 1) as i64 } else { 0 };
+            let fastest = ray.dir.iter().map(|d| d.unsigned_abs() as u64).max().unwrap_or(0);
+            c.run_len((spacing.max(0) as u64 * fastest) >> 16)
+        });
+        let (mut next, mut tested) = (0, 0);
         while next < n {
             if comp.transmittance < self.early_stop_q30 {
                 if let Some(w) = weights.as_deref_mut() {
@@ -454,6 +498,20 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
                     }
                     next = n;
                     break;
+                }
+                if let (Some(g), Some(c), true) = (grid, coarse, next >= tested) {
+                    // the next `run` samples, ruled out together if their
+                    // coarse cells are all empty
+                    let last = (next + run).min(n) - 1;
+                    let cell = |i: usize| g.cell_fixed(ray.at(t[i]), NPOS_FRAC);
+                    if c.box_is_empty(cell(next), cell(last)) {
+                        if let Some(w) = weights.as_deref_mut() {
+                            w[next..=last].fill(0);
+                        }
+                        next = last + 1;
+                        continue;
+                    }
+                    tested = last + 1;
                 }
                 // branch-free compaction: occupancy is too irregular to predict
                 let p = ray.at(t[next]);
