@@ -304,6 +304,9 @@ pub trait IntWeight {
     type Acc: Copy + Default + core::ops::AddAssign + Into<i64>;
     /// Bytes per weight.
     const BYTES: usize;
+    /// Whether [`IntWeight::accumulate_wide`] also takes layers narrower
+    /// than the portable tile (the colour head) faster than the scalar loop.
+    const WIDE_TAKES_NARROW: bool = false;
     /// `a · w` in the accumulator type (`w` is the weight's bytes).
     fn mul(a: i16, w: &[u8]) -> Self::Acc;
     /// The weight stored in `b`, sign-extended.
@@ -313,8 +316,9 @@ pub trait IntWeight {
     /// A bias or partial sum (checked at load to fit the accumulator).
     fn from_i64(b: i64) -> Self::Acc;
     /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for a layer at
-    /// least 32 outputs wide: the portable register-tiled kernel; int8
-    /// weights use AVX-512 VNNI or AVX2 where the build enables it.
+    /// least the portable tile wide (or any width if
+    /// [`IntWeight::WIDE_TAKES_NARROW`]): the portable register-tiled kernel;
+    /// int8 weights use AVX-512 VNNI or AVX2 where the build enables it.
     #[inline]
     fn accumulate_wide<const N: usize>(
         l: &Layer<'_>,
@@ -386,6 +390,12 @@ impl IntWeight for W16 {
 impl IntWeight for W8 {
     type Acc = i32;
     const BYTES: usize = 1;
+    /// The AVX2 kernel pads a short output group.
+    const WIDE_TAKES_NARROW: bool = cfg!(all(
+        target_arch = "x86_64",
+        target_feature = "avx2",
+        not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+    ));
     #[inline(always)]
     fn mul(a: i16, w: &[u8]) -> i32 {
         a as i32 * w[0] as i8 as i32
@@ -550,7 +560,7 @@ fn accumulate_int<W: IntWeight, const N: usize>(
         }
         return;
     }
-    if od < TILE_C {
+    if od < TILE_C && !W::WIDE_TAKES_NARROW {
         // the colour head: one dot product per output
         for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
             for c in 0..od {
@@ -752,7 +762,7 @@ mod tests {
             h
         };
         for &in_dim in &[1usize, 2, 51, 64, 79, 255, 256] {
-            for &od in &[1usize, 3, 32, 40, 45, 48, 64, 255, 256] {
+            for &od in &[1usize, 3, 7, 32, 40, 45, 48, 64, 255, 256] {
                 for &n in &[1usize, 3, 5, 8] {
                     let row0 = (next() % 3) as usize;
                     let rows = row0 + in_dim;
