@@ -46,9 +46,10 @@ unsafe fn pair_weights(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, 
 #[target_feature(enable = "avx2")]
 fn pair_weights_tail(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, c0: usize) -> __m256i {
     let (mut a, mut b) = ([0u8; TILE_C], [0u8; TILE_C]);
-    a[..od - c0].copy_from_slice(&weights[ja * od + c0..(ja + 1) * od]);
-    if let Some(jb) = jb {
-        b[..od - c0].copy_from_slice(&weights[jb * od + c0..(jb + 1) * od]);
+    // byte by byte: a copy of a run this short would call memcpy
+    for (k, (a, b)) in a.iter_mut().zip(b.iter_mut()).enumerate().take(od - c0) {
+        *a = weights[ja * od + c0 + k];
+        *b = jb.map_or(0, |jb| weights[jb * od + c0 + k]);
     }
     let (a, b) = (_mm_set1_epi64x(i64::from_le_bytes(a)), _mm_set1_epi64x(i64::from_le_bytes(b)));
     _mm256_cvtepi8_epi16(_mm_unpacklo_epi8(a, b))
@@ -73,20 +74,15 @@ pub(crate) fn accumulate_i8<const N: usize>(
     while s0 < n {
         let sn = (n - s0).min(TILE_S);
         let rows = &input[s0..s0 + sn];
-        // the inputs that are non-zero for some sample, then the pairs
-        // (2p, 2p + 1) that hold one; an odd last input goes alone
-        let mut any = rows[0];
-        for r in &rows[1..] {
-            for (a, &x) in any[..in_dim].iter_mut().zip(&r[..in_dim]) {
-                *a |= x;
-            }
-        }
-        let mut live = 0;
-        for p in 0..in_dim / 2 {
+        // the pairs of inputs (2p, 2p + 1) non-zero for some sample, 8 at a
+        // time from one OR of the rows; an odd last input goes alone
+        // SAFETY: this module is compiled only with AVX2 enabled.
+        let mut live = unsafe { live_pairs(rows, in_dim, &mut live_p) };
+        for p in in_dim / 16 * 8..in_dim / 2 {
             live_p[live] = p as u16;
-            live += (any[2 * p] | any[2 * p + 1] != 0) as usize;
+            live += rows.iter().any(|r| r[2 * p] | r[2 * p + 1] != 0) as usize;
         }
-        let odd = in_dim % 2 == 1 && any[in_dim - 1] != 0;
+        let odd = in_dim % 2 == 1 && rows.iter().any(|r| r[in_dim - 1] != 0);
         let (p, out) = (&live_p[..live], &mut out[s0..s0 + sn]);
         // SAFETY: this module is compiled only with AVX2 enabled.
         unsafe {
@@ -103,6 +99,29 @@ pub(crate) fn accumulate_i8<const N: usize>(
         }
         s0 += TILE_S;
     }
+}
+
+/// Writes to `live_p` the pairs `p < in_dim / 16 · 8` (inputs `2p`,
+/// `2p + 1`) that are non-zero in some row, in order; returns their count.
+#[target_feature(enable = "avx2")]
+fn live_pairs<const N: usize>(rows: &[[i16; N]], in_dim: usize, live_p: &mut [u16; MAX_PAIRS]) -> usize {
+    let mut live = 0;
+    for k in 0..in_dim / 16 {
+        let mut v = _mm256_setzero_si256();
+        for r in rows {
+            let x = &r[16 * k..16 * k + 16];
+            // SAFETY: `x` is 16 i16 (32 bytes) long.
+            v = _mm256_or_si256(v, unsafe { _mm256_loadu_si256(x.as_ptr().cast()) });
+        }
+        let zero = _mm256_cmpeq_epi32(v, _mm256_setzero_si256());
+        let mut m = !_mm256_movemask_ps(_mm256_castsi256_ps(zero)) as u32 & 0xFF;
+        while m != 0 {
+            live_p[live] = (8 * k + m.trailing_zeros() as usize) as u16;
+            live += 1;
+            m &= m - 1;
+        }
+    }
+    live
 }
 
 /// One tile of `S` samples (`rows`) over all `od` outputs, 8 at a time,
@@ -229,16 +248,20 @@ fn requant_avx2(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i
             _mm256_add_epi64(_mm256_srli_epi64::<32>(m), _mm256_set1_epi64x(31)),
             _mm256_set1_epi64x(63),
         );
+        // an arithmetic shift from a logical one: with |acc · m| < 2⁶², the
+        // sum acc · m + 2⁶² + round lies in [0, 2⁶⁴) (as u64), and since
+        // 2⁶² is a multiple of 2ⁿ (n ≤ 62), shifting it right by n and
+        // taking 2⁶²⁻ⁿ off again is ⌊(acc · m + round) / 2ⁿ⌋ exactly
         let round = _mm256_srli_epi64::<1>(_mm256_sllv_epi64(_mm256_set1_epi64x(1), bits));
+        let bias = _mm256_set1_epi64x(1 << 62);
+        let add = _mm256_add_epi64(round, bias);
+        let sub = _mm256_srlv_epi64(bias, bits);
         for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
             let src = &a[c0..c0 + 4];
             // SAFETY: `src` is 4 i32 (16 bytes) long.
             let x = _mm256_cvtepi32_epi64(unsafe { _mm_loadu_si128(src.as_ptr().cast()) });
-            // |acc · m| < 2⁶², plus the rounding term < 2⁶³: exact in i64
-            let p = _mm256_add_epi64(_mm256_mul_epi32(x, m), round);
-            // arithmetic shift from a logical one: ¬((¬p) >> n) for p < 0
-            let sign = _mm256_cmpgt_epi64(_mm256_setzero_si256(), p);
-            let q = _mm256_xor_si256(_mm256_srlv_epi64(_mm256_xor_si256(p, sign), bits), sign);
+            let p = _mm256_add_epi64(_mm256_mul_epi32(x, m), add);
+            let q = _mm256_sub_epi64(_mm256_srlv_epi64(p, bits), sub);
             let q = _mm256_blendv_epi8(q, lov, _mm256_cmpgt_epi64(lov, q));
             let q = _mm256_blendv_epi8(q, hiv, _mm256_cmpgt_epi64(q, hiv));
             let q = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(q, low_halves));

@@ -610,6 +610,17 @@ impl<const B: usize> BlockFixed<B> {
         let nd = encode_fixed(viewdir_q24, e.dir_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc);
         let od = l.out_dim as usize;
         let w = l.in_dim as usize - nd; // the feature layer's width
+        if cfg!(target_arch = "x86_64") {
+            // the layer kernel on one sample, rows w.. (the SIMD one where
+            // built; kept off the Cortex-M for flash)
+            let acc = W::pick(&mut self.acc64, &mut self.acc32);
+            init_int::<W>(l, None, 1, acc);
+            accumulate_int::<W, ENC_MAX>(l, w, core::slice::from_ref(&enc), nd, 1, acc);
+            for (v, &a) in self.view_acc[..od].iter_mut().zip(&acc[0][..od]) {
+                *v = a.into();
+            }
+            return;
+        }
         for c in 0..od {
             let mut acc: W::Acc = W::from_i64(read_i32(l.bias, c) as i64);
             for (j, &a) in enc[..nd].iter().enumerate() {
