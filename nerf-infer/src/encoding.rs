@@ -13,7 +13,7 @@
 //! the fractional number of turns is kept, so large `k` loses nothing beyond
 //! the precision of `p` itself.
 
-use crate::fixed::{sat_i16, shr_round_i64, sin_turns_q15};
+use crate::fixed::{sat_i16, shr_round_i64, sin_turns_q15_slice};
 use crate::format::MAX_FREQS;
 
 /// Fractional bits of normalised positions in the fixed path (Q24 in i32,
@@ -112,9 +112,7 @@ pub fn encode_fixed(p: [i32; 3], freqs: usize, include_input: bool, raw_frac_bit
         }
     }
     let m = 6 * freqs;
-    for (o, &ph) in out[n..n + m].iter_mut().zip(&phases[..m]) {
-        *o = sin_turns_q15(ph);
-    }
+    sin_turns_q15_slice(&phases[..m], &mut out[n..n + m]);
     n + m
 }
 
