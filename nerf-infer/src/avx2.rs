@@ -235,6 +235,7 @@ pub(crate) fn requant_i32(
 fn requant_avx2(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], (lo, hi): (i16, i16)) {
     let (rq, od) = (l.requant, l.out_dim as usize);
     let (lov, hiv) = (_mm256_set1_epi64x(lo as i64), _mm256_set1_epi64x(hi as i64));
+    let (lo4, hi4) = (_mm_set1_epi32(lo as i32), _mm_set1_epi32(hi as i32));
     // the low 32 bits of the four 64-bit lanes, in order
     let low_halves = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
     let mut c0 = 0;
@@ -257,15 +258,23 @@ fn requant_avx2(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i
         let bias = _mm256_set1_epi64x(1 << 62);
         let add = _mm256_add_epi64(round, bias);
         let sub = _mm256_srlv_epi64(bias, bits);
+        // with every shift ≥ 0 (n ≥ 31) the result fits an i32 (|acc · m|
+        // < 2⁶²), so the clamp can wait until the lanes are narrowed
+        let narrow = (c0..c0 + 4).all(|c| l.requant(c).shift >= 0);
         for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
             let src = &a[c0..c0 + 4];
             // SAFETY: `src` is 4 i32 (16 bytes) long.
             let x = _mm256_cvtepi32_epi64(unsafe { _mm_loadu_si128(src.as_ptr().cast()) });
             let p = _mm256_add_epi64(_mm256_mul_epi32(x, m), add);
             let q = _mm256_sub_epi64(_mm256_srlv_epi64(p, bits), sub);
-            let q = _mm256_blendv_epi8(q, lov, _mm256_cmpgt_epi64(lov, q));
-            let q = _mm256_blendv_epi8(q, hiv, _mm256_cmpgt_epi64(q, hiv));
-            let q = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(q, low_halves));
+            let q = if narrow {
+                let q = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(q, low_halves));
+                _mm_min_epi32(_mm_max_epi32(q, lo4), hi4)
+            } else {
+                let q = _mm256_blendv_epi8(q, lov, _mm256_cmpgt_epi64(lov, q));
+                let q = _mm256_blendv_epi8(q, hiv, _mm256_cmpgt_epi64(q, hiv));
+                _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(q, low_halves))
+            };
             let q = _mm_packs_epi32(q, q);
             let dst = &mut o[c0..c0 + 4];
             // SAFETY: `dst` is 4 i16 (8 bytes) long.

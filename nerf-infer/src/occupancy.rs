@@ -118,10 +118,15 @@ impl CoarseOccupancy {
         let mut c =
             Self { res: r, shift, m: ((r - 1) >> shift) + 1, bits: [0; COARSE_RES * COARSE_RES * COARSE_RES / 8] };
         for (b, &byte) in g.bits.iter().enumerate() {
-            for k in (0..8).filter(|&k| byte >> k & 1 != 0 && 8 * b + k < r * r * r) {
-                let i = 8 * b + k;
-                let j = c.index([i % r, (i / r) % r, i / (r * r)].map(|x| x >> shift));
-                c.bits[j >> 3] |= 1 << (j & 7);
+            // most bytes are 0: only the set bits cost anything
+            let mut rest = byte;
+            while rest != 0 {
+                let i = 8 * b + rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if i < r * r * r {
+                    let j = c.index([i % r, (i / r) % r, i / (r * r)].map(|x| x >> shift));
+                    c.bits[j >> 3] |= 1 << (j & 7);
+                }
             }
         }
         c

@@ -28,9 +28,21 @@ pub struct Rendered {
 /// f32 models, fixed point otherwise), rows in parallel on the current
 /// rayon pool.
 pub fn render_view(model: &Model<'_>, opts: RenderOptions, camera: &Camera) -> Result<Rendered, nerf_infer::Error> {
+    render_view_marching(model, opts, camera, true)
+}
+
+/// [`render_view`] with the march's coarse occupancy level on or off
+/// (`FixedRenderer::with_coarse_skipping`): the same pixels, for timing
+/// what the coarse level buys.
+pub fn render_view_marching(
+    model: &Model<'_>,
+    opts: RenderOptions,
+    camera: &Camera,
+    coarse_skipping: bool,
+) -> Result<Rendered, nerf_infer::Error> {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let rows: Vec<Row> = if model.scheme().is_fixed() {
-        let r = FixedRenderer::new(model, opts)?;
+        let r = FixedRenderer::new(model, opts)?.with_coarse_skipping(coarse_skipping);
         (0..h)
             .into_par_iter()
             .map_init(Box::<ScratchFixed>::default, |s, y| {
@@ -38,7 +50,7 @@ pub fn render_view(model: &Model<'_>, opts: RenderOptions, camera: &Camera) -> R
             })
             .collect()
     } else {
-        let r = F32Renderer::new(model, opts)?;
+        let r = F32Renderer::new(model, opts)?.with_coarse_skipping(coarse_skipping);
         (0..h)
             .into_par_iter()
             .map_init(Box::<ScratchF32>::default, |s, y| {
@@ -108,7 +120,12 @@ pub fn score_view(
     view: &View,
 ) -> Result<(Rendered, ViewScore), nerf_infer::Error> {
     let r = render_view(model, opts, &view.camera)?;
-    let (w, h) = (view.camera.width as usize, view.camera.height as usize);
-    let s = ViewScore { name: view.name.clone(), psnr: psnr(&r.rgb, &view.rgb), ssim: ssim(&r.rgb, &view.rgb, w, h) };
+    let s = score_rendered(&r, view);
     Ok((r, s))
+}
+
+/// PSNR and SSIM of a render of `view` against its ground truth.
+pub fn score_rendered(r: &Rendered, view: &View) -> ViewScore {
+    let (w, h) = (view.camera.width as usize, view.camera.height as usize);
+    ViewScore { name: view.name.clone(), psnr: psnr(&r.rgb, &view.rgb), ssim: ssim(&r.rgb, &view.rgb, w, h) }
 }
