@@ -224,6 +224,14 @@ pub fn clip_to_box(b: &([f32; 3], [f32; 3]), o: [f32; 3], d: [f32; 3]) -> Option
 mod tests {
     use super::*;
 
+    /// Marks cells `(x, y, z)` of a `res³` grid occupied.
+    fn set_cells(bits: &mut [u8], res: usize, cells: &[[usize; 3]]) {
+        for c in cells {
+            let i = c[0] + res * (c[1] + res * c[2]);
+            bits[i / 8] |= 1 << (i % 8);
+        }
+    }
+
     #[test]
     fn both_lookups_agree_away_from_cell_edges() {
         let mut bits = [0u8; 64]; // 8³ cells
@@ -251,10 +259,7 @@ mod tests {
     #[test]
     fn the_occupied_box_holds_every_occupied_cell() {
         let mut bits = [0u8; 64];
-        for c in [[2usize, 3, 4], [5, 3, 1], [2, 6, 4]] {
-            let i = c[0] + 8 * (c[1] + 8 * c[2]);
-            bits[i / 8] |= 1 << (i % 8);
-        }
+        set_cells(&mut bits, 8, &[[2, 3, 4], [5, 3, 1], [2, 6, 4]]);
         let g = Occupancy { res: 8, bits: &bits };
         let (lo, hi) = occupied_box(&g).unwrap();
         let m = BOX_MARGIN;
@@ -272,10 +277,7 @@ mod tests {
     fn a_coarse_box_is_empty_exactly_when_its_coarse_cells_are() {
         // res 37: coarse cells of 4 fine cells (the last one partial)
         let mut bits = [0u8; 6332];
-        for c in [[0usize, 0, 0], [36, 20, 5], [13, 13, 13]] {
-            let i = c[0] + 37 * (c[1] + 37 * c[2]);
-            bits[i / 8] |= 1 << (i % 8);
-        }
+        set_cells(&mut bits, 37, &[[0, 0, 0], [36, 20, 5], [13, 13, 13]]);
         let g = Occupancy { res: 37, bits: &bits };
         assert!(g.is_valid());
         let c = CoarseOccupancy::new(&g);

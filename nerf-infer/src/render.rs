@@ -160,7 +160,9 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
     /// ([`CoarseOccupancy`], on by default). The pixels are the same
     /// either way; only the time differs.
     pub fn with_coarse_skipping(mut self, on: bool) -> Self {
-        self.coarse = if on { self.model.grid.as_ref().map(CoarseOccupancy::new) } else { None };
+        // on: keep the level `new` built (or build it again after an off)
+        self.coarse =
+            if on { self.coarse.or_else(|| self.model.grid.as_ref().map(CoarseOccupancy::new)) } else { None };
         self
     }
 
@@ -183,7 +185,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         // folded in before the first block (many rays have none)
         let mut prepared = !need_rgb;
         let mut comp = CompositorF32::default();
-        let (grid, coarse) = (m.grid.as_ref(), self.coarse.as_ref().filter(|_| m.grid.is_some()));
+        let (grid, coarse) = (m.grid.as_ref(), self.coarse.as_ref());
         let n = t.len();
         let run = coarse.map_or(0, |c| {
             let spacing = if n > 1 { (t[n - 1] - t[0]) / (n - 1) as f32 } else { 0.0 };
@@ -452,7 +454,9 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
     /// ([`CoarseOccupancy`], on by default). The pixels are the same
     /// either way; only the time differs.
     pub fn with_coarse_skipping(mut self, on: bool) -> Self {
-        self.coarse = if on { self.model.grid.as_ref().map(CoarseOccupancy::new) } else { None };
+        // on: keep the level `new` built (or build it again after an off)
+        self.coarse =
+            if on { self.coarse.or_else(|| self.model.grid.as_ref().map(CoarseOccupancy::new)) } else { None };
         self
     }
 
@@ -473,7 +477,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         // first sample that needs colour (many rays have none)
         let mut prepared = false;
         let mut comp = CompositorFixed::default();
-        let (grid, coarse) = (m.grid.as_ref(), self.coarse.as_ref().filter(|_| m.grid.is_some()));
+        let (grid, coarse) = (m.grid.as_ref(), self.coarse.as_ref());
         let n = t.len();
         let run = coarse.map_or(0, |c| {
             let spacing = if n > 1 { (t[n - 1] as i64 - t[0] as i64) / (n - 1) as i64 } else { 0 };
