@@ -78,11 +78,11 @@ fn bad_input_files_give_one_line_errors_naming_them() {
     let flip = d.join("flip.nerf");
     std::fs::write(&flip, &flipped).unwrap();
     fails_naming(&["export", s(&flip), "--bits", "8", "--out", s(&d.join("x.nerf"))], &["flip.nerf", "checksum"]);
-    let mut v3 = m.clone();
-    v3[4] = 3;
-    let newer = d.join("v3.nerf");
-    std::fs::write(&newer, &v3).unwrap();
-    fails_naming(&["info", s(&newer)], &["v3.nerf", "version 3", "versions 1 and 2"]);
+    let mut v4 = m.clone();
+    v4[4] = 4;
+    let newer = d.join("v4.nerf");
+    std::fs::write(&newer, &v4).unwrap();
+    fails_naming(&["info", s(&newer)], &["v4.nerf", "version 4", "versions 1 to 3"]);
     assert!(!d.join("x.nerf").exists());
 
     // corrupt PNG

@@ -54,7 +54,7 @@ impl fmt::Display for Error {
             Error::BadMagic => write!(f, "not a NeRF model (bad magic)"),
             Error::UnsupportedVersion(v) => write!(
                 f,
-                "model format version {v} is not supported (this build reads versions {} and {})",
+                "model format version {v} is not supported (this build reads versions {} to {})",
                 crate::format::FORMAT_VERSION_NO_GRID,
                 crate::format::FORMAT_VERSION
             ),

@@ -1,32 +1,38 @@
-//! The model file format (versions 1 and 2). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1, 2 and 3). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1, 2) |
+//! | 4      | 2    | format version, u16 little-endian (1–3)  |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
 //!
-//! Version 2 appends one field, the optional occupancy grid; a model
-//! without a grid is written as version 1, byte for byte what earlier
-//! builds wrote, so readers that predate the grid keep reading it.
+//! Version 2 appends one field, the optional occupancy grid; version 3
+//! another, the optional learned feature grid ([`FeatureGrid`]). A model
+//! is written as the oldest version that holds it (no feature grid: 2; no
+//! occupancy grid and no pruned layer either: 1), byte for byte what
+//! earlier builds wrote, so older readers keep reading it.
 //!
 //! Tensors are borrowed from the blob ([`Model::from_bytes`] never copies or
 //! allocates), so a model can live in flash. Multi-byte tensor elements are
 //! little-endian and read without alignment requirements.
 
 use crate::error::{Error, Result};
+pub use crate::features::FeatureGrid;
 use crate::fixed::Requant;
 pub use crate::occupancy::Occupancy;
 use serde::{Deserialize, Serialize};
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
-/// The newest format version this build reads and writes (it reads 1 too).
-pub const FORMAT_VERSION: u16 = 2;
+/// The newest format version this build reads and writes (it reads 1 and 2 too).
+pub const FORMAT_VERSION: u16 = 3;
+/// The version of models with an occupancy grid or pruned layers but no
+/// feature grid.
+pub const FORMAT_VERSION_NO_FEATURES: u16 = 2;
 /// The version of models without an occupancy grid.
 pub const FORMAT_VERSION_NO_GRID: u16 = 1;
 /// Length of the fixed header before the postcard payload, in bytes.
@@ -35,8 +41,9 @@ pub const HEADER_LEN: usize = 14;
 pub const MAX_LAYERS: usize = 24;
 /// Widest layer (inputs or outputs) the kernel's scratch buffers hold.
 pub const MAX_WIDTH: usize = 256;
-/// Longest layer input: `MAX_WIDTH` plus the largest encoding (16 freqs + raw).
-pub const MAX_INPUT: usize = MAX_WIDTH + 3 + 6 * MAX_FREQS;
+/// Longest layer input: `MAX_WIDTH` plus the largest encoding (16 freqs +
+/// raw + the feature grid's values).
+pub const MAX_INPUT: usize = MAX_WIDTH + 3 + 6 * MAX_FREQS + crate::features::MAX_FEATURES;
 /// Highest number of encoding frequencies `L` (per coordinate).
 pub const MAX_FREQS: usize = 16;
 /// Most coarse samples per ray.
@@ -124,11 +131,20 @@ pub struct Encoding {
     /// Fixed path: raw positions enter the first layer as i16 with this many
     /// fractional bits (0..=15). Ignored by the f32 path.
     pub raw_frac_bits: u8,
+    /// Values of the learned feature grid appended to γ(x) (`levels ×
+    /// width` of [`Model::features`], 0 without one). Not stored: set from
+    /// the feature grid when a model is decoded.
+    #[serde(skip)]
+    pub grid_dim: u8,
 }
 
 impl Encoding {
-    /// Width of the encoded position.
+    /// Width of the encoded position: γ(x), then the feature grid's values.
     pub const fn pos_dim(&self) -> usize {
+        self.gamma_dim() + self.grid_dim as usize
+    }
+    /// Width of γ(x) alone.
+    pub const fn gamma_dim(&self) -> usize {
         3 * (self.include_input as usize + 2 * self.pos_freqs as usize)
     }
     /// Width of the encoded direction.
@@ -287,9 +303,36 @@ pub struct Model<'a> {
     /// layers be narrower than the topology: pruned neurons.)
     #[serde(borrow)]
     pub grid: Option<Occupancy<'a>>,
+    /// Learned feature grid (format version 3): its values follow γ(x) in
+    /// the trunk's input (`encoding.grid_dim` of them).
+    #[serde(borrow)]
+    pub features: Option<FeatureGrid<'a>>,
 }
 
-/// The version-1 payload: [`Model`] without its last field.
+/// The version-2 payload: [`Model`] without its last field.
+#[derive(Deserialize)]
+struct ModelV2<'a> {
+    scene: Scene,
+    encoding: Encoding,
+    topology: Topology,
+    samples: Samples,
+    meta: Meta,
+    #[serde(borrow)]
+    coarse: Network<'a>,
+    #[serde(borrow)]
+    fine: Option<Network<'a>>,
+    #[serde(borrow)]
+    grid: Option<Occupancy<'a>>,
+}
+
+impl<'a> From<ModelV2<'a>> for Model<'a> {
+    fn from(m: ModelV2<'a>) -> Self {
+        let ModelV2 { scene, encoding, topology, samples, meta, coarse, fine, grid } = m;
+        Model { scene, encoding, topology, samples, meta, coarse, fine, grid, features: None }
+    }
+}
+
+/// The version-1 payload: [`Model`] without its last two fields.
 #[derive(Deserialize)]
 struct ModelV1<'a> {
     scene: Scene,
@@ -306,7 +349,7 @@ struct ModelV1<'a> {
 impl<'a> From<ModelV1<'a>> for Model<'a> {
     fn from(m: ModelV1<'a>) -> Self {
         let ModelV1 { scene, encoding, topology, samples, meta, coarse, fine } = m;
-        Model { scene, encoding, topology, samples, meta, coarse, fine, grid: None }
+        Model { scene, encoding, topology, samples, meta, coarse, fine, grid: None, features: None }
     }
 }
 
@@ -314,11 +357,14 @@ impl<'a> Model<'a> {
     /// Decodes and validates a model from `bytes` without copying or allocating.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self> {
         let (version, payload) = check_header(bytes)?;
-        let model: Model<'a> = if version == FORMAT_VERSION_NO_GRID {
-            postcard::from_bytes::<ModelV1<'a>>(payload).map_err(|_| Error::Decode)?.into()
-        } else {
-            postcard::from_bytes(payload).map_err(|_| Error::Decode)?
+        let mut model: Model<'a> = match version {
+            FORMAT_VERSION_NO_GRID => postcard::from_bytes::<ModelV1<'a>>(payload).map_err(|_| Error::Decode)?.into(),
+            FORMAT_VERSION_NO_FEATURES => {
+                postcard::from_bytes::<ModelV2<'a>>(payload).map_err(|_| Error::Decode)?.into()
+            }
+            _ => postcard::from_bytes(payload).map_err(|_| Error::Decode)?,
         };
+        model.encoding.grid_dim = model.features.as_ref().map_or(0, |f| f.dim() as u8);
         model.validate()?;
         if version == FORMAT_VERSION_NO_GRID && model.is_pruned() {
             return Err(Error::InvalidTopology("pruned layers need format version 2"));
@@ -358,11 +404,13 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 2 with a grid or
-    /// pruned layers, else 1.
+    /// The format version this model is written as: 3 with a feature
+    /// grid, 2 with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.grid.is_some() || self.is_pruned() {
+        if self.features.is_some() {
             FORMAT_VERSION
+        } else if self.grid.is_some() || self.is_pruned() {
+            FORMAT_VERSION_NO_FEATURES
         } else {
             FORMAT_VERSION_NO_GRID
         }
@@ -371,6 +419,11 @@ impl<'a> Model<'a> {
     /// Bytes of the occupancy bits (0 without a grid).
     pub fn grid_bytes(&self) -> usize {
         self.grid.map_or(0, |g| g.bits.len())
+    }
+
+    /// Bytes of the feature grid's table (0 without one).
+    pub fn feature_bytes(&self) -> usize {
+        self.features.as_ref().map_or(0, |f| f.table.len())
     }
 
     /// Total bytes of all tensors (weights, biases, scales, requant).
@@ -436,6 +489,13 @@ impl<'a> Model<'a> {
         }
         if self.grid.is_some_and(|g| !g.is_valid()) {
             return Err(Error::InvalidTopology("occupancy grid resolution or length"));
+        }
+        let elem = if self.scheme().is_fixed() { 2 } else { 4 };
+        if self.features.as_ref().is_some_and(|f| !f.is_valid(elem)) {
+            return Err(Error::InvalidEncoding("feature grid shape, range or table length"));
+        }
+        if self.encoding.grid_dim as usize != self.features.as_ref().map_or(0, |f| f.dim()) {
+            return Err(Error::InvalidEncoding("grid_dim does not match the feature grid"));
         }
         self.validate_network(&self.coarse)?;
         if let Some(f) = &self.fine {
@@ -573,7 +633,7 @@ fn check_header(bytes: &[u8]) -> Result<(u16, &[u8])> {
         return Err(Error::Truncated);
     }
     let version = u16::from_le_bytes([bytes[4], bytes[5]]);
-    if version != FORMAT_VERSION && version != FORMAT_VERSION_NO_GRID {
+    if !(FORMAT_VERSION_NO_GRID..=FORMAT_VERSION).contains(&version) {
         return Err(Error::UnsupportedVersion(version));
     }
     let len = u32::from_le_bytes([bytes[6], bytes[7], bytes[8], bytes[9]]) as usize;
@@ -621,10 +681,9 @@ pub fn crc32(data: &[u8]) -> u32 {
 pub fn to_bytes(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
     model.validate()?;
     let mut payload = postcard::to_allocvec(model).map_err(|_| Error::Decode)?;
-    if model.format_version() == FORMAT_VERSION_NO_GRID {
-        // version 1 is the same encoding without the trailing `None` byte
-        payload.pop();
-    }
+    // older versions are the same encoding without the trailing `None` bytes
+    let absent = (FORMAT_VERSION - model.format_version()) as usize;
+    payload.truncate(payload.len() - absent);
     let mut out = alloc::vec::Vec::with_capacity(HEADER_LEN + payload.len());
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&model.format_version().to_le_bytes());

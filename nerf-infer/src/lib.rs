@@ -3,7 +3,7 @@
 //! point, from a model blob that can sit in flash.
 //!
 //! Pipeline, one module per stage: [`camera`] (pixel → ray) →
-//! [`sampling`] (where along the ray) → [`encoding`] (γ) → [`network`]
+//! [`sampling`] (where along the ray) → [`encoding`] (γ, and the learned [`features`]) → [`network`]
 //! (the MLP) → [`composite`] (the quadrature) → [`render`] (one ray, both
 //! passes) → [`tile`] (a rectangle of pixels). [`occupancy`] skips empty space; [`format`] decodes models;
 //! [`fixed`] holds the Q formats and integer primitives.
@@ -59,6 +59,7 @@ pub mod camera;
 pub mod composite;
 pub mod encoding;
 pub mod error;
+pub mod features;
 pub mod fixed;
 pub mod format;
 pub mod network;

@@ -13,11 +13,13 @@
 
 use crate::encoding::{encode_f32, encode_fixed};
 use crate::error::{Error, Result};
+use crate::features::MAX_FEATURES;
 use crate::fixed::{sat_i32, sigmoid_q12_q15};
 use crate::format::{read_f32, read_i32, sigma_layer, Layer, Model, Network, Scheme, MAX_FREQS, MAX_WIDTH};
 
-/// Longest encoded position or direction: `3 + 6·16`.
-pub const ENC_MAX: usize = 3 + 6 * MAX_FREQS;
+/// Longest encoded position or direction: `3 + 6·16` plus the feature
+/// grid's values.
+pub const ENC_MAX: usize = 3 + 6 * MAX_FREQS + MAX_FEATURES;
 
 /// Per-block buffers of the f32 path (`B` samples; ≈ `B`·2.4 KiB + 1 KiB).
 #[derive(Clone)]
@@ -236,6 +238,10 @@ impl<const B: usize> BlockF32<B> {
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
             pd = encode_f32(*p, e.pos_freqs as usize, e.include_input, &mut self.enc[s]);
+            if let Some(f) = &model.features {
+                f.encode_f32(*p, &mut self.enc[s][pd..]);
+                pd += f.dim();
+            }
         }
         let layers = &net.layers;
         // layer widths come from the layers: pruned ones are narrower
@@ -653,6 +659,10 @@ impl<const B: usize> BlockFixed<B> {
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
             pd = encode_fixed(*p, e.pos_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc[s]);
+            if let Some(f) = &model.features {
+                f.encode_fixed(*p, &mut enc[s][pd..]);
+                pd += f.dim();
+            }
         }
         let layers = &net.layers;
         // layer widths come from the layers: pruned ones are narrower

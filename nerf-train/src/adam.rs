@@ -1,5 +1,6 @@
 //! Adam (Kingma & Ba) with bias correction, as the paper trains with.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Adam's moment estimates and step count.
@@ -25,11 +26,17 @@ impl Adam {
         self.t += 1;
         let bc1 = 1.0 - (b1 as f64).powi(self.t as i32) as f32;
         let bc2 = 1.0 - (b2 as f64).powi(self.t as i32) as f32;
-        for (((p, g), m), v) in p.iter_mut().zip(g).zip(&mut self.m).zip(&mut self.v) {
-            *m = b1 * *m + (1.0 - b1) * g;
-            *v = b2 * *v + (1.0 - b2) * g * g;
-            *p -= lr * (*m / bc1) / ((*v / bc2).sqrt() + eps);
-        }
+        // element-wise: split in blocks across threads (a feature grid's
+        // table makes millions of parameters)
+        const BLOCK: usize = 1 << 16;
+        let blocks = p.par_chunks_mut(BLOCK).zip(g.par_chunks(BLOCK)).zip(self.m.par_chunks_mut(BLOCK));
+        blocks.zip(self.v.par_chunks_mut(BLOCK)).for_each(|(((p, g), m), v)| {
+            for (((p, g), m), v) in p.iter_mut().zip(g).zip(m).zip(v) {
+                *m = b1 * *m + (1.0 - b1) * g;
+                *v = b2 * *v + (1.0 - b2) * g * g;
+                *p -= lr * (*m / bc1) / ((*v / bc2).sqrt() + eps);
+            }
+        });
     }
 }
 

@@ -1,6 +1,8 @@
 //! Training configuration: the model's shape (as the paper and its
 //! ablations vary it) and the optimiser's settings, with named presets.
 
+use crate::mlp::Mlp;
+use nerf_infer::features::{geometric_resolutions, FeatureGrid, MAX_FEATURES, MAX_LEVELS, MAX_LOG2_TABLE, MAX_RES};
 use nerf_infer::format::{Encoding, Samples, Topology};
 use serde::{Deserialize, Serialize};
 
@@ -58,6 +60,17 @@ pub struct TrainConfig {
     /// A cell stays occupied while its density would make a sample of the
     /// default step (bounds diagonal / `n_coarse`) at least this opaque.
     pub grid_alpha: f32,
+    /// Levels of the learned feature grid in front of the trunk (0: none;
+    /// 1..=16). Needs one network (`n_fine = 0`).
+    pub feature_levels: u8,
+    /// Values per level (1..=8; `levels × width` ≤ 32).
+    pub feature_width: u8,
+    /// Table entries per level: `2^feature_log2_table` (1..=22).
+    pub feature_log2_table: u8,
+    /// Coarsest level's cells per axis.
+    pub feature_min_res: u16,
+    /// Finest level's cells per axis (levels in between: geometric).
+    pub feature_max_res: u16,
 }
 
 impl Default for TrainConfig {
@@ -93,6 +106,11 @@ impl TrainConfig {
             grid_warmup: 256,
             grid_every: 16,
             grid_alpha: 0.01,
+            feature_levels: 0,
+            feature_width: 2,
+            feature_log2_table: 15,
+            feature_min_res: 16,
+            feature_max_res: 256,
         }
     }
 
@@ -125,6 +143,11 @@ impl TrainConfig {
             grid_warmup: 256,
             grid_every: 16,
             grid_alpha: 0.01,
+            feature_levels: 0,
+            feature_width: 2,
+            feature_log2_table: 15,
+            feature_min_res: 16,
+            feature_max_res: 256,
         }
     }
 
@@ -152,7 +175,28 @@ impl TrainConfig {
             dir_freqs: self.dir_freqs,
             include_input: self.include_input || self.pos_freqs == 0,
             raw_frac_bits: 12,
+            grid_dim: self.feature_levels * self.feature_width,
         }
+    }
+
+    /// The feature grid's shape (empty table), if the config has one.
+    pub fn features(&self) -> Option<FeatureGrid<'static>> {
+        (self.feature_levels > 0).then(|| FeatureGrid {
+            width: self.feature_width,
+            log2_table: self.feature_log2_table,
+            frac_bits: 0,
+            resolutions: geometric_resolutions(
+                self.feature_levels as usize,
+                self.feature_min_res,
+                self.feature_max_res,
+            ),
+            table: &[],
+        })
+    }
+
+    /// The network (and feature grid) this config trains.
+    pub fn mlp(&self) -> Mlp {
+        Mlp::new(self.topology(), self.encoding()).with_features(self.features())
     }
 
     /// The network shape this config trains.
@@ -199,6 +243,22 @@ impl TrainConfig {
             && (self.n_fine > 0 || self.grid_every == 0 || self.grid_alpha.is_nan() || self.grid_alpha <= 0.0)
         {
             return Err("an occupancy grid needs n_fine = 0, grid_every > 0 and grid_alpha > 0".into());
+        }
+        if self.feature_levels > 0 {
+            let f = self;
+            let dim = f.feature_levels as usize * f.feature_width as usize;
+            if f.feature_levels as usize > MAX_LEVELS || !(1..=8).contains(&f.feature_width) || dim > MAX_FEATURES {
+                return Err("feature_levels must be 1..=16, feature_width 1..=8, their product at most 32".into());
+            }
+            if !(1..=MAX_LOG2_TABLE).contains(&f.feature_log2_table) {
+                return Err("feature_log2_table must be 1..=22".into());
+            }
+            if f.feature_min_res == 0 || f.feature_max_res < f.feature_min_res || f.feature_max_res > MAX_RES {
+                return Err("need 1 <= feature_min_res <= feature_max_res <= 4096".into());
+            }
+            if f.n_fine > 0 {
+                return Err("a feature grid needs one network (n_fine = 0)".into());
+            }
         }
         let pos = |v: f32| v.is_finite() && v > 0.0;
         if !pos(self.lr)

@@ -16,6 +16,7 @@
 
 use crate::mlp::Mlp;
 use crate::train::Trainer;
+use nerf_infer::features::FeatureGrid;
 use nerf_infer::fixed::{Requant, ENC_FRAC, LOGIT_FRAC, SIGMA_FRAC};
 use nerf_infer::format::{
     self, read_f32, sigma_layer, Encoding, Layer, Meta, Model, Network, Samples, Scene, Scheme, Topology,
@@ -71,6 +72,20 @@ pub struct OwnedModel {
     pub fine: Option<OwnedNetwork>,
     /// Occupancy grid: cells per axis and the bits (format version 2).
     pub grid: Option<(u16, Vec<u8>)>,
+    /// Learned feature grid (format version 3): its shape (`table` empty)
+    /// and the table bytes (f32 LE, or i16 LE in quantised models).
+    pub features: Option<(FeatureGrid<'static>, Vec<u8>)>,
+}
+
+/// `shape` with `table` as its table.
+fn with_table<'a>(shape: &FeatureGrid<'_>, table: &'a [u8]) -> FeatureGrid<'a> {
+    FeatureGrid {
+        width: shape.width,
+        log2_table: shape.log2_table,
+        frac_bits: shape.frac_bits,
+        resolutions: shape.resolutions.clone(),
+        table,
+    }
 }
 
 impl OwnedNetwork {
@@ -123,6 +138,7 @@ impl OwnedModel {
             coarse: self.coarse.view(),
             fine: self.fine.as_ref().map(|f| f.view()),
             grid: self.grid.as_ref().map(|(res, bits)| format::Occupancy { res: *res, bits }),
+            features: self.features.as_ref().map(|(f, t)| with_table(f, t)),
         };
         format::to_bytes(&m)
     }
@@ -138,6 +154,7 @@ impl OwnedModel {
             coarse: OwnedNetwork::from_view(&m.coarse),
             fine: m.fine.as_ref().map(OwnedNetwork::from_view),
             grid: m.grid.map(|g| (g.res, g.bits.to_vec())),
+            features: m.features.as_ref().map(|f| (with_table(f, &[]), f.table.to_vec())),
         }
     }
 }
@@ -196,6 +213,10 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         coarse,
         fine,
         grid: tr.grid.as_ref().map(|g| (g.res, g.bits.clone())),
+        features: mlp
+            .features
+            .as_ref()
+            .map(|f| (f.clone(), f32_bytes(tr.params[mlp.table..mlp.n_params].iter().copied()))),
     }
 }
 
@@ -293,7 +314,14 @@ fn keep_rows(l: &mut OwnedLayer, off: usize, n: usize, keep: &[usize]) {
 }
 
 /// Input scale of every column of layer `i`, and the output target factor.
-fn layer_scales(t: &Topology, e: &Encoding, net: &Network<'_>, i: usize, act_bits: u8) -> (Vec<f64>, f64) {
+fn layer_scales(
+    t: &Topology,
+    e: &Encoding,
+    net: &Network<'_>,
+    i: usize,
+    act_bits: u8,
+    grid_frac: u8,
+) -> (Vec<f64>, f64) {
     // largest code of layer l's output: i16, or u8 after ReLU / i8 for the
     // linear feature layer
     let linear = |l: usize| t.view_dependent && l == sigma_layer(t) + 1;
@@ -319,6 +347,7 @@ fn layer_scales(t: &Topology, e: &Encoding, net: &Network<'_>, i: usize, act_bit
         let mut cols = Vec::new();
         if i == 0 || t.is_skip(i) {
             cols.extend(enc(e.pos_freqs));
+            cols.extend(std::iter::repeat_n(2f64.powi(-(grid_frac as i32)), e.grid_dim as usize));
         }
         if i > 0 {
             cols.extend(hidden(i - 1));
@@ -338,7 +367,13 @@ fn layer_scales(t: &Topology, e: &Encoding, net: &Network<'_>, i: usize, act_bit
     }
 }
 
-fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme, act_bits: u8) -> Result<OwnedNetwork, String> {
+fn quantise_network(
+    m: &Model<'_>,
+    net: &Network<'_>,
+    scheme: Scheme,
+    act_bits: u8,
+    grid_frac: u8,
+) -> Result<OwnedNetwork, String> {
     let qmax = match (scheme, act_bits) {
         (Scheme::I16, 16) => 32767.0,
         (Scheme::I8, 16 | 8) => 127.0,
@@ -347,7 +382,7 @@ fn quantise_network(m: &Model<'_>, net: &Network<'_>, scheme: Scheme, act_bits: 
     };
     let mut layers = Vec::new();
     for (i, l) in net.layers.iter().enumerate() {
-        let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i, act_bits);
+        let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i, act_bits, grid_frac);
         let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
         debug_assert_eq!(cols.len(), din);
         let mut q = vec![0i32; din * dout];
@@ -409,12 +444,29 @@ pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<Owne
         return Err("the model is already quantised; export from the f32 model".into());
     }
     let mut out = OwnedModel::from_model(m);
-    out.coarse = quantise_network(m, &m.coarse, scheme, act_bits)?;
+    out.features = m.features.as_ref().map(quantise_features);
+    let grid_frac = out.features.as_ref().map_or(0, |(f, _)| f.frac_bits);
+    out.coarse = quantise_network(m, &m.coarse, scheme, act_bits, grid_frac)?;
     out.fine = match &m.fine {
-        Some(f) => Some(quantise_network(m, f, scheme, act_bits)?),
+        Some(f) => Some(quantise_network(m, f, scheme, act_bits, grid_frac)?),
         None => None,
     };
     Ok(out)
+}
+
+/// The f32 feature table as i16 with the most fractional bits (≤ 15) that
+/// keep its largest |value| (with 5 % headroom) in range; round to nearest.
+fn quantise_features(f: &FeatureGrid<'_>) -> (FeatureGrid<'static>, Vec<u8>) {
+    let vals: Vec<f32> = (0..f.values()).map(|k| read_f32(f.table, k)).collect();
+    let max = vals.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let frac = (32767.0 / (max as f64 * 1.05).max(1e-6)).log2().floor().clamp(0.0, 15.0) as u8;
+    let table = vals
+        .iter()
+        .flat_map(|v| ((*v as f64 * 2f64.powi(frac as i32)).round().clamp(-32767.0, 32767.0) as i16).to_le_bytes())
+        .collect();
+    let mut shape = with_table(f, &[]);
+    shape.frac_bits = frac;
+    (shape, table)
 }
 
 /// The occupancy grid of `m` coarsened to `res` cells per axis (a divisor
@@ -460,6 +512,11 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
                 *v *= gain;
             }
         }
+    }
+    // feature values of the size trained grids reach (init is ±1e-4)
+    let mut rng = crate::rng::Rng::new(seed ^ 0xFEA7);
+    for v in &mut tr.params[mlp.table..mlp.n_params] {
+        *v = rng.f32() - 0.5;
     }
     let rays = orbit_rays(&scene, 8, 24);
     trainer_model(&tr, &rays, Prune::Off)

@@ -6,12 +6,17 @@
 //! [`nerf_infer::format::expected_shape`], so the trainer and the kernel
 //! cannot disagree on them.
 //!
+//! With a learned feature grid ([`Mlp::with_features`]) its table follows
+//! the layers in the parameter vector (level, entry, value: the model
+//! format's order) and its values follow γ(x) in the trunk's input.
+//!
 //! Forward and backward work on a chunk of `S` samples belonging to `R`
 //! rays with `S/R` consecutive samples per ray (the view direction is per
 //! ray). Matrix products go through [`crate::gemm::matmul`].
 
 use crate::gemm::{matmul, View};
 use nerf_infer::encoding::encode_f32;
+use nerf_infer::features::{Corners, FeatureGrid};
 use nerf_infer::format::{expected_shape, Encoding, Topology};
 
 /// Where one layer's tensors sit in the flat parameter vector.
@@ -36,6 +41,11 @@ pub struct Mlp {
     pub enc: Encoding,
     /// Layer tensors in the flat parameter vector.
     pub slots: Vec<LayerSlot>,
+    /// The feature grid's shape (its `table` empty: the values are
+    /// parameters from [`Mlp::table`] on).
+    pub features: Option<FeatureGrid<'static>>,
+    /// Offset of the feature grid's table (= the layers' parameter count).
+    pub table: usize,
     /// Total parameter count.
     pub n_params: usize,
 }
@@ -46,6 +56,12 @@ pub struct Acts {
     s: usize,
     r: usize,
     enc: Vec<f32>,
+    /// Feature-grid values per sample (`S × grid_dim`) and their corners
+    /// (`S × levels`).
+    gf: Vec<f32>,
+    corners: Vec<Corners>,
+    dgf: Vec<f32>,
+    dgf_part: Vec<f32>,
     denc: Vec<f32>,
     h: Vec<Vec<f32>>,
     /// Raw density per sample (before ReLU).
@@ -76,13 +92,34 @@ impl Mlp {
             slots.push(LayerSlot { din, dout, w: off, b: off + din * dout });
             off += din * dout + dout;
         }
-        Self { topo, enc, slots, n_params: off }
+        Self { topo, enc, slots, features: None, table: off, n_params: off }
+    }
+
+    /// The same network with a learned feature grid of shape `f` (its
+    /// `table` is ignored) in front of the trunk; `enc.grid_dim` must be
+    /// `f.dim()`.
+    pub fn with_features(mut self, f: Option<FeatureGrid<'static>>) -> Self {
+        if let Some(mut f) = f {
+            assert_eq!(self.enc.grid_dim as usize, f.dim(), "encoding.grid_dim");
+            f.table = &[];
+            self.n_params = self.table + f.values();
+            self.features = Some(f);
+        }
+        self
     }
 
     /// Width of the encoded position.
     pub fn pos_dim(&self) -> usize {
         self.enc.pos_dim()
     }
+
+    /// Width of γ(x), the part of the encoded position before the grid values.
+    fn gamma_dim(&self) -> usize {
+        self.enc.gamma_dim()
+    }
+
+    /// Initial feature-grid values: uniform in ±`FEATURE_INIT` (instant-ngp's).
+    pub const FEATURE_INIT: f32 = 1e-4;
 
     fn sigma_idx(&self) -> usize {
         self.topo.depth as usize
@@ -109,7 +146,50 @@ impl Mlp {
         }
         let s = self.slots[self.sigma_idx()];
         p[s.b] = Self::SIGMA_BIAS_INIT;
+        for v in &mut p[self.table..] {
+            *v = (rng.f32() * 2.0 - 1.0) * Self::FEATURE_INIT;
+        }
         p
+    }
+
+    /// Feature-grid values (`S × grid_dim`) and corners of `pos`.
+    fn grid_forward(&self, p: &[f32], pos: &[[f32; 3]], a: &mut Acts) {
+        let Some(f) = &self.features else { return };
+        let (w, nl, t) = (f.width as usize, f.levels(), &p[self.table..]);
+        resize(&mut a.gf, pos.len() * nl * w);
+        a.corners.resize(pos.len() * nl, Corners::default());
+        for (i, x) in pos.iter().enumerate() {
+            for l in 0..nl {
+                let c = f.corners_f32(l, *x);
+                let o = &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w];
+                o.fill(0.0);
+                let base = l * f.entries();
+                for k in 0..8 {
+                    let e = (base + c.entry[k] as usize) * w;
+                    for (j, v) in o.iter_mut().enumerate() {
+                        *v += c.weight[k] * t[e + j];
+                    }
+                }
+                a.corners[i * nl + l] = c;
+            }
+        }
+    }
+
+    /// Scatters `a.dgf` (gradient of the grid values) into the table's gradient.
+    fn grid_backward(&self, a: &Acts, g: &mut [f32]) {
+        let Some(f) = &self.features else { return };
+        let (w, nl) = (f.width as usize, f.levels());
+        let gt = &mut g[self.table..];
+        for (i, c) in a.corners[..a.s * nl].iter().enumerate() {
+            let base = (i % nl) * f.entries();
+            let d = &a.dgf[i * w..(i + 1) * w];
+            for k in 0..8 {
+                let e = (base + c.entry[k] as usize) * w;
+                for j in 0..w {
+                    gt[e + j] += c.weight[k] * d[j];
+                }
+            }
+        }
     }
 
     /// Initial density bias (σ in 1/world units before the ReLU): with the
@@ -170,22 +250,24 @@ impl Mlp {
     pub fn forward(&self, p: &[f32], pos: &[[f32; 3]], dirs: &[[f32; 3]], need_rgb: bool, a: &mut Acts) {
         let (s, r) = (pos.len(), dirs.len());
         let (pd, dd) = (self.enc.pos_dim(), self.enc.dir_dim());
+        let (gd, fd) = (self.gamma_dim(), self.enc.grid_dim as usize);
         let w = self.topo.width as usize;
         let d = self.topo.depth as usize;
         a.s = s;
         a.r = r;
-        resize(&mut a.enc, s * pd);
+        resize(&mut a.enc, s * gd);
         for (i, x) in pos.iter().enumerate() {
-            encode_f32(*x, self.enc.pos_freqs as usize, self.enc.include_input, &mut a.enc[i * pd..(i + 1) * pd]);
+            encode_f32(*x, self.enc.pos_freqs as usize, self.enc.include_input, &mut a.enc[i * gd..(i + 1) * gd]);
         }
+        self.grid_forward(p, pos, a);
         a.h.resize(d, Vec::new());
         for i in 0..d {
             let mut out = std::mem::take(&mut a.h[i]);
             resize(&mut out, s * w);
             if i == 0 {
-                self.linear(p, 0, &[(&a.enc, pd, 0)], s, &mut out);
+                self.linear(p, 0, &[(&a.enc, gd, 0), (&a.gf, fd, gd)], s, &mut out);
             } else if self.topo.is_skip(i) {
-                self.linear(p, i, &[(&a.enc, pd, 0), (&a.h[i - 1], w, pd)], s, &mut out);
+                self.linear(p, i, &[(&a.enc, gd, 0), (&a.gf, fd, gd), (&a.h[i - 1], w, pd)], s, &mut out);
             } else {
                 self.linear(p, i, &[(&a.h[i - 1], w, 0)], s, &mut out);
             }
@@ -233,6 +315,7 @@ impl Mlp {
     pub fn backward(&self, p: &[f32], a: &mut Acts, dsigma: &[f32], drgb: &[f32], g: &mut [f32]) {
         let (s, r) = (a.s, a.r);
         let pd = self.enc.pos_dim();
+        let (gd, fd) = (self.gamma_dim(), self.enc.grid_dim as usize);
         let dd = self.enc.dir_dim();
         let w = self.topo.width as usize;
         let d = self.topo.depth as usize;
@@ -289,7 +372,12 @@ impl Mlp {
                 *x += ds * wv;
             }
         }
-        // Trunk, last layer first.
+        // Trunk, last layer first; the grid values' gradient summed over
+        // layer 0 and the skip layers.
+        let (mut dgf, mut dpart) = (std::mem::take(&mut a.dgf), std::mem::take(&mut a.dgf_part));
+        resize(&mut dgf, s * fd);
+        resize(&mut dpart, s * fd);
+        dgf.fill(0.0);
         for i in (0..d).rev() {
             for (x, h) in dh.iter_mut().zip(&a.h[i]) {
                 if *h <= 0.0 {
@@ -297,19 +385,23 @@ impl Mlp {
                 }
             }
             self.bias_back(g, i, &dh, s);
+            if i == 0 || self.topo.is_skip(i) {
+                self.linear_back(p, g, i, &a.enc, gd, 0, &dh, s, None);
+                if fd > 0 {
+                    self.linear_back(p, g, i, &a.gf, fd, gd, &dh, s, Some(&mut dpart));
+                    dgf.iter_mut().zip(&dpart).for_each(|(a, b)| *a += b);
+                }
+            }
             if i == 0 {
-                self.linear_back(p, g, 0, &a.enc, pd, 0, &dh, s, None);
                 break;
             }
-            let row0 = if self.topo.is_skip(i) {
-                self.linear_back(p, g, i, &a.enc, pd, 0, &dh, s, None);
-                pd
-            } else {
-                0
-            };
+            let row0 = if self.topo.is_skip(i) { pd } else { 0 };
             self.linear_back(p, g, i, &a.h[i - 1], w, row0, &dh, s, Some(&mut dtmp));
             std::mem::swap(&mut dh, &mut dtmp);
         }
+        a.dgf = dgf;
+        a.dgf_part = dpart;
+        self.grid_backward(a, g);
         a.dh = dh;
         a.dtmp = dtmp;
     }
@@ -369,13 +461,20 @@ mod tests {
     }
 
     fn check_gradients(topo: Topology, enc: Encoding) {
-        let m = Mlp::new(topo, enc);
+        check_gradients_with(Mlp::new(topo, enc));
+    }
+
+    fn check_gradients_with(m: Mlp) {
         let mut p = m.init(3);
         // shift biases so that ReLUs are mostly active away from kinks
         for s in &m.slots {
             for v in &mut p[s.b..s.b + s.dout] {
                 *v += 0.05;
             }
+        }
+        // feature values of the size trained grids reach (init is ±1e-4)
+        for (k, v) in p[m.table..].iter_mut().enumerate() {
+            *v = (k as f32 * 0.7).sin() * 0.5;
         }
         let pos: Vec<[f32; 3]> = (0..6).map(|i| [0.1 * i as f32, -0.2, 0.05 * i as f32 - 0.1]).collect();
         let dirs = vec![[0.0, 0.6, -0.8], [0.8, 0.0, -0.6]];
@@ -385,6 +484,13 @@ mod tests {
         let dc: Vec<f32> = (0..18).map(|i| (i % 5) as f32 - 2.0).collect();
         let mut g = vec![0.0; m.n_params];
         m.backward(&p, &mut a, &ds, &dc, &mut g);
+        // the samples reach table entries of every level (the test must see them)
+        if let Some(f) = &m.features {
+            for level in g[m.table..].chunks(f.entries() * f.width as usize) {
+                let touched = level.iter().filter(|v| v.abs() > 1e-3).count();
+                assert!(touched >= 8, "{touched} table gradients in a level");
+            }
+        }
         let (mut checked, mut kinks) = (0, 0);
         let fd = |k: usize, h: f32, a: &mut Acts| {
             let mut pp = p.clone();
@@ -410,14 +516,31 @@ mod tests {
     #[test]
     fn gradients_match_finite_differences_view_branch_and_skip() {
         let topo = Topology { depth: 3, width: 8, skip_mask: 1 << 2, view_dependent: true, view_width: 4 };
-        let enc = Encoding { pos_freqs: 2, dir_freqs: 1, include_input: true, raw_frac_bits: 12 };
+        let enc = Encoding { pos_freqs: 2, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 0 };
         check_gradients(topo, enc);
     }
 
     #[test]
     fn gradients_match_finite_differences_plain() {
         let topo = Topology { depth: 2, width: 6, skip_mask: 0, view_dependent: false, view_width: 0 };
-        let enc = Encoding { pos_freqs: 3, dir_freqs: 0, include_input: false, raw_frac_bits: 12 };
+        let enc = Encoding { pos_freqs: 3, dir_freqs: 0, include_input: false, raw_frac_bits: 12, grid_dim: 0 };
         check_gradients(topo, enc);
+    }
+
+    #[test]
+    fn gradients_match_finite_differences_with_a_feature_grid() {
+        // two dense levels and one hashed, a skip layer that also reads them
+        let topo = Topology { depth: 3, width: 8, skip_mask: 1 << 2, view_dependent: true, view_width: 4 };
+        let f = FeatureGrid {
+            width: 2,
+            log2_table: 5,
+            frac_bits: 0,
+            resolutions: nerf_infer::features::geometric_resolutions(3, 1, 5),
+            table: &[],
+        };
+        let enc = Encoding { pos_freqs: 1, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 6 };
+        let m = Mlp::new(topo, enc).with_features(Some(f));
+        assert_eq!(m.n_params, m.table + 3 * 32 * 2);
+        check_gradients_with(m);
     }
 }

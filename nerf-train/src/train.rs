@@ -138,7 +138,7 @@ pub type Sample = (Ray, [f32; 3]);
 impl Trainer {
     /// A new run with freshly initialised networks.
     pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
-        let net = Mlp::new(cfg.topology(), cfg.encoding());
+        let net = cfg.mlp();
         let mut params = net.init(seed);
         if cfg.n_fine > 0 {
             params.extend(net.init(seed ^ 0x5EED_F1E0));
@@ -150,7 +150,7 @@ impl Trainer {
 
     /// The network shape (both networks share it).
     pub fn mlp(&self) -> Mlp {
-        Mlp::new(self.cfg.topology(), self.cfg.encoding())
+        self.cfg.mlp()
     }
 
     /// Coarse parameters.
@@ -231,8 +231,12 @@ impl Trainer {
         let np = self.params.len();
         let scale = 2.0 / (3.0 * batch.len() as f32);
         let chunk = self.cfg.chunk_rays;
+        // at most ~4 accumulators per thread: each is a gradient as long as
+        // the parameters (a feature grid's table makes that megabytes)
+        let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
         let (grad, sq_c, sq_f, samples) = batch
             .par_chunks(chunk)
+            .with_min_len(min_len.max(1))
             .enumerate()
             .fold(
                 || (vec![0.0f32; np], 0.0f64, 0.0f64, 0usize, Workspace::default()),

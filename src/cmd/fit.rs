@@ -9,7 +9,6 @@ use clap::Parser;
 use nerf_infer::{Model, Scheme};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::quantise;
-use nerf_train::mlp::Mlp;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nerf fit`.
@@ -65,7 +64,7 @@ pub fn candidates() -> Vec<(&'static str, TrainConfig)> {
 
 /// Multiply-accumulates per sample of a configuration's network.
 pub fn macs(cfg: &TrainConfig) -> usize {
-    Mlp::new(cfg.topology(), cfg.encoding()).macs_per_sample()
+    cfg.mlp().macs_per_sample()
 }
 
 /// `nerf train` with `cfg`, through its own argument parser.

@@ -38,6 +38,10 @@ pub fn run(a: Args) -> CmdResult {
         "grid": m.grid.map(|g| serde_json::json!({
             "res": g.res, "occupied_cells": g.occupied_cells(), "bytes": g.bits.len(),
         })),
+        "features": m.features.as_ref().map(|f| serde_json::json!({
+            "levels": f.levels(), "width": f.width, "log2_table": f.log2_table, "frac_bits": f.frac_bits,
+            "resolutions": f.resolutions.as_slice(), "bytes": f.table.len(),
+        })),
         "scheme": format!("{:?}", m.scheme()),
         "scene": { "bounds_min": m.scene.bounds_min, "bounds_max": m.scene.bounds_max, "near": m.scene.near, "far": m.scene.far,
                    "white_background": m.scene.white_background, "ndc": m.scene.ndc.is_some() },
@@ -103,6 +107,19 @@ pub fn run(a: Args) -> CmdResult {
             );
         }
         None => println!("  occupancy grid: none (every sample is evaluated)"),
+    }
+    if let Some(f) = &m.features {
+        let r = f.resolutions.as_slice();
+        println!(
+            "  feature grid: {} levels x {} values, {}..{} cells per axis, 2^{} entries per level, {} bytes{}",
+            f.levels(),
+            f.width,
+            r[0],
+            r[r.len() - 1],
+            f.log2_table,
+            f.table.len(),
+            if m.scheme().is_fixed() { format!(" (i16, Q{})", f.frac_bits) } else { String::new() }
+        );
     }
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);
     println!("  parameters: {} per network", info["coarse"]["parameters"]);

@@ -1,0 +1,275 @@
+//! Learned multiresolution feature grid (instant-ngp's encoding, Müller et
+//! al. 2022), f32 and fixed point: appended to γ(x) as extra inputs of the
+//! trunk.
+//!
+//! Level `l` is a lattice of `N_l` cells per axis over the scene bounds
+//! (vertices `0..=N_l`). A normalised position `p ∈ [−1, 1]³` maps to
+//! `u = (p + 1)/2` (clamped to `[0, 1]`), `x = u·N_l`; the 8 vertices of
+//! the cell holding `x` are looked up in the level's table of
+//! `2^log2_table` entries (`width` values each) — directly (`i + (N+1)·(j +
+//! (N+1)·k)`) when the lattice fits, else through instant-ngp's spatial
+//! hash `(i ⊕ 2654435761·j ⊕ 805459861·k) mod 2^log2_table` — and blended
+//! trilinearly. Output: `levels × width` values, level-major.
+//!
+//! Table values: f32 in f32 models; i16 with `frac_bits` fractional bits in
+//! fixed-point models. The fixed path computes the cell and the Q15
+//! trilinear weights from the Q24 position with integers only, and its
+//! features come out as i16 with `frac_bits` fractional bits.
+
+use crate::encoding::NPOS_FRAC;
+use crate::fixed::{sat_i16, shr_round_i64};
+use crate::format::read_f32;
+use serde::{Deserialize, Serialize};
+
+/// Most levels a grid may have.
+pub const MAX_LEVELS: usize = 16;
+/// Most values the grid adds to the trunk's input (`levels × width`).
+pub const MAX_FEATURES: usize = 32;
+/// Largest table per level: `2^MAX_LOG2_TABLE` entries.
+pub const MAX_LOG2_TABLE: u8 = 22;
+/// Finest lattice, cells per axis.
+pub const MAX_RES: u16 = 4096;
+
+/// A decoded feature grid, borrowing its table from the model blob.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct FeatureGrid<'a> {
+    /// Values per table entry (1..=8).
+    pub width: u8,
+    /// Entries per level: `2^log2_table` (1..=22).
+    pub log2_table: u8,
+    /// Fixed-point models: fractional bits of the i16 table values and of
+    /// the features (0..=15). 0 in f32 models.
+    pub frac_bits: u8,
+    /// Cells per axis of each level, coarse to fine (1..=4096).
+    pub resolutions: heapless::Vec<u16, MAX_LEVELS>,
+    /// `levels · 2^log2_table · width` values, level then entry then value:
+    /// f32 LE (f32 models) or i16 LE (fixed-point models).
+    #[serde(borrow)]
+    pub table: &'a [u8],
+}
+
+/// The 8 table entries and trilinear weights of one level at one point.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Corners {
+    /// Entry index within the level, corner `c` = `(c & 1, c >> 1 & 1, c >> 2)`.
+    pub entry: [u32; 8],
+    /// Trilinear weight of each corner (they sum to 1).
+    pub weight: [f32; 8],
+}
+
+impl FeatureGrid<'_> {
+    /// Number of levels.
+    pub fn levels(&self) -> usize {
+        self.resolutions.len()
+    }
+    /// Values the grid appends to γ(x): `levels × width`.
+    pub fn dim(&self) -> usize {
+        self.levels() * self.width as usize
+    }
+    /// Entries per level.
+    pub fn entries(&self) -> usize {
+        1 << self.log2_table
+    }
+    /// Table elements (values) in all levels.
+    pub fn values(&self) -> usize {
+        self.levels() * self.entries() * self.width as usize
+    }
+
+    /// Checks ranges and that the table holds `values()` elements of
+    /// `elem_bytes` bytes (4: f32, 2: i16).
+    pub fn is_valid(&self, elem_bytes: usize) -> bool {
+        let shape_ok = (1..=8).contains(&self.width)
+            && (1..=MAX_LOG2_TABLE).contains(&self.log2_table)
+            && self.frac_bits <= 15
+            && !self.resolutions.is_empty()
+            && self.dim() <= MAX_FEATURES
+            && self.resolutions.iter().all(|&r| (1..=MAX_RES).contains(&r));
+        shape_ok && self.table.len() == self.values() * elem_bytes
+    }
+
+    /// Entry of vertex `(i, j, k)` of a level with `res` cells per axis:
+    /// dense when the `(res + 1)³` vertices fit the table, else hashed.
+    #[inline]
+    pub fn entry(&self, res: u16, v: [u32; 3]) -> u32 {
+        let n = res as u32 + 1;
+        let mask = (1u32 << self.log2_table) - 1;
+        if (n as u64).pow(3) <= 1u64 << self.log2_table {
+            v[0] + n * (v[1] + n * v[2])
+        } else {
+            (v[0] ^ v[1].wrapping_mul(2_654_435_761) ^ v[2].wrapping_mul(805_459_861)) & mask
+        }
+    }
+
+    /// Corners and weights of level `l` at the normalised position `p`
+    /// (f32 path and trainer). Non-finite coordinates count as 0.
+    pub fn corners_f32(&self, l: usize, p: [f32; 3]) -> Corners {
+        let res = self.resolutions[l];
+        let mut cell = [0u32; 3];
+        let mut f = [0.0f32; 3];
+        for a in 0..3 {
+            let v = if p[a].is_finite() { p[a] } else { 0.0 };
+            let x = ((v + 1.0) * 0.5).clamp(0.0, 1.0) * res as f32;
+            let i = (libm::floorf(x) as u32).min(res as u32 - 1);
+            cell[a] = i;
+            f[a] = x - i as f32;
+        }
+        let mut out = Corners::default();
+        for c in 0..8 {
+            let bit = |a: usize| (c >> a) & 1;
+            let v = [0, 1, 2].map(|a| cell[a] + bit(a) as u32);
+            out.entry[c] = self.entry(res, v);
+            out.weight[c] = (0..3).map(|a| if bit(a) == 1 { f[a] } else { 1.0 - f[a] }).product();
+        }
+        out
+    }
+
+    /// The `dim()` features at the normalised position `p` (f32 table).
+    pub fn encode_f32(&self, p: [f32; 3], out: &mut [f32]) {
+        let w = self.width as usize;
+        for l in 0..self.levels() {
+            let c = self.corners_f32(l, p);
+            let base = l * self.entries();
+            let o = &mut out[l * w..(l + 1) * w];
+            o.fill(0.0);
+            for k in 0..8 {
+                let e = (base + c.entry[k] as usize) * w;
+                for (j, v) in o.iter_mut().enumerate() {
+                    *v += c.weight[k] * read_f32(self.table, e + j);
+                }
+            }
+        }
+    }
+
+    /// The `dim()` features at the Q24 normalised position `p` (i16 table),
+    /// as i16 with `frac_bits` fractional bits. Integer only: the cell and
+    /// the Q15 fractions come from `u·N` in Q25, the corner weights are
+    /// products of Q15 fractions rounded to Q15, the blend is summed in i64
+    /// and rounded once.
+    pub fn encode_fixed(&self, p: [i32; 3], out: &mut [i16]) {
+        const ONE: i64 = 1 << 15;
+        let w = self.width as usize;
+        let one = 1i64 << NPOS_FRAC;
+        for l in 0..self.levels() {
+            let res = self.resolutions[l];
+            let mut cell = [0u32; 3];
+            let mut f = [0i64; 3];
+            for a in 0..3 {
+                // u·2²⁵ in [0, 2²⁵], then x = u·N in Q25 (< 2³⁷)
+                let u = (p[a] as i64).clamp(-one, one) + one;
+                let x = u * res as i64;
+                let i = ((x >> (NPOS_FRAC + 1)) as u32).min(res as u32 - 1);
+                cell[a] = i;
+                f[a] = (x - ((i as i64) << (NPOS_FRAC + 1))) >> (NPOS_FRAC + 1 - 15);
+            }
+            let base = l * self.entries();
+            let mut acc = [0i64; 8];
+            for c in 0..8 {
+                let bit = |a: usize| (c >> a) & 1;
+                let wt = |a: usize| if bit(a) == 1 { f[a] } else { ONE - f[a] };
+                let wxy = (wt(0) * wt(1) + (1 << 14)) >> 15;
+                let wc = (wxy * wt(2) + (1 << 14)) >> 15;
+                let v = [0, 1, 2].map(|a| cell[a] + bit(a) as u32);
+                let e = (base + self.entry(res, v) as usize) * w;
+                for j in 0..w {
+                    let b = &self.table[2 * (e + j)..2 * (e + j) + 2];
+                    acc[j] += wc * i16::from_le_bytes([b[0], b[1]]) as i64;
+                }
+            }
+            for j in 0..w {
+                out[l * w + j] = sat_i16(shr_round_i64(acc[j], 15));
+            }
+        }
+    }
+}
+
+/// Resolutions of a geometric series of `levels` lattices from `min` to
+/// `max` cells per axis (instant-ngp's `N_l = ⌊N_min·b^l⌋`).
+pub fn geometric_resolutions(levels: usize, min: u16, max: u16) -> heapless::Vec<u16, MAX_LEVELS> {
+    let mut out = heapless::Vec::new();
+    let levels = levels.clamp(1, MAX_LEVELS);
+    let b =
+        if levels > 1 { libm::exp((libm::log(max as f64) - libm::log(min as f64)) / (levels - 1) as f64) } else { 1.0 };
+    for l in 0..levels {
+        let r = libm::floor(min as f64 * libm::pow(b, l as f64) + 1e-6) as u16;
+        let _ = out.push(r.clamp(1, MAX_RES));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid<'a>(table: &'a [u8], frac_bits: u8) -> FeatureGrid<'a> {
+        FeatureGrid { width: 2, log2_table: 6, frac_bits, resolutions: geometric_resolutions(3, 2, 9), table }
+    }
+
+    #[test]
+    fn resolutions_span_min_to_max() {
+        assert_eq!(geometric_resolutions(3, 2, 9).as_slice(), &[2, 4, 9]);
+        assert_eq!(geometric_resolutions(1, 16, 512).as_slice(), &[16]);
+        assert_eq!(*geometric_resolutions(16, 16, 512).last().unwrap(), 512);
+    }
+
+    #[test]
+    fn dense_levels_index_every_vertex_once() {
+        let g = grid(&[], 0);
+        // level 0: 3³ = 27 vertices ≤ 64 entries: dense and distinct
+        let mut seen = [false; 64];
+        for k in 0..3 {
+            for j in 0..3 {
+                for i in 0..3 {
+                    let e = g.entry(2, [i, j, k]) as usize;
+                    assert!(!seen[e]);
+                    seen[e] = true;
+                }
+            }
+        }
+        // level 2: 10³ > 64: hashed into the table
+        assert!((0..10).all(|i| g.entry(9, [i, 9 - i, i / 2]) < 64));
+    }
+
+    #[test]
+    fn weights_sum_to_one_and_vertices_reproduce_the_table() {
+        let vals: [f32; 384] = core::array::from_fn(|i| ((i * 37 % 101) as f32 - 50.0) / 64.0);
+        let bytes: [u8; 1536] = core::array::from_fn(|b| vals[b / 4].to_le_bytes()[b % 4]);
+        let g = grid(&bytes, 0);
+        for k in 0..50 {
+            let p = [k as f32 / 25.0 - 1.0, 0.3 - k as f32 / 70.0, (k as f32 * 0.7).sin()];
+            for l in 0..3 {
+                let s: f32 = g.corners_f32(l, p).weight.iter().sum();
+                assert!((s - 1.0).abs() < 1e-5);
+            }
+        }
+        // at a lattice vertex the feature is that vertex's entry
+        let mut out = [0.0f32; 6];
+        g.encode_f32([0.0, -1.0, 1.0], &mut out);
+        let e = g.entry(2, [1, 0, 2]) as usize;
+        assert_eq!(out[0], vals[2 * e]);
+        assert_eq!(out[1], vals[2 * e + 1]);
+    }
+
+    #[test]
+    fn fixed_features_match_f32_within_rounding() {
+        let fb = 12u8;
+        let q: [i16; 384] = core::array::from_fn(|i| ((i * 7919 % 8191) as i16 - 4095) * 7);
+        let qb: [u8; 768] = core::array::from_fn(|b| q[b / 2].to_le_bytes()[b % 2]);
+        let fbytes: [u8; 1536] = core::array::from_fn(|b| (q[b / 4] as f32 / (1 << fb) as f32).to_le_bytes()[b % 4]);
+        let (gq, gf) = (grid(&qb, fb), grid(&fbytes, 0));
+        let (mut oq, mut of) = ([0i16; 6], [0.0f32; 6]);
+        for k in 0..2000 {
+            let t = k as f32 * 0.001_37;
+            // includes points outside the bounds (clamped to the faces)
+            let p = [(t * 3.1).sin() * 1.1, (t * 1.7).cos(), t - 1.4];
+            let pq = p.map(|v| libm::roundf(v * (1 << NPOS_FRAC) as f32) as i32);
+            let pr = pq.map(|v| v as f32 / (1 << NPOS_FRAC) as f32);
+            gq.encode_fixed(pq, &mut oq);
+            gf.encode_f32(pr, &mut of);
+            for j in 0..6 {
+                let want = of[j] * (1 << fb) as f32;
+                // 4 weight roundings of ≤ 2⁻¹⁶ each on |t| ≤ 2¹⁵, + the final rounding
+                assert!((oq[j] as f32 - want).abs() <= 3.0, "k {k} feature {j}: {} vs {want}", oq[j]);
+            }
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! The learned feature grid (format version 3): training with it, its file
+//! format, and its fixed-point render against the f32 one.
+
+mod support;
+
+use nerf_infer::format::FORMAT_VERSION;
+use nerf_infer::{Model, RenderOptions, Scheme};
+use nerf_train::config::TrainConfig;
+use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
+use nerf_train::dataset::{load, LoadOptions, Split};
+use nerf_train::eval::score_view;
+use nerf_train::export::{orbit_camera, quantise, random_model, trainer_model, OwnedModel, Prune};
+use nerf_train::rng::Rng;
+use nerf_train::train::Trainer;
+use support::*;
+
+/// A small grid model: 4 levels of 2 values, 2¹⁰ entries (the two coarse
+/// levels dense, the two fine ones hashed), γ(x) with 2 frequencies.
+fn feature_config() -> TrainConfig {
+    TrainConfig {
+        depth: 2,
+        width: 32,
+        skips: vec![],
+        view_width: 16,
+        pos_freqs: 2,
+        dir_freqs: 2,
+        n_coarse: 48,
+        n_fine: 0,
+        feature_levels: 4,
+        feature_width: 2,
+        feature_log2_table: 10,
+        feature_min_res: 4,
+        feature_max_res: 32,
+        ..TrainConfig::fast()
+    }
+}
+
+fn version(bytes: &[u8]) -> u16 {
+    u16::from_le_bytes([bytes[4], bytes[5]])
+}
+
+#[test]
+fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
+    let d = std::env::temp_dir().join(format!("nerf-features-test-{}", std::process::id()));
+    write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
+    let cfg = TrainConfig { batch_rays: 256, lr: 1e-2, eps: 1e-15, beta2: 0.99, ..feature_config() };
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
+    for i in 0..120 {
+        tr.train_step(&data, i as f64 / 120.0);
+    }
+    let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
+    println!("loss {first:.4} -> {last:.4}");
+    assert!(last < 0.5 * first, "loss did not fall: {first} -> {last}");
+    let mlp = tr.mlp();
+    let table = &tr.params[mlp.table..];
+    assert!(table.iter().any(|v| v.abs() > 1e-2), "the table did not move from its ±1e-4 start");
+    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    assert_eq!(back.params, tr.params);
+
+    let calib = Trainer::draw_batch(&data, 512, &mut Rng::new(3));
+    let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
+    assert_eq!(version(&bytes), FORMAT_VERSION);
+    let m = Model::from_bytes(&bytes).unwrap();
+    let f = m.features.as_ref().expect("the model carries its feature grid");
+    assert_eq!((f.levels(), f.width as usize, f.entries()), (4, 2, 1024));
+    assert_eq!(m.encoding.grid_dim, 8);
+    assert_eq!(m.feature_bytes(), 4 * table.len());
+    assert_eq!(nerf_infer::format::read_f32(f.table, 77), table[77]);
+
+    let score = |m: &Model<'_>| score_view(m, RenderOptions::from_model(m), &val.views[0]).unwrap().1.psnr;
+    let white = vec![[1.0f32; 3]; val.views[0].rgb.len()];
+    let base = nerf_train::metrics::psnr(&white, &val.views[0].rgb);
+    let f_gt = score(&m);
+    let q16 = quantise(&m, Scheme::I16).unwrap().to_bytes().unwrap();
+    let q8 = quantise(&m, Scheme::I8).unwrap().to_bytes().unwrap();
+    let (m16, m8) = (Model::from_bytes(&q16).unwrap(), Model::from_bytes(&q8).unwrap());
+    assert_eq!(m8.feature_bytes(), 2 * table.len(), "fixed-point tables are i16");
+    let (q16_gt, q8_gt) = (score(&m16), score(&m8));
+    println!("validation PSNR f32 {f_gt:.3}, int16 {q16_gt:.3}, int8 {q8_gt:.3} dB (all-white {base:.2} dB)");
+    assert!(f_gt > base + 3.0);
+    assert!(q16_gt >= f_gt - 0.1, "int16 loses {:.3} dB", f_gt - q16_gt);
+    assert!(q8_gt >= f_gt - 0.5, "int8 loses {:.3} dB", f_gt - q8_gt);
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn int16_render_of_a_random_feature_grid_model_is_within_40_db_of_f32() {
+    for seed in [1, 2] {
+        let f32_bytes = random_model(&feature_config(), unit_scene(), seed, 8.0).to_bytes().unwrap();
+        let m32 = Model::from_bytes(&f32_bytes).unwrap();
+        let q_bytes = quantise(&m32, Scheme::I16).unwrap().to_bytes().unwrap();
+        let m16 = Model::from_bytes(&q_bytes).unwrap();
+        // without its feature grid the same network renders another image:
+        // the grid's values reach the pixels
+        let mut plain = OwnedModel::from_model(&m32);
+        plain.features = None;
+        plain.encoding.grid_dim = 0;
+        let l0 = &mut plain.coarse.layers[0];
+        l0.in_dim -= 8; // the grid's rows are the last 8 of layer 0
+        l0.weights.truncate(l0.weights.len() - 8 * 32 * 4);
+        let plain_bytes = plain.to_bytes().unwrap();
+        let mp = Model::from_bytes(&plain_bytes).unwrap();
+        for turn in [0.1, 0.6] {
+            let cam = orbit_camera(&m32.scene, turn, 32, 32);
+            let (a, b) = (render(&m32, &cam), render(&m16, &cam));
+            let p = psnr(&a, &b);
+            let without = psnr(&a, &render(&mp, &cam));
+            println!("seed {seed} view {turn}: int16 vs f32 {p:.2} dB; without the grid {without:.2} dB");
+            assert!(p >= 40.0, "PSNR {p:.2} dB < 40 dB");
+            assert!(without < 30.0, "the feature grid changes little: {without:.2} dB");
+        }
+    }
+}
+
+#[test]
+fn the_format_keeps_old_versions_and_checks_the_table() {
+    // models without a feature grid are written as before, byte for byte
+    for name in ["scene.nerf", "scene_grid.nerf", "scene_int8.nerf"] {
+        let bytes = std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(name)).unwrap();
+        let m = Model::from_bytes(&bytes).unwrap();
+        assert!(version(&bytes) < FORMAT_VERSION);
+        assert_eq!(OwnedModel::from_model(&m).to_bytes().unwrap(), bytes, "{name}");
+    }
+    let owned = random_model(&feature_config(), unit_scene(), 3, 8.0);
+    let bytes = owned.to_bytes().unwrap();
+    assert_eq!(OwnedModel::from_model(&Model::from_bytes(&bytes).unwrap()), owned);
+    // a table one entry short, or a grid_dim that disagrees, is refused
+    let mut short = owned.clone();
+    short.features.as_mut().unwrap().1.truncate(4 * 1023 * 2);
+    assert!(short.to_bytes().is_err());
+    let mut wrong = owned.clone();
+    wrong.features.as_mut().unwrap().0.width = 1;
+    assert!(wrong.to_bytes().is_err());
+    // an older reader's version number on a version-3 payload does not decode
+    let mut old = bytes.clone();
+    old[4] = 2;
+    assert!(Model::from_bytes(&old).is_err());
+}
