@@ -91,13 +91,20 @@ impl FeatureGrid<'_> {
     /// dense when the `(res + 1)³` vertices fit the table, else hashed.
     #[inline]
     pub fn entry(&self, res: u16, v: [u32; 3]) -> u32 {
+        let (parts, dense, mask) = self.axis_parts(res, v);
+        combine(parts[0][0], parts[1][0], parts[2][0], dense, mask)
+    }
+
+    /// Per axis, the index contributions of the cell's lower and upper
+    /// vertex (`cell[a]` and `cell[a] + 1`): dense strides `1, N+1, (N+1)²`
+    /// or the hash primes; whether the level is dense; the table mask.
+    #[inline(always)]
+    fn axis_parts(&self, res: u16, cell: [u32; 3]) -> ([[u32; 2]; 3], bool, u32) {
         let n = res as u32 + 1;
-        let mask = (1u32 << self.log2_table) - 1;
-        if (n as u64).pow(3) <= 1u64 << self.log2_table {
-            v[0] + n * (v[1] + n * v[2])
-        } else {
-            (v[0] ^ v[1].wrapping_mul(2_654_435_761) ^ v[2].wrapping_mul(805_459_861)) & mask
-        }
+        let dense = (n as u64).pow(3) <= 1u64 << self.log2_table;
+        let mul = if dense { [1, n, n * n] } else { [1, 2_654_435_761, 805_459_861] };
+        let parts = [0, 1, 2].map(|a| [cell[a].wrapping_mul(mul[a]), (cell[a] + 1).wrapping_mul(mul[a])]);
+        (parts, dense, (1u32 << self.log2_table) - 1)
     }
 
     /// Corners and weights of level `l` at the normalised position `p`
@@ -105,20 +112,21 @@ impl FeatureGrid<'_> {
     pub fn corners_f32(&self, l: usize, p: [f32; 3]) -> Corners {
         let res = self.resolutions[l];
         let mut cell = [0u32; 3];
-        let mut f = [0.0f32; 3];
+        let mut w = [[0.0f32; 2]; 3];
         for a in 0..3 {
             let v = if p[a].is_finite() { p[a] } else { 0.0 };
             let x = ((v + 1.0) * 0.5).clamp(0.0, 1.0) * res as f32;
             let i = (libm::floorf(x) as u32).min(res as u32 - 1);
             cell[a] = i;
-            f[a] = x - i as f32;
+            let f = x - i as f32;
+            w[a] = [1.0 - f, f];
         }
+        let (parts, dense, mask) = self.axis_parts(res, cell);
         let mut out = Corners::default();
         for c in 0..8 {
-            let bit = |a: usize| (c >> a) & 1;
-            let v = [0, 1, 2].map(|a| cell[a] + bit(a) as u32);
-            out.entry[c] = self.entry(res, v);
-            out.weight[c] = (0..3).map(|a| if bit(a) == 1 { f[a] } else { 1.0 - f[a] }).product();
+            let (bx, by, bz) = (c & 1, (c >> 1) & 1, c >> 2);
+            out.entry[c] = combine(parts[0][bx], parts[1][by], parts[2][bz], dense, mask);
+            out.weight[c] = w[0][bx] * w[1][by] * w[2][bz];
         }
         out
     }
@@ -146,39 +154,51 @@ impl FeatureGrid<'_> {
     /// products of Q15 fractions rounded to Q15, the blend is summed in i64
     /// and rounded once.
     pub fn encode_fixed(&self, p: [i32; 3], out: &mut [i16]) {
-        const ONE: i64 = 1 << 15;
+        const ONE: i32 = 1 << 15;
         let w = self.width as usize;
         let one = 1i64 << NPOS_FRAC;
         for l in 0..self.levels() {
             let res = self.resolutions[l];
             let mut cell = [0u32; 3];
-            let mut f = [0i64; 3];
+            let mut wt = [[0i32; 2]; 3];
             for a in 0..3 {
                 // u·2²⁵ in [0, 2²⁵], then x = u·N in Q25 (< 2³⁷)
                 let u = (p[a] as i64).clamp(-one, one) + one;
                 let x = u * res as i64;
                 let i = ((x >> (NPOS_FRAC + 1)) as u32).min(res as u32 - 1);
                 cell[a] = i;
-                f[a] = (x - ((i as i64) << (NPOS_FRAC + 1))) >> (NPOS_FRAC + 1 - 15);
+                let f = ((x - ((i as i64) << (NPOS_FRAC + 1))) >> (NPOS_FRAC + 1 - 15)) as i32;
+                wt[a] = [ONE - f, f];
             }
+            // Q15 products, each ≤ 2¹⁵: no overflow in i32
+            let wxy: [i32; 4] = core::array::from_fn(|k| (wt[0][k & 1] * wt[1][k >> 1] + (1 << 14)) >> 15);
+            let (parts, dense, mask) = self.axis_parts(res, cell);
             let base = l * self.entries();
             let mut acc = [0i64; 8];
             for c in 0..8 {
-                let bit = |a: usize| (c >> a) & 1;
-                let wt = |a: usize| if bit(a) == 1 { f[a] } else { ONE - f[a] };
-                let wxy = (wt(0) * wt(1) + (1 << 14)) >> 15;
-                let wc = (wxy * wt(2) + (1 << 14)) >> 15;
-                let v = [0, 1, 2].map(|a| cell[a] + bit(a) as u32);
-                let e = (base + self.entry(res, v) as usize) * w;
-                for j in 0..w {
-                    let b = &self.table[2 * (e + j)..2 * (e + j) + 2];
-                    acc[j] += wc * i16::from_le_bytes([b[0], b[1]]) as i64;
+                let (bx, by, bz) = (c & 1, (c >> 1) & 1, c >> 2);
+                let wc = ((wxy[c & 3] * wt[2][bz] + (1 << 14)) >> 15) as i64;
+                let e = (base + combine(parts[0][bx], parts[1][by], parts[2][bz], dense, mask) as usize) * w;
+                let vals = &self.table[2 * e..2 * (e + w)];
+                for (a, b) in acc[..w].iter_mut().zip(vals.chunks_exact(2)) {
+                    *a += wc * i16::from_le_bytes([b[0], b[1]]) as i64;
                 }
             }
             for j in 0..w {
                 out[l * w + j] = sat_i16(shr_round_i64(acc[j], 15));
             }
         }
+    }
+}
+
+/// A vertex's entry from its axis contributions: their sum (dense levels)
+/// or their XOR masked to the table (hashed levels).
+#[inline(always)]
+fn combine(x: u32, y: u32, z: u32, dense: bool, mask: u32) -> u32 {
+    if dense {
+        x + y + z
+    } else {
+        (x ^ y ^ z) & mask
     }
 }
 

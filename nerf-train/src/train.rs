@@ -62,6 +62,41 @@ pub struct Trainer {
     pub skipped: u64,
     /// Occupancy grid (runs with `grid_res > 0`).
     pub grid: Option<DensityGrid>,
+    /// Zeroed gradient buffers kept between steps (not checkpointed).
+    #[serde(skip)]
+    pool: GradPool,
+}
+
+/// Zeroed gradient buffers reused from step to step: a feature grid's
+/// table makes each one megabytes, and fresh ones cost page faults.
+#[derive(Default)]
+struct GradPool(std::sync::Mutex<Vec<Vec<f32>>>);
+
+impl Clone for GradPool {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for GradPool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("GradPool")
+    }
+}
+
+impl GradPool {
+    /// A zeroed buffer of `n` values.
+    fn take(&self, n: usize) -> Vec<f32> {
+        let v = self.0.lock().map(|mut p| p.pop()).unwrap_or(None);
+        v.filter(|v| v.len() == n).unwrap_or_else(|| vec![0.0; n])
+    }
+    /// Returns a buffer (zeroed here) for later steps.
+    fn give(&self, mut v: Vec<f32>) {
+        v.fill(0.0);
+        if let Ok(mut p) = self.0.lock() {
+            p.push(v);
+        }
+    }
 }
 
 /// Per-chunk working memory.
@@ -145,7 +180,19 @@ impl Trainer {
         }
         let adam = Adam::new(params.len());
         let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
-        Self { cfg, scene, downscale, params, adam, step: 0, elapsed: 0.0, seed, skipped: 0, grid }
+        Self {
+            cfg,
+            scene,
+            downscale,
+            params,
+            adam,
+            step: 0,
+            elapsed: 0.0,
+            seed,
+            skipped: 0,
+            grid,
+            pool: GradPool::default(),
+        }
     }
 
     /// The network shape (both networks share it).
@@ -220,6 +267,7 @@ impl Trainer {
             let c = &self.cfg;
             self.adam.update(&mut self.params, &grad, lr, c.beta1, c.beta2, c.eps);
         }
+        self.pool.give(grad);
         self.step += 1;
         stats
     }
@@ -239,7 +287,7 @@ impl Trainer {
             .with_min_len(min_len.max(1))
             .enumerate()
             .fold(
-                || (vec![0.0f32; np], 0.0f64, 0.0f64, 0usize, Workspace::default()),
+                || (self.pool.take(np), 0.0f64, 0.0f64, 0usize, Workspace::default()),
                 |(mut g, c, f, n, mut ws), (ci, rays)| {
                     let key = hash32(step_key ^ hash32(ci as u32));
                     let (a, b, k) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g);
@@ -248,9 +296,10 @@ impl Trainer {
             )
             .map(|(g, c, f, n, _)| (g, c, f, n))
             .reduce(
-                || (vec![0.0f32; np], 0.0, 0.0, 0),
+                || (self.pool.take(np), 0.0, 0.0, 0),
                 |(mut g1, c1, f1, n1), (g2, c2, f2, n2)| {
                     g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
+                    self.pool.give(g2);
                     (g1, c1 + c2, f1 + f2, n1 + n2)
                 },
             );
