@@ -166,9 +166,10 @@ fn fit_keeps_the_first_candidate_that_reaches_the_target_and_tables_what_it_trie
     assert!(!o.status.success());
     assert!(err.trim_end().lines().last().unwrap().starts_with("error: no candidate reached 99.00 dB"), "{err}");
     let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
-    let macs: Vec<usize> = csv.lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
-    assert_eq!(macs.len(), 5, "{csv}");
-    assert!(macs.windows(2).all(|w| w[0] < w[1]), "not cheapest first: {macs:?}");
+    let cost: Vec<usize> = csv.lines().skip(1).map(|l| l.split(',').nth(8).unwrap().parse().unwrap()).collect();
+    assert_eq!(cost.len(), 6, "{csv}");
+    assert!(cost.windows(2).all(|w| w[0] < w[1]), "not cheapest first: {cost:?}");
+    assert!(csv.contains("\nfeatures,"), "the feature-grid candidate was not tried: {csv}");
     assert!(!run.join("model.nerf").exists());
     std::fs::remove_dir_all(&d).ok();
 }

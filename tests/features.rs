@@ -65,7 +65,9 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     assert_eq!(version(&bytes), FORMAT_VERSION);
     let m = Model::from_bytes(&bytes).unwrap();
     let f = m.features.as_ref().expect("the model carries its feature grid");
-    assert_eq!((f.levels(), f.width as usize, f.entries()), (4, 2, 1024));
+    // levels of 4, 8, 16, 32 cells: 125 and 729 vertices (dense), then 2¹⁰ entries (hashed)
+    assert_eq!(f.resolutions.as_slice(), &[4, 8, 16, 32]);
+    assert_eq!((0..4).map(|l| f.entries(l)).collect::<Vec<_>>(), [125, 729, 1024, 1024]);
     assert_eq!(m.encoding.grid_dim, 8);
     assert_eq!(m.feature_bytes(), 4 * table.len());
     assert_eq!(nerf_infer::format::read_f32(f.table, 77), table[77]);

@@ -66,13 +66,19 @@ impl FeatureGrid<'_> {
     pub fn dim(&self) -> usize {
         self.levels() * self.width as usize
     }
-    /// Entries per level.
-    pub fn entries(&self) -> usize {
-        1 << self.log2_table
+    /// Entries of level `l`: one per vertex, `(N + 1)³`, when that fits
+    /// `2^log2_table` (a dense level), else `2^log2_table` (hashed).
+    pub fn entries(&self, l: usize) -> usize {
+        let n = self.resolutions[l] as u64 + 1;
+        n.pow(3).min(1 << self.log2_table) as usize
+    }
+    /// First entry of level `l` in the table (the entries of the levels before it).
+    pub fn offset(&self, l: usize) -> usize {
+        (0..l).map(|k| self.entries(k)).sum()
     }
     /// Table elements (values) in all levels.
     pub fn values(&self) -> usize {
-        self.levels() * self.entries() * self.width as usize
+        self.offset(self.levels()) * self.width as usize
     }
 
     /// Checks ranges and that the table holds `values()` elements of
@@ -134,9 +140,9 @@ impl FeatureGrid<'_> {
     /// The `dim()` features at the normalised position `p` (f32 table).
     pub fn encode_f32(&self, p: [f32; 3], out: &mut [f32]) {
         let w = self.width as usize;
+        let mut base = 0;
         for l in 0..self.levels() {
             let c = self.corners_f32(l, p);
-            let base = l * self.entries();
             let o = &mut out[l * w..(l + 1) * w];
             o.fill(0.0);
             for k in 0..8 {
@@ -145,18 +151,24 @@ impl FeatureGrid<'_> {
                     *v += c.weight[k] * read_f32(self.table, e + j);
                 }
             }
+            base += self.entries(l);
         }
     }
 
     /// The `dim()` features at the Q24 normalised position `p` (i16 table),
     /// as i16 with `frac_bits` fractional bits. Integer only: the cell and
-    /// the Q15 fractions come from `u·N` in Q25, the corner weights are
-    /// products of Q15 fractions rounded to Q15, the blend is summed in i64
-    /// and rounded once.
+    /// the fractions (rounded to Q15) come from `u·N` in Q25, each corner
+    /// weight is the product of three Q15 factors rounded once to Q15, the
+    /// blend is summed in i32 and rounded once. No overflow: the weights are
+    /// ≥ 0 and sum to at most 2¹⁵ + 4 (4 roundings up of ½ beyond the exact
+    /// sum 2¹⁵), so |Σ w·t| ≤ (2¹⁵ + 4)·2¹⁵ < 2³¹. Error against the exact
+    /// blend at the exact position: at most `0.5 + 7·max|t|/2¹⁵` output
+    /// steps (fractions: `3·2⁻¹⁶·2·max|t|`; weights: `8·2⁻¹⁶·max|t|`).
     pub fn encode_fixed(&self, p: [i32; 3], out: &mut [i16]) {
         const ONE: i32 = 1 << 15;
         let w = self.width as usize;
         let one = 1i64 << NPOS_FRAC;
+        let mut base = 0;
         for l in 0..self.levels() {
             let res = self.resolutions[l];
             let mut cell = [0u32; 3];
@@ -167,26 +179,27 @@ impl FeatureGrid<'_> {
                 let x = u * res as i64;
                 let i = ((x >> (NPOS_FRAC + 1)) as u32).min(res as u32 - 1);
                 cell[a] = i;
-                let f = ((x - ((i as i64) << (NPOS_FRAC + 1))) >> (NPOS_FRAC + 1 - 15)) as i32;
+                let sh = NPOS_FRAC + 1 - 15;
+                let f = ((x - ((i as i64) << (NPOS_FRAC + 1)) + (1 << (sh - 1))) >> sh) as i32;
                 wt[a] = [ONE - f, f];
             }
-            // Q15 products, each ≤ 2¹⁵: no overflow in i32
-            let wxy: [i32; 4] = core::array::from_fn(|k| (wt[0][k & 1] * wt[1][k >> 1] + (1 << 14)) >> 15);
+            // Q30 products of two factors ≤ 2¹⁵ (exact in i32), then Q45 in i64
+            let wxy: [i32; 4] = core::array::from_fn(|k| wt[0][k & 1] * wt[1][k >> 1]);
             let (parts, dense, mask) = self.axis_parts(res, cell);
-            let base = l * self.entries();
-            let mut acc = [0i64; 8];
+            let mut acc = [0i32; 8];
             for c in 0..8 {
                 let (bx, by, bz) = (c & 1, (c >> 1) & 1, c >> 2);
-                let wc = ((wxy[c & 3] * wt[2][bz] + (1 << 14)) >> 15) as i64;
+                let wc = ((wxy[c & 3] as i64 * wt[2][bz] as i64 + (1 << 29)) >> 30) as i32;
                 let e = (base + combine(parts[0][bx], parts[1][by], parts[2][bz], dense, mask) as usize) * w;
                 let vals = &self.table[2 * e..2 * (e + w)];
                 for (a, b) in acc[..w].iter_mut().zip(vals.chunks_exact(2)) {
-                    *a += wc * i16::from_le_bytes([b[0], b[1]]) as i64;
+                    *a += wc * i16::from_le_bytes([b[0], b[1]]) as i32;
                 }
             }
             for j in 0..w {
-                out[l * w + j] = sat_i16(shr_round_i64(acc[j], 15));
+                out[l * w + j] = sat_i16(shr_round_i64(acc[j] as i64, 15));
             }
+            base += self.entries(l);
         }
     }
 }
@@ -220,6 +233,10 @@ pub fn geometric_resolutions(levels: usize, min: u16, max: u16) -> heapless::Vec
 mod tests {
     use super::*;
 
+    /// Values of the test grid: levels of 2, 4, 9 cells with 2⁶ entries at
+    /// most: 27 (dense) + 64 (hashed: 125 vertices) + 64 (hashed), 2 each.
+    const N: usize = (27 + 64 + 64) * 2;
+
     fn grid<'a>(table: &'a [u8], frac_bits: u8) -> FeatureGrid<'a> {
         FeatureGrid { width: 2, log2_table: 6, frac_bits, resolutions: geometric_resolutions(3, 2, 9), table }
     }
@@ -229,6 +246,9 @@ mod tests {
         assert_eq!(geometric_resolutions(3, 2, 9).as_slice(), &[2, 4, 9]);
         assert_eq!(geometric_resolutions(1, 16, 512).as_slice(), &[16]);
         assert_eq!(*geometric_resolutions(16, 16, 512).last().unwrap(), 512);
+        let g = grid(&[], 0);
+        assert_eq!((g.entries(0), g.entries(1), g.offset(2), g.values()), (27, 64, 91, N));
+        assert!(grid(&[0; 2 * N], 3).is_valid(2) && !grid(&[0; 2 * N - 2], 3).is_valid(2));
     }
 
     #[test]
@@ -251,8 +271,8 @@ mod tests {
 
     #[test]
     fn weights_sum_to_one_and_vertices_reproduce_the_table() {
-        let vals: [f32; 384] = core::array::from_fn(|i| ((i * 37 % 101) as f32 - 50.0) / 64.0);
-        let bytes: [u8; 1536] = core::array::from_fn(|b| vals[b / 4].to_le_bytes()[b % 4]);
+        let vals: [f32; N] = core::array::from_fn(|i| ((i * 37 % 101) as f32 - 50.0) / 64.0);
+        let bytes: [u8; 4 * N] = core::array::from_fn(|b| vals[b / 4].to_le_bytes()[b % 4]);
         let g = grid(&bytes, 0);
         for k in 0..50 {
             let p = [k as f32 / 25.0 - 1.0, 0.3 - k as f32 / 70.0, (k as f32 * 0.7).sin()];
@@ -270,13 +290,30 @@ mod tests {
     }
 
     #[test]
+    fn extreme_tables_neither_overflow_nor_wrap() {
+        // every weight rounding up at once is the worst case for the i32 sum
+        for v in [i16::MIN, i16::MAX] {
+            let qb: [u8; 2 * N] = core::array::from_fn(|b| v.to_le_bytes()[b % 2]);
+            let g = grid(&qb, 15);
+            let mut out = [0i16; 6];
+            for k in 0..3000u32 {
+                let h = |s: u32| (k.wrapping_mul(2_654_435_761) ^ s).wrapping_mul(0x9E37_79B9) as i32 >> 6;
+                g.encode_fixed([h(1), h(2), h(3)], &mut out);
+                assert!(out.iter().all(|&o| (o as i32 - v as i32).abs() <= 4), "{out:?} for a table of {v}");
+            }
+        }
+    }
+
+    #[test]
     fn fixed_features_match_f32_within_rounding() {
         let fb = 12u8;
-        let q: [i16; 384] = core::array::from_fn(|i| ((i * 7919 % 8191) as i16 - 4095) * 7);
-        let qb: [u8; 768] = core::array::from_fn(|b| q[b / 2].to_le_bytes()[b % 2]);
-        let fbytes: [u8; 1536] = core::array::from_fn(|b| (q[b / 4] as f32 / (1 << fb) as f32).to_le_bytes()[b % 4]);
+        let q: [i16; N] = core::array::from_fn(|i| ((i * 7919 % 8191) as i16 - 4095) * 7);
+        let qb: [u8; 2 * N] = core::array::from_fn(|b| q[b / 2].to_le_bytes()[b % 2]);
+        let fbytes: [u8; 4 * N] = core::array::from_fn(|b| (q[b / 4] as f32 / (1 << fb) as f32).to_le_bytes()[b % 4]);
         let (gq, gf) = (grid(&qb, fb), grid(&fbytes, 0));
         let (mut oq, mut of) = ([0i16; 6], [0.0f32; 6]);
+        let max_t = q.iter().map(|v| v.unsigned_abs()).max().unwrap() as f32;
+        let mut sum_err = 0.0f64;
         for k in 0..2000 {
             let t = k as f32 * 0.001_37;
             // includes points outside the bounds (clamped to the faces)
@@ -287,9 +324,14 @@ mod tests {
             gf.encode_f32(pr, &mut of);
             for j in 0..6 {
                 let want = of[j] * (1 << fb) as f32;
-                // 4 weight roundings of ≤ 2⁻¹⁶ each on |t| ≤ 2¹⁵, + the final rounding
-                assert!((oq[j] as f32 - want).abs() <= 3.0, "k {k} feature {j}: {} vs {want}", oq[j]);
+                let err = (oq[j] as f32 - want).abs();
+                // the bound of encode_fixed's doc, + the f32 reference's own error
+                assert!(err <= 0.5 + 7.0 * max_t / 32768.0 + 0.05, "k {k} feature {j}: {} vs {want}", oq[j]);
+                sum_err += err as f64;
             }
         }
+        // typically within a step (rounding errors of both signs cancel)
+        let mean = sum_err / (2000.0 * 6.0);
+        assert!(mean < 0.6, "mean error {mean:.3} output steps");
     }
 }

@@ -158,12 +158,40 @@ impl TrainConfig {
         Self { n_coarse: 192, n_fine: 0, grid_res: 64, ..Self::fast() }
     }
 
-    /// A preset by name (`paper`, `fast`, `grid`).
+    /// The grid preset with a learned feature grid (instant-ngp's
+    /// encoding: 8 levels of 2 values, 16..256 cells per axis, 2¹⁵ entries
+    /// per level) in place of the frequency encoding (raw xyz beside it)
+    /// and a 2×64 network; instant-ngp's optimiser settings (lr 1e-2,
+    /// β₂ 0.99, ε 1e-15); the occupancy grid first updated at step 64 and
+    /// every 64 steps.
+    pub fn features() -> Self {
+        Self {
+            depth: 2,
+            width: 64,
+            view_width: 64,
+            pos_freqs: 0,
+            dir_freqs: 4,
+            lr: 1e-2,
+            beta2: 0.99,
+            eps: 1e-15,
+            grid_warmup: 64,
+            grid_every: 64,
+            feature_levels: 8,
+            feature_width: 2,
+            feature_log2_table: 15,
+            feature_min_res: 16,
+            feature_max_res: 256,
+            ..Self::grid()
+        }
+    }
+
+    /// A preset by name (`paper`, `fast`, `grid`, `features`).
     pub fn preset(name: &str) -> Option<Self> {
         match name {
             "paper" => Some(Self::paper()),
             "fast" => Some(Self::fast()),
             "grid" => Some(Self::grid()),
+            "features" => Some(Self::features()),
             _ => None,
         }
     }
@@ -180,7 +208,7 @@ impl TrainConfig {
     }
 
     /// The feature grid's shape (empty table), if the config has one.
-    pub fn features(&self) -> Option<FeatureGrid<'static>> {
+    pub fn feature_grid(&self) -> Option<FeatureGrid<'static>> {
         (self.feature_levels > 0).then(|| FeatureGrid {
             width: self.feature_width,
             log2_table: self.feature_log2_table,
@@ -196,7 +224,7 @@ impl TrainConfig {
 
     /// The network (and feature grid) this config trains.
     pub fn mlp(&self) -> Mlp {
-        Mlp::new(self.topology(), self.encoding()).with_features(self.features())
+        Mlp::new(self.topology(), self.encoding()).with_features(self.feature_grid())
     }
 
     /// The network shape this config trains.

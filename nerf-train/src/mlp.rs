@@ -156,6 +156,7 @@ impl Mlp {
     fn grid_forward(&self, p: &[f32], pos: &[[f32; 3]], a: &mut Acts) {
         let Some(f) = &self.features else { return };
         let (w, nl, t) = (f.width as usize, f.levels(), &p[self.table..]);
+        let offsets: Vec<usize> = (0..nl).map(|l| f.offset(l)).collect();
         resize(&mut a.gf, pos.len() * nl * w);
         a.corners.resize(pos.len() * nl, Corners::default());
         for (i, x) in pos.iter().enumerate() {
@@ -163,7 +164,7 @@ impl Mlp {
                 let c = f.corners_f32(l, *x);
                 let o = &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w];
                 o.fill(0.0);
-                let base = l * f.entries();
+                let base = offsets[l];
                 for k in 0..8 {
                     let e = (base + c.entry[k] as usize) * w;
                     for (j, v) in o.iter_mut().enumerate() {
@@ -179,9 +180,10 @@ impl Mlp {
     fn grid_backward(&self, a: &Acts, g: &mut [f32]) {
         let Some(f) = &self.features else { return };
         let (w, nl) = (f.width as usize, f.levels());
+        let offsets: Vec<usize> = (0..nl).map(|l| f.offset(l)).collect();
         let gt = &mut g[self.table..];
         for (i, c) in a.corners[..a.s * nl].iter().enumerate() {
-            let base = (i % nl) * f.entries();
+            let base = offsets[i % nl];
             let d = &a.dgf[i * w..(i + 1) * w];
             for k in 0..8 {
                 let e = (base + c.entry[k] as usize) * w;
@@ -486,7 +488,9 @@ mod tests {
         m.backward(&p, &mut a, &ds, &dc, &mut g);
         // the samples reach table entries of every level (the test must see them)
         if let Some(f) = &m.features {
-            for level in g[m.table..].chunks(f.entries() * f.width as usize) {
+            for l in 0..f.levels() {
+                let w = f.width as usize;
+                let level = &g[m.table + f.offset(l) * w..m.table + f.offset(l + 1) * w];
                 let touched = level.iter().filter(|v| v.abs() > 1e-3).count();
                 assert!(touched >= 8, "{touched} table gradients in a level");
             }
@@ -540,7 +544,8 @@ mod tests {
         };
         let enc = Encoding { pos_freqs: 1, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 6 };
         let m = Mlp::new(topo, enc).with_features(Some(f));
-        assert_eq!(m.n_params, m.table + 3 * 32 * 2);
+        // levels of 1, 2 and 5 cells: 8 and 27 vertices (dense), 216 > 32 (hashed)
+        assert_eq!(m.n_params, m.table + (8 + 27 + 32) * 2);
         check_gradients_with(m);
     }
 }

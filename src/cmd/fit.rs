@@ -1,8 +1,9 @@
 //! `nerf fit`: sizes the model to the scene. Trains candidate
-//! configurations in order of cost (multiply-accumulates per sample, all
-//! with the occupancy grid), quantises each to the fixed-point path, scores
-//! it on the validation views, and keeps the first (cheapest) that reaches
-//! the target PSNR. Writes the table of what it tried.
+//! configurations in order of cost (multiply-accumulates per sample, plus
+//! the feature grid's lookups in MAC-equivalents; all with the occupancy
+//! grid), quantises each to the fixed-point path, scores it on the
+//! validation views, and keeps the first (cheapest) that reaches the target
+//! PSNR. Writes the table of what it tried.
 
 use super::{create_dir, eval, train, write_atomic, CmdResult, FormatArg};
 use clap::Parser;
@@ -56,15 +57,28 @@ pub fn candidates() -> Vec<(&'static str, TrainConfig)> {
         ("3x32", TrainConfig { depth: 3, width: 32, ..g.clone() }),
         ("3x64", TrainConfig { depth: 3, ..g.clone() }),
         ("4x64", g.clone()),
+        ("features", TrainConfig::features()),
         ("6x96", TrainConfig { depth: 6, width: 96, view_width: 32, pos_freqs: 10, dir_freqs: 4, ..g }),
     ];
-    c.sort_by_key(|(_, cfg)| macs(cfg));
+    c.sort_by_key(|(_, cfg)| cost(cfg));
     c
 }
 
 /// Multiply-accumulates per sample of a configuration's network.
 pub fn macs(cfg: &TrainConfig) -> usize {
     cfg.mlp().macs_per_sample()
+}
+
+/// What one feature-grid level costs per sample in the int8 kernel, in
+/// multiply-accumulates of its layers: callgrind on the `features` preset's
+/// lego model (AVX2) counted 521 instructions per level lookup (8 corners)
+/// and 0.26 instructions per MAC in the layers.
+pub const FEATURE_LEVEL_MACS: usize = 2000;
+
+/// A candidate's cost per sample: [`macs`] plus its feature-grid levels
+/// at [`FEATURE_LEVEL_MACS`] each.
+pub fn cost(cfg: &TrainConfig) -> usize {
+    macs(cfg) + cfg.feature_levels as usize * FEATURE_LEVEL_MACS
 }
 
 /// `nerf train` with `cfg`, through its own argument parser.
@@ -82,6 +96,7 @@ fn s(p: &Path) -> String {
 struct Row {
     name: &'static str,
     macs: usize,
+    cost: usize,
     steps: u32,
     psnr_f32: f64,
     psnr_fixed: f64,
@@ -150,6 +165,7 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
     Ok(Row {
         name,
         macs: macs(cfg),
+        cost: cost(cfg),
         steps: Model::from_bytes(&q).map(|m| m.meta.iterations).unwrap_or(0),
         psnr_f32: num(&rf, "psnr"),
         psnr_fixed: num(&rq, "psnr"),
@@ -160,19 +176,20 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
 }
 
 fn tables(rows: &[Row], bits: &str) -> (String, String) {
-    let mut csv =
-        String::from("name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes\n");
+    let mut csv = String::from(
+        "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample\n",
+    );
     let mut md = format!(
-        "| candidate | MAC/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| candidate | MAC/sample | cost/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for r in rows {
         csv += &format!(
-            "{},{},{},{:.3},{:.3},{:.2},{:.2},{}\n",
-            r.name, r.macs, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes
+            "{},{},{},{:.3},{:.3},{:.2},{:.2},{},{}\n",
+            r.name, r.macs, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes, r.cost
         );
         md += &format!(
-            "| {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} |\n",
-            r.name, r.macs, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes
+            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} |\n",
+            r.name, r.macs, r.cost, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes
         );
     }
     (csv, md)
@@ -187,7 +204,7 @@ pub fn run(a: Args) -> CmdResult {
     let mut rows = Vec::new();
     let mut chosen = None;
     for (name, cfg) in candidates() {
-        println!("fit: training {name} ({} MAC/sample) for {} min", macs(&cfg), a.minutes);
+        println!("fit: training {name} ({} MAC/sample, cost {}) for {} min", macs(&cfg), cost(&cfg), a.minutes);
         let row = try_one(&a, name, &cfg)?;
         println!(
             "fit: {name}: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray",

@@ -30,7 +30,8 @@ pub struct Args {
     /// Downscale images by this integer factor (area averaging).
     #[arg(long, default_value_t = 1)]
     downscale: u32,
-    /// Named configuration: `fast` (default), `grid` (occupancy grid, one network) or `paper`.
+    /// Named configuration: `fast` (default), `grid` (occupancy grid, one network), `features` (`grid` with a
+    /// learned feature grid and a 2x64 network) or `paper`.
     #[arg(long, conflicts_with = "config")]
     preset: Option<String>,
     /// Configuration as JSON (fields of the preset to override; see README).
@@ -94,9 +95,8 @@ impl From<PruneArg> for Prune {
 
 fn load_config(a: &Args) -> Result<TrainConfig, String> {
     let cfg = match (&a.preset, &a.config) {
-        (Some(p), _) => {
-            TrainConfig::preset(p).ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, paper)"))?
-        }
+        (Some(p), _) => TrainConfig::preset(p)
+            .ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, features, paper)"))?,
         (None, Some(path)) => {
             let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
             serde_json::from_str(&text).map_err(|e| format!("{}: invalid configuration: {e}", path.display()))?
@@ -160,7 +160,9 @@ fn train(a: Args) -> CmdResult {
     let ckpt = a.out.join("checkpoint.bin");
     let mut tr = if a.resume && ckpt.is_file() {
         let b = std::fs::read(&ckpt).map_err(|e| format!("{}: cannot read: {e}", ckpt.display()))?;
-        Trainer::from_bytes(&b).ok_or_else(|| format!("{}: not a valid checkpoint", ckpt.display()))?
+        Trainer::from_bytes(&b).ok_or_else(|| {
+            format!("{}: not a valid checkpoint (corrupt, or written by an older build)", ckpt.display())
+        })?
     } else if a.resume {
         return Err(format!("{}: no checkpoint to resume from", ckpt.display()));
     } else {
