@@ -71,6 +71,12 @@ fn f32_model(cfg: &TrainConfig, scene: Scene, weights: Weights) -> OwnedModel {
             }
         }
     }
+    // a feature grid's table takes the same extremes as the weights
+    if let (Some((_, table)), Weights::Every(w)) = (m.features.as_mut(), weights) {
+        for (k, c) in table.chunks_exact_mut(4).enumerate() {
+            c.copy_from_slice(&if hash32(k as u32 ^ 0xF) & 1 == 0 { w } else { -w }.to_le_bytes());
+        }
+    }
     m
 }
 
@@ -191,6 +197,18 @@ fn scenes() -> Vec<(&'static str, Scene)> {
     ]
 }
 
+fn feature_grid_config() -> TrainConfig {
+    // a learned feature grid: 3 levels (dense, dense, hashed) beside γ(x)
+    TrainConfig {
+        n_fine: 0,
+        feature_levels: 3,
+        feature_log2_table: 9,
+        feature_min_res: 2,
+        feature_max_res: 40,
+        ..small_config()
+    }
+}
+
 fn high_freq_config() -> TrainConfig {
     // the highest frequencies the format allows, no view branch
     TrainConfig { pos_freqs: 16, dir_freqs: 16, view_dependent: false, n_fine: 0, ..small_config() }
@@ -207,7 +225,8 @@ fn extreme_densities_and_weights_render_in_range_on_both_paths() {
         Weights::Every(-3e38),
     ];
     let mut renders = 0;
-    for (cfg_name, cfg) in [("small", small_config()), ("L=16", high_freq_config())] {
+    let configs = [("small", small_config()), ("L=16", high_freq_config()), ("features", feature_grid_config())];
+    for (cfg_name, cfg) in configs {
         for (scene_name, scene) in scenes() {
             for w in variants {
                 let what = format!("{cfg_name} {scene_name} {w:?}");

@@ -70,7 +70,7 @@ impl FeatureGrid<'_> {
     /// `2^log2_table` (a dense level), else `2^log2_table` (hashed).
     pub fn entries(&self, l: usize) -> usize {
         let n = self.resolutions[l] as u64 + 1;
-        n.pow(3).min(1 << self.log2_table) as usize
+        (n * n * n).min(1 << self.log2_table) as usize
     }
     /// First entry of level `l` in the table (the entries of the levels before it).
     pub fn offset(&self, l: usize) -> usize {
@@ -107,7 +107,7 @@ impl FeatureGrid<'_> {
     #[inline(always)]
     fn axis_parts(&self, res: u16, cell: [u32; 3]) -> ([[u32; 2]; 3], bool, u32) {
         let n = res as u32 + 1;
-        let dense = (n as u64).pow(3) <= 1u64 << self.log2_table;
+        let dense = (n as u64) * (n as u64) * (n as u64) <= 1u64 << self.log2_table;
         let mul = if dense { [1, n, n * n] } else { [1, 2_654_435_761, 805_459_861] };
         let parts = [0, 1, 2].map(|a| [cell[a].wrapping_mul(mul[a]), (cell[a] + 1).wrapping_mul(mul[a])]);
         (parts, dense, (1u32 << self.log2_table) - 1)
