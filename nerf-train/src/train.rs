@@ -500,6 +500,11 @@ impl Trainer {
             None => t.cfg.grid_res == 0,
             Some(g) => g.res == t.cfg.grid_res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
         };
-        (t.params.len() == t.adam.m.len() && t.cfg.validate().is_ok() && grid_ok).then_some(t)
+        let nets = if t.cfg.n_fine > 0 { 2 } else { 1 };
+        let sizes_ok = t.cfg.validate().is_ok()
+            && t.params.len() == t.mlp().n_params * nets
+            && t.params.len() == t.adam.m.len()
+            && t.params.len() == t.adam.v.len();
+        (sizes_ok && grid_ok).then_some(t)
     }
 }
