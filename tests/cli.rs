@@ -127,6 +127,36 @@ fn scene_train_resume_eval_export_info_render() {
 }
 
 #[test]
+fn a_config_file_overrides_the_named_preset() {
+    let d = tmp("preset-config");
+    let scene = d.join("scene");
+    ok(&["scene", "--out", s(&scene), "--size", "8", "--train", "2"]);
+    let cfg = d.join("over.json");
+    std::fs::write(&cfg, r#"{"n_coarse": 24, "feature_levels": 2, "feature_log2_table": 8}"#).unwrap();
+    let run = d.join("run");
+    let data = scene.join("blender");
+    let common = ["--iters", "2", "--val-views", "0"];
+    ok(&[&["train", "--data", s(&data), "--preset", "features", "--config", s(&cfg), "--out", s(&run)], &common[..]]
+        .concat());
+    let info = ok(&["info", s(&run.join("model.nerf")), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&info).unwrap();
+    // the file's fields, and the preset's for the rest
+    assert_eq!(v["samples"]["coarse"], 24);
+    assert_eq!(v["features"]["levels"], 2);
+    assert_eq!(v["features"]["log2_table"], 8);
+    assert_eq!(v["topology"]["depth"], 2, "the preset's 2x64 network");
+    assert!(v["grid"].is_object(), "the preset's occupancy grid");
+    // an unknown field names the file
+    std::fs::write(&cfg, r#"{"n_coarses": 24}"#).unwrap();
+    let e = fails(
+        &[&["train", "--data", s(&data), "--preset", "grid", "--config", s(&cfg), "--out", s(&run)], &common[..]]
+            .concat(),
+    );
+    assert!(e.contains("over.json") && e.contains("n_coarses"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
 fn bad_inputs_give_one_line_errors() {
     let d = tmp("errs");
     std::fs::create_dir_all(&d).unwrap();

@@ -32,9 +32,9 @@ pub struct Args {
     downscale: u32,
     /// Named configuration: `fast` (default), `grid` (occupancy grid, one network), `features` (`grid` with a
     /// learned feature grid and a 2x64 network) or `paper`.
-    #[arg(long, conflicts_with = "config")]
+    #[arg(long)]
     preset: Option<String>,
-    /// Configuration as JSON (fields of the preset to override; see README).
+    /// Configuration as JSON: fields of the preset (`fast` without `--preset`) to override; see README.
     #[arg(long)]
     config: Option<PathBuf>,
     /// Train until this many steps in total.
@@ -94,14 +94,27 @@ impl From<PruneArg> for Prune {
 }
 
 fn load_config(a: &Args) -> Result<TrainConfig, String> {
-    let cfg = match (&a.preset, &a.config) {
-        (Some(p), _) => TrainConfig::preset(p)
+    let base = match &a.preset {
+        Some(p) => TrainConfig::preset(p)
             .ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, features, paper)"))?,
-        (None, Some(path)) => {
+        None => TrainConfig::fast(),
+    };
+    let cfg = match &a.config {
+        None => base,
+        Some(path) => {
+            let bad = |e: &dyn std::fmt::Display| format!("{}: invalid configuration: {e}", path.display());
             let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-            serde_json::from_str(&text).map_err(|e| format!("{}: invalid configuration: {e}", path.display()))?
+            let over: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&e))?;
+            let serde_json::Value::Object(over) = over else {
+                return Err(bad(&"expected a JSON object of configuration fields"));
+            };
+            // the preset's fields, then the file's on top of them
+            let mut merged = serde_json::to_value(&base).map_err(|e| bad(&e))?;
+            if let Some(m) = merged.as_object_mut() {
+                m.extend(over);
+            }
+            serde_json::from_value(merged).map_err(|e| bad(&e))?
         }
-        (None, None) => TrainConfig::fast(),
     };
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
     Ok(cfg)
