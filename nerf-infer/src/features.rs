@@ -186,11 +186,26 @@ impl FeatureGrid<'_> {
             // Q30 products of two factors ≤ 2¹⁵ (exact in i32), then Q45 in i64
             let wxy: [i32; 4] = core::array::from_fn(|k| wt[0][k & 1] * wt[1][k >> 1]);
             let (parts, dense, mask) = self.axis_parts(res, cell);
+            // corner c = (c & 1, c >> 1 & 1, c >> 2): weights, then entries
+            // (the dense/hashed choice made once for all 8)
+            let wc: [i32; 8] =
+                core::array::from_fn(|c| ((wxy[c & 3] as i64 * wt[2][c >> 2] as i64 + (1 << 29)) >> 30) as i32);
+            let at = |c: usize| (parts[0][c & 1], parts[1][(c >> 1) & 1], parts[2][c >> 2]);
+            let entry: [u32; 8] = if dense {
+                core::array::from_fn(|c| combine(at(c).0, at(c).1, at(c).2, true, mask))
+            } else {
+                core::array::from_fn(|c| combine(at(c).0, at(c).1, at(c).2, false, mask))
+            };
             let mut acc = [0i32; 8];
             for c in 0..8 {
-                let (bx, by, bz) = (c & 1, (c >> 1) & 1, c >> 2);
-                let wc = ((wxy[c & 3] as i64 * wt[2][bz] as i64 + (1 << 29)) >> 30) as i32;
-                let e = (base + combine(parts[0][bx], parts[1][by], parts[2][bz], dense, mask) as usize) * w;
+                let (wc, e) = (wc[c], (base + entry[c] as usize) * w);
+                if w == 2 {
+                    // the common width: one 4-byte read per corner
+                    let b = &self.table[2 * e..2 * e + 4];
+                    acc[0] += wc * i16::from_le_bytes([b[0], b[1]]) as i32;
+                    acc[1] += wc * i16::from_le_bytes([b[2], b[3]]) as i32;
+                    continue;
+                }
                 let vals = &self.table[2 * e..2 * (e + w)];
                 for (a, b) in acc[..w].iter_mut().zip(vals.chunks_exact(2)) {
                     *a += wc * i16::from_le_bytes([b[0], b[1]]) as i32;
