@@ -35,15 +35,16 @@ pub const MAX_RES: u16 = 4096;
 pub struct FeatureGrid<'a> {
     /// Values per table entry (1..=8).
     pub width: u8,
-    /// Entries per level: `2^log2_table` (1..=22).
+    /// Most entries per level: `2^log2_table` (1..=22); see [`FeatureGrid::entries`].
     pub log2_table: u8,
     /// Fixed-point models: fractional bits of the i16 table values and of
     /// the features (0..=15). 0 in f32 models.
     pub frac_bits: u8,
     /// Cells per axis of each level, coarse to fine (1..=4096).
     pub resolutions: heapless::Vec<u16, MAX_LEVELS>,
-    /// `levels · 2^log2_table · width` values, level then entry then value:
-    /// f32 LE (f32 models) or i16 LE (fixed-point models).
+    /// [`FeatureGrid::values`] values, level then entry then value (level
+    /// `l` from entry [`FeatureGrid::offset`]`(l)`): f32 LE (f32 models) or
+    /// i16 LE (fixed-point models).
     #[serde(borrow)]
     pub table: &'a [u8],
 }
@@ -55,6 +56,23 @@ pub struct Corners {
     pub entry: [u32; 8],
     /// Trilinear weight of each corner (they sum to 1).
     pub weight: [f32; 8],
+}
+
+impl Corners {
+    /// `out = Σ weight[c] · value(entry)` over the 8 corners, where the
+    /// level's entries start at `base` and hold `out.len()` values each
+    /// (`value(k)`: element `k` of the table). Shared by the f32 kernel and
+    /// the trainer, so both blend in the same order.
+    #[inline]
+    pub fn blend(&self, base: usize, width: usize, value: impl Fn(usize) -> f32, out: &mut [f32]) {
+        out.fill(0.0);
+        for k in 0..8 {
+            let e = (base + self.entry[k] as usize) * width;
+            for (j, v) in out.iter_mut().enumerate() {
+                *v += self.weight[k] * value(e + j);
+            }
+        }
+    }
 }
 
 impl FeatureGrid<'_> {
@@ -143,14 +161,7 @@ impl FeatureGrid<'_> {
         let mut base = 0;
         for l in 0..self.levels() {
             let c = self.corners_f32(l, p);
-            let o = &mut out[l * w..(l + 1) * w];
-            o.fill(0.0);
-            for k in 0..8 {
-                let e = (base + c.entry[k] as usize) * w;
-                for (j, v) in o.iter_mut().enumerate() {
-                    *v += c.weight[k] * read_f32(self.table, e + j);
-                }
-            }
+            c.blend(base, w, |k| read_f32(self.table, k), &mut out[l * w..(l + 1) * w]);
             base += self.entries(l);
         }
     }

@@ -185,8 +185,14 @@ pub fn f32_network(mlp: &Mlp, params: &[f32], act_max: &[f32]) -> OwnedNetwork {
 /// Fractional bits for raw coordinates whose magnitude reaches `max_abs`
 /// (with 5 % headroom), in `0..=14`.
 pub fn raw_frac_bits_for(max_abs: f32) -> u8 {
+    frac_bits_for(max_abs, 14)
+}
+
+/// Most fractional bits (≤ `cap`) that keep `max_abs` (with 5 % headroom)
+/// inside i16.
+fn frac_bits_for(max_abs: f32, cap: u8) -> u8 {
     let m = (max_abs.abs() * 1.05).max(1e-3) as f64;
-    (32767.0 / m).log2().floor().clamp(0.0, 14.0) as u8
+    (32767.0 / m).log2().floor().clamp(0.0, cap as f64) as u8
 }
 
 /// The f32 model of a run, with activation ranges from `calibration`
@@ -459,7 +465,7 @@ pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<Owne
 fn quantise_features(f: &FeatureGrid<'_>) -> (FeatureGrid<'static>, Vec<u8>) {
     let vals: Vec<f32> = (0..f.values()).map(|k| read_f32(f.table, k)).collect();
     let max = vals.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-    let frac = (32767.0 / (max as f64 * 1.05).max(1e-6)).log2().floor().clamp(0.0, 15.0) as u8;
+    let frac = frac_bits_for(max, 15);
     let table = vals
         .iter()
         .flat_map(|v| ((*v as f64 * 2f64.powi(frac as i32)).round().clamp(-32767.0, 32767.0) as i16).to_le_bytes())

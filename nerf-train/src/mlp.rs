@@ -162,15 +162,7 @@ impl Mlp {
         for (i, x) in pos.iter().enumerate() {
             for l in 0..nl {
                 let c = f.corners_f32(l, *x);
-                let o = &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w];
-                o.fill(0.0);
-                let base = offsets[l];
-                for k in 0..8 {
-                    let e = (base + c.entry[k] as usize) * w;
-                    for (j, v) in o.iter_mut().enumerate() {
-                        *v += c.weight[k] * t[e + j];
-                    }
-                }
+                c.blend(offsets[l], w, |k| t[k], &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w]);
                 a.corners[i * nl + l] = c;
             }
         }
