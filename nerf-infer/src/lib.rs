@@ -51,7 +51,8 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
-// The int8 layer kernel (used without AVX-512 VNNI) and the encoding's sine.
+// The int8 layer kernel (used without AVX-512 VNNI), the encoding's sine and
+// the feature-grid lookups.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 #[cfg_attr(all(target_feature = "avx512bw", target_feature = "avx512vnni"), allow(dead_code))]
 mod avx2;

@@ -659,10 +659,10 @@ impl<const B: usize> BlockFixed<B> {
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
             pd = encode_fixed(*p, e.pos_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc[s]);
-            if let Some(f) = &model.features {
-                f.encode_fixed(*p, &mut enc[s][pd..]);
-                pd += f.dim();
-            }
+        }
+        if let Some(f) = &model.features {
+            f.encode_fixed_rows(pos, enc, pd);
+            pd += f.dim();
         }
         let layers = &net.layers;
         // layer widths come from the layers: pruned ones are narrower
