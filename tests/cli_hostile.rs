@@ -190,6 +190,7 @@ fn a_full_disk_or_read_only_file_system_leaves_nothing_half_written() {
             ));
         }
     }
+    script.push_str("rm -f /tmp/nerf-err-$$\n");
     let report = in_mount_namespace(&script);
     println!("{report}");
     let blocks: Vec<&str> = report.split("== ").skip(1).collect();
