@@ -93,6 +93,18 @@ fn scene_train_resume_eval_export_info_render() {
     let e = fails(&["export", s(&model), "--bits", "16", "--act-bits", "8", "--out", s(&d.join("x.nerf"))]);
     assert!(e.contains("--act-bits 8 needs --bits 8"), "{e}");
     assert!(!d.join("x.nerf").exists());
+    // --coarse sets the default samples per ray, and rendering follows it
+    let few = d.join("few.nerf");
+    ok(&["export", s(&model), "--bits", "8", "--coarse", "4", "--out", s(&few)]);
+    assert!(ok(&["info", s(&few)]).contains("samples: 4 coarse"));
+    let r: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", s(&few), "--data", s(&data), "--split", "test"])).unwrap();
+    // 4 coarse + (4 + 8) fine per ray that meets the scene bounds
+    let few_spr = r["samples_per_ray"].as_f64().unwrap();
+    assert!(few_spr > 4.0 && few_spr <= 16.0 && few_spr < spr, "{few_spr}");
+    let o = support::cli::nerf(&["export", s(&model), "--bits", "8", "--coarse", "1", "--out", s(&d.join("x.nerf"))]);
+    let e = String::from_utf8(o.stderr).unwrap();
+    assert!(!o.status.success() && e.contains("'1' for '--coarse") && e.contains("2..=256"), "{e}");
 
     let t = d.join("trade");
     let table = ok(&[
@@ -181,11 +193,20 @@ fn fit_keeps_the_first_candidate_that_reaches_the_target_and_tables_what_it_trie
     let out = ok(&["fit", "--data", s(&data), "--target-psnr", "8", "--minutes", "0.01", "--out", s(&run)]);
     assert!(out.contains("| candidate |") && out.contains("fit: chose 2x32-noview"), "{out}");
     let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 2, "{csv}");
+    // the chosen candidate at its trained samples per ray, then at fewer
+    // while it still reaches the target (and the first that does not)
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert!(rows.len() >= 2 && rows.iter().all(|r| r[0] == "2x32-noview"), "{csv}");
+    let coarse: Vec<u16> = rows.iter().map(|r| r[9].parse().unwrap()).collect();
+    assert!(coarse.windows(2).all(|w| w[0] > w[1]) && coarse[0] == 192, "{csv}");
+    let reached: Vec<bool> = rows.iter().map(|r| r[4].parse::<f64>().unwrap() >= 8.0).collect();
+    let kept = reached.iter().take_while(|&&r| r).count();
+    assert!(kept >= 1 && (kept == rows.len() || kept == rows.len() - 1), "{csv}");
     let fixed = std::fs::read(run.join("model_fixed.nerf")).unwrap();
     let m = nerf_infer::Model::from_bytes(&fixed).unwrap();
     assert_eq!(m.scheme(), nerf_infer::Scheme::I8);
     assert!(m.grid.is_some() && m.fine.is_none());
+    assert_eq!(m.samples.coarse, coarse[kept - 1], "the fewest samples that reached the target: {csv}");
     assert!(run.join("model.nerf").is_file() && run.join("2x32-noview/train.jsonl").is_file());
     // an unreachable target: every candidate tried, cheapest first, and a
     // one-line error naming the table

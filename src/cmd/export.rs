@@ -22,6 +22,11 @@ pub struct Args {
     /// space sampled, nothing occupied lost.
     #[arg(long)]
     grid_res: Option<u16>,
+    /// Set the model's default stratified samples per ray (2..=256; what a
+    /// renderer uses unless told otherwise): fewer samples, less time per
+    /// ray, some PSNR (measure with `nerf eval --coarse`).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(2..=256))]
+    coarse: Option<u16>,
     /// Output file.
     #[arg(long)]
     out: PathBuf,
@@ -45,6 +50,9 @@ pub fn run(a: Args) -> CmdResult {
     };
     if let Some(r) = a.grid_res {
         nerf_train::export::coarsen_grid(&mut owned, r).map_err(|e| format!("{}: {e}", a.model.display()))?;
+    }
+    if let Some(n) = a.coarse {
+        owned.samples.coarse = n;
     }
     let out = owned.to_bytes().map_err(|e| format!("{}: {e}", a.out.display()))?;
     write_atomic(&a.out, &out)?;

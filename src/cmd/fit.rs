@@ -3,13 +3,15 @@
 //! the feature grid's lookups in MAC-equivalents; all with the occupancy
 //! grid), quantises each to the fixed-point path, scores it on the
 //! validation views, and keeps the first (cheapest) that reaches the target
-//! PSNR. Writes the table of what it tried.
+//! PSNR; then renders that one with fewer samples per ray while it still
+//! reaches the target, and stores the fewest as the model's default.
+//! Writes the table of what it tried.
 
 use super::{create_dir, eval, train, write_atomic, CmdResult, FormatArg};
 use clap::Parser;
-use nerf_infer::{Model, Scheme};
+use nerf_infer::Scheme;
 use nerf_train::config::TrainConfig;
-use nerf_train::export::quantise;
+use nerf_train::export::{quantise, OwnedModel};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nerf fit`.
@@ -70,10 +72,12 @@ pub fn macs(cfg: &TrainConfig) -> usize {
 }
 
 /// What one feature-grid level costs per sample in the int8 kernel, in
-/// multiply-accumulates of its layers: callgrind on the `features` preset's
-/// lego model (AVX2) counted 521 instructions per level lookup (8 corners)
-/// and 0.26 instructions per MAC in the layers.
-pub const FEATURE_LEVEL_MACS: usize = 2000;
+/// multiply-accumulates of its layers: on the `features` preset's lego
+/// model (AVX2, 8 levels per register, session 10) `perf` put the lookups
+/// at 11.5 % of the render's time and the layers (15 488 MAC/sample) at
+/// 47.6 %: 3 740 MAC-equivalents for 8 levels (callgrind: 61 instructions
+/// per level, 0.26 per MAC; the gathers cost more than their count).
+pub const FEATURE_LEVEL_MACS: usize = 500;
 
 /// A candidate's cost per sample: [`macs`] plus its feature-grid levels
 /// at [`FEATURE_LEVEL_MACS`] each.
@@ -95,6 +99,7 @@ fn s(p: &Path) -> String {
 /// One tried candidate.
 struct Row {
     name: &'static str,
+    coarse: u16,
     macs: usize,
     cost: usize,
     steps: u32,
@@ -105,7 +110,8 @@ struct Row {
     bytes: usize,
 }
 
-fn score(a: &Args, model: &Path, threads: usize) -> Result<serde_json::Value, String> {
+/// `nerf eval` of `model` on the validation views, with `coarse` samples per ray.
+fn score(a: &Args, model: &Path, threads: usize, coarse: u16) -> Result<serde_json::Value, String> {
     let argv = [
         "eval".into(),
         s(model),
@@ -119,10 +125,14 @@ fn score(a: &Args, model: &Path, threads: usize) -> Result<serde_json::Value, St
         threads.to_string(),
         "--early-stop".into(),
         a.early_stop.to_string(),
+        "--coarse".into(),
+        coarse.to_string(),
     ];
     eval::evaluate(eval::Args::try_parse_from(argv).map_err(|e| e.to_string())?)
 }
 
+/// Trains candidate `name`, quantises it (`model_fixed.nerf` beside the
+/// run's `model.nerf`) and scores both at the trained samples per ray.
 fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, String> {
     let dir = a.out.join(name);
     create_dir(&dir)?;
@@ -159,37 +169,86 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
     let q = q.map_err(|e| format!("{}: {e}", f32_path.display()))?;
     let fixed_path = dir.join("model_fixed.nerf");
     write_atomic(&fixed_path, &q)?;
-    let rf = score(a, &f32_path, a.threads)?;
-    let rq = score(a, &fixed_path, 1)?;
+    let steps = m.meta.iterations;
+    score_row(a, name, cfg, &dir, m.samples.coarse, steps, q.len())
+}
+
+/// The row of candidate `name` (run directory `dir`) rendered with `coarse`
+/// samples per ray: f32 and fixed-point PSNR, the fixed path's cost.
+fn score_row(
+    a: &Args,
+    name: &'static str,
+    cfg: &TrainConfig,
+    dir: &Path,
+    coarse: u16,
+    steps: u32,
+    bytes: usize,
+) -> Result<Row, String> {
+    let rf = score(a, &dir.join("model.nerf"), a.threads, coarse)?;
+    let rq = score(a, &dir.join("model_fixed.nerf"), 1, coarse)?;
     let num = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap_or(f64::NAN);
     Ok(Row {
         name,
+        coarse,
         macs: macs(cfg),
         cost: cost(cfg),
-        steps: Model::from_bytes(&q).map(|m| m.meta.iterations).unwrap_or(0),
+        steps,
         psnr_f32: num(&rf, "psnr"),
         psnr_fixed: num(&rq, "psnr"),
         us_per_ray: num(&rq, "us_per_ray"),
         samples_per_ray: num(&rq, "samples_per_ray"),
-        bytes: q.len(),
+        bytes,
     })
+}
+
+/// Fewer samples per ray for the chosen candidate: ¾, ½ and ⅓ of the
+/// trained count in turn while the fixed-point render still reaches the
+/// target.
+fn fewer_samples(n: u16) -> impl Iterator<Item = u16> {
+    [(3, 4), (1, 2), (1, 3)].into_iter().map(move |(p, q)| (n * p / q).max(2)).filter(move |&k| k < n)
+}
+
+/// Rewrites `model` (a run's file) as `out` with `coarse` default samples per ray.
+fn with_coarse(model: &Path, coarse: u16, out: &Path) -> Result<(), String> {
+    let bytes = super::read_model(model)?;
+    let mut owned = OwnedModel::from_model(&super::decode(model, &bytes)?);
+    owned.samples.coarse = coarse;
+    write_atomic(out, &owned.to_bytes().map_err(|e| format!("{}: {e}", out.display()))?)
 }
 
 fn tables(rows: &[Row], bits: &str) -> (String, String) {
     let mut csv = String::from(
-        "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample\n",
+        "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample,coarse_samples\n",
     );
     let mut md = format!(
-        "| candidate | MAC/sample | cost/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| candidate | coarse samples | MAC/sample | cost/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for r in rows {
         csv += &format!(
-            "{},{},{},{:.3},{:.3},{:.2},{:.2},{},{}\n",
-            r.name, r.macs, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes, r.cost
+            "{},{},{},{:.3},{:.3},{:.2},{:.2},{},{},{}\n",
+            r.name,
+            r.macs,
+            r.steps,
+            r.psnr_f32,
+            r.psnr_fixed,
+            r.us_per_ray,
+            r.samples_per_ray,
+            r.bytes,
+            r.cost,
+            r.coarse
         );
         md += &format!(
-            "| {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} |\n",
-            r.name, r.macs, r.cost, r.steps, r.psnr_f32, r.psnr_fixed, r.us_per_ray, r.samples_per_ray, r.bytes
+            "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} |\n",
+            r.name,
+            r.coarse,
+            r.macs,
+            r.cost,
+            r.steps,
+            r.psnr_f32,
+            r.psnr_fixed,
+            r.us_per_ray,
+            r.samples_per_ray,
+            r.bytes
         );
     }
     (csv, md)
@@ -202,27 +261,33 @@ pub fn run(a: Args) -> CmdResult {
     }
     create_dir(&a.out)?;
     let mut rows = Vec::new();
+    let report = |row: &Row| {
+        println!(
+            "fit: {} at {} samples: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray evaluated",
+            row.name, row.coarse, a.bits, row.psnr_fixed, row.psnr_f32, row.us_per_ray, row.samples_per_ray
+        );
+    };
+    let save = |rows: &[Row]| -> CmdResult {
+        let (csv, md) = tables(rows, &a.bits);
+        write_atomic(&a.out.join("fit.csv"), csv.as_bytes())?;
+        write_atomic(&a.out.join("fit.md"), md.as_bytes())
+    };
     let mut chosen = None;
     for (name, cfg) in candidates() {
         println!("fit: training {name} ({} MAC/sample, cost {}) for {} min", macs(&cfg), cost(&cfg), a.minutes);
         let row = try_one(&a, name, &cfg)?;
-        println!(
-            "fit: {name}: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray",
-            a.bits, row.psnr_fixed, row.psnr_f32, row.us_per_ray, row.samples_per_ray
-        );
+        report(&row);
         let reached = row.psnr_fixed >= a.target_psnr;
+        let (coarse, steps, bytes) = (row.coarse, row.steps, row.bytes);
         rows.push(row);
-        let (csv, md) = tables(&rows, &a.bits);
-        write_atomic(&a.out.join("fit.csv"), csv.as_bytes())?;
-        write_atomic(&a.out.join("fit.md"), md.as_bytes())?;
+        save(&rows)?;
         if reached {
-            chosen = Some(name);
+            chosen = Some((name, cfg, coarse, steps, bytes));
             break;
         }
     }
-    let (_, md) = tables(&rows, &a.bits);
-    println!("{md}");
-    let Some(name) = chosen else {
+    let Some((name, cfg, trained, steps, bytes)) = chosen else {
+        println!("{}", tables(&rows, &a.bits).1);
         let best = rows.iter().map(|r| r.psnr_fixed).fold(f64::NEG_INFINITY, f64::max);
         return Err(format!(
             "no candidate reached {:.2} dB in {} min (best {best:.2} dB); table in {}",
@@ -231,12 +296,25 @@ pub fn run(a: Args) -> CmdResult {
             a.out.join("fit.md").display()
         ));
     };
+    let dir = a.out.join(name);
+    let mut coarse = trained;
+    for k in fewer_samples(trained) {
+        let row = score_row(&a, name, &cfg, &dir, k, steps, bytes)?;
+        report(&row);
+        let reached = row.psnr_fixed >= a.target_psnr;
+        rows.push(row);
+        save(&rows)?;
+        if !reached {
+            break;
+        }
+        coarse = k;
+    }
+    println!("{}", tables(&rows, &a.bits).1);
     for f in ["model.nerf", "model_fixed.nerf"] {
-        let b = super::read_model(&a.out.join(name).join(f))?;
-        write_atomic(&a.out.join(f), &b)?;
+        with_coarse(&dir.join(f), coarse, &a.out.join(f))?;
     }
     println!(
-        "fit: chose {name}; wrote {} and {}",
+        "fit: chose {name} at {coarse} samples per ray (trained with {trained}); wrote {} and {}",
         a.out.join("model.nerf").display(),
         a.out.join("model_fixed.nerf").display()
     );
