@@ -184,7 +184,7 @@ fn bad_inputs_give_one_line_errors() {
 }
 
 #[test]
-fn fit_keeps_the_first_candidate_that_reaches_the_target_and_tables_what_it_tried() {
+fn fit_keeps_the_cheapest_candidate_that_reaches_the_target_and_tables_what_it_tried() {
     let d = tmp("fit");
     let scene = d.join("scene");
     ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
@@ -192,6 +192,8 @@ fn fit_keeps_the_first_candidate_that_reaches_the_target_and_tables_what_it_trie
     let run = d.join("fit");
     let out = ok(&["fit", "--data", s(&data), "--target-psnr", "8", "--minutes", "0.01", "--out", s(&run)]);
     assert!(out.contains("| candidate |") && out.contains("fit: chose 2x32-noview"), "{out}");
+    // the next candidate would cost more per ray even at a third of its samples
+    assert!(out.contains("fit: not training 3x32"), "{out}");
     let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
     // the chosen candidate at its trained samples per ray, then at fewer
     // while it still reaches the target (and the first that does not)

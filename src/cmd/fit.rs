@@ -1,11 +1,14 @@
 //! `nerf fit`: sizes the model to the scene. Trains candidate
 //! configurations in order of cost (multiply-accumulates per sample, plus
 //! the feature grid's lookups in MAC-equivalents; all with the occupancy
-//! grid), quantises each to the fixed-point path, scores it on the
-//! validation views, and keeps the first (cheapest) that reaches the target
-//! PSNR; then renders that one with fewer samples per ray while it still
-//! reaches the target, and stores the fewest as the model's default.
-//! Writes the table of what it tried.
+//! grid), quantises each to the fixed-point path and scores it on the
+//! validation views. A candidate that reaches the target PSNR is rendered
+//! again with fewer samples per ray while it still reaches it. Candidates
+//! are trained until even a third of the next one's samples would cost
+//! more per ray than the cheapest found; of those that reached the target,
+//! the one with the fewest µs per ray (fixed point, one core) is kept, with
+//! its fewest samples as the model's default. Writes the table of what it
+//! tried.
 
 use super::{create_dir, eval, train, write_atomic, CmdResult, FormatArg};
 use clap::Parser;
@@ -97,6 +100,7 @@ fn s(p: &Path) -> String {
 }
 
 /// One tried candidate.
+#[derive(Clone)]
 struct Row {
     name: &'static str,
     coarse: u16,
@@ -110,8 +114,9 @@ struct Row {
     bytes: usize,
 }
 
-/// `nerf eval` of `model` on the validation views, with `coarse` samples per ray.
-fn score(a: &Args, model: &Path, threads: usize, coarse: u16) -> Result<serde_json::Value, String> {
+/// `nerf eval` of `model` on the validation views, with `coarse` samples
+/// per ray, timing the fastest of `repeat` renders of each view.
+fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> Result<serde_json::Value, String> {
     let argv = [
         "eval".into(),
         s(model),
@@ -127,6 +132,8 @@ fn score(a: &Args, model: &Path, threads: usize, coarse: u16) -> Result<serde_js
         a.early_stop.to_string(),
         "--coarse".into(),
         coarse.to_string(),
+        "--repeat".into(),
+        repeat.to_string(),
     ];
     eval::evaluate(eval::Args::try_parse_from(argv).map_err(|e| e.to_string())?)
 }
@@ -184,8 +191,9 @@ fn score_row(
     steps: u32,
     bytes: usize,
 ) -> Result<Row, String> {
-    let rf = score(a, &dir.join("model.nerf"), a.threads, coarse)?;
-    let rq = score(a, &dir.join("model_fixed.nerf"), 1, coarse)?;
+    let rf = score(a, &dir.join("model.nerf"), a.threads, coarse, 1)?;
+    // the timed render: one core, the fastest of 3 per view
+    let rq = score(a, &dir.join("model_fixed.nerf"), 1, coarse, 3)?;
     let num = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap_or(f64::NAN);
     Ok(Row {
         name,
@@ -254,6 +262,53 @@ fn tables(rows: &[Row], bits: &str) -> (String, String) {
     (csv, md)
 }
 
+/// What a candidate's render costs per ray with `coarse` samples, in
+/// cost units ([`cost`] per sample): the estimate that decides which
+/// candidates are still worth training.
+fn cost_per_ray(cfg: &TrainConfig, coarse: u16) -> usize {
+    cost(cfg) * coarse as usize
+}
+
+/// The fewest samples per ray ([`fewer_samples`]) at which candidate `name`
+/// (trained, first row `first`) still reaches the target; every render
+/// tried goes into `rows`. Returns that count and its µs per ray.
+fn fewest_samples(
+    a: &Args,
+    name: &'static str,
+    cfg: &TrainConfig,
+    first: &Row,
+    rows: &mut Vec<Row>,
+) -> Result<(u16, f64), String> {
+    let dir = a.out.join(name);
+    let mut best = (first.coarse, first.us_per_ray);
+    for k in fewer_samples(first.coarse) {
+        let row = score_row(a, name, cfg, &dir, k, first.steps, first.bytes)?;
+        report(a, &row);
+        let reached = row.psnr_fixed >= a.target_psnr;
+        let us = row.us_per_ray;
+        rows.push(row);
+        save(a, rows)?;
+        if !reached {
+            break;
+        }
+        best = (k, us);
+    }
+    Ok(best)
+}
+
+fn report(a: &Args, row: &Row) {
+    println!(
+        "fit: {} at {} samples: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray evaluated",
+        row.name, row.coarse, a.bits, row.psnr_fixed, row.psnr_f32, row.us_per_ray, row.samples_per_ray
+    );
+}
+
+fn save(a: &Args, rows: &[Row]) -> CmdResult {
+    let (csv, md) = tables(rows, &a.bits);
+    write_atomic(&a.out.join("fit.csv"), csv.as_bytes())?;
+    write_atomic(&a.out.join("fit.md"), md.as_bytes())
+}
+
 /// Runs `nerf fit`.
 pub fn run(a: Args) -> CmdResult {
     if !(a.minutes > 0.0 && a.minutes.is_finite() && a.target_psnr.is_finite()) {
@@ -261,33 +316,31 @@ pub fn run(a: Args) -> CmdResult {
     }
     create_dir(&a.out)?;
     let mut rows = Vec::new();
-    let report = |row: &Row| {
-        println!(
-            "fit: {} at {} samples: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray evaluated",
-            row.name, row.coarse, a.bits, row.psnr_fixed, row.psnr_f32, row.us_per_ray, row.samples_per_ray
-        );
-    };
-    let save = |rows: &[Row]| -> CmdResult {
-        let (csv, md) = tables(rows, &a.bits);
-        write_atomic(&a.out.join("fit.csv"), csv.as_bytes())?;
-        write_atomic(&a.out.join("fit.md"), md.as_bytes())
-    };
-    let mut chosen = None;
+    // per candidate that reached the target: name, samples, µs/ray, cost per ray
+    let mut reached: Vec<(&'static str, u16, f64, usize)> = Vec::new();
     for (name, cfg) in candidates() {
+        let least = cost_per_ray(&cfg, cfg.n_coarse.div_ceil(3));
+        if let Some(best) = reached.iter().map(|r| r.3).min() {
+            if least >= best {
+                println!("fit: not training {name}: even at a third of its samples it costs more per ray ({least} vs {best})");
+                continue;
+            }
+        }
         println!("fit: training {name} ({} MAC/sample, cost {}) for {} min", macs(&cfg), cost(&cfg), a.minutes);
         let row = try_one(&a, name, &cfg)?;
-        report(&row);
-        let reached = row.psnr_fixed >= a.target_psnr;
-        let (coarse, steps, bytes) = (row.coarse, row.steps, row.bytes);
+        report(&a, &row);
+        let ok = row.psnr_fixed >= a.target_psnr;
         rows.push(row);
-        save(&rows)?;
-        if reached {
-            chosen = Some((name, cfg, coarse, steps, bytes));
-            break;
+        save(&a, &rows)?;
+        if ok {
+            let first = rows.last().cloned().expect("just pushed");
+            let (coarse, us) = fewest_samples(&a, name, &cfg, &first, &mut rows)?;
+            reached.push((name, coarse, us, cost_per_ray(&cfg, coarse)));
         }
     }
-    let Some((name, cfg, trained, steps, bytes)) = chosen else {
-        println!("{}", tables(&rows, &a.bits).1);
+    println!("{}", tables(&rows, &a.bits).1);
+    // the lowest measured µs per ray of the fixed-point render
+    let Some(&(name, coarse, us, _)) = reached.iter().min_by(|x, y| x.2.total_cmp(&y.2)) else {
         let best = rows.iter().map(|r| r.psnr_fixed).fold(f64::NEG_INFINITY, f64::max);
         return Err(format!(
             "no candidate reached {:.2} dB in {} min (best {best:.2} dB); table in {}",
@@ -297,24 +350,11 @@ pub fn run(a: Args) -> CmdResult {
         ));
     };
     let dir = a.out.join(name);
-    let mut coarse = trained;
-    for k in fewer_samples(trained) {
-        let row = score_row(&a, name, &cfg, &dir, k, steps, bytes)?;
-        report(&row);
-        let reached = row.psnr_fixed >= a.target_psnr;
-        rows.push(row);
-        save(&rows)?;
-        if !reached {
-            break;
-        }
-        coarse = k;
-    }
-    println!("{}", tables(&rows, &a.bits).1);
     for f in ["model.nerf", "model_fixed.nerf"] {
         with_coarse(&dir.join(f), coarse, &a.out.join(f))?;
     }
     println!(
-        "fit: chose {name} at {coarse} samples per ray (trained with {trained}); wrote {} and {}",
+        "fit: chose {name} at {coarse} samples per ray ({us:.1} µs/ray); wrote {} and {}",
         a.out.join("model.nerf").display(),
         a.out.join("model_fixed.nerf").display()
     );
