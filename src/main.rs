@@ -27,7 +27,7 @@ enum Command {
     Render(cmd::render::Args),
     /// Write the model with 32-, 16- or 8-bit weights.
     Export(cmd::export::Args),
-    /// Try model sizes cheapest first; keep the first that reaches a target PSNR.
+    /// Try model sizes and samples per ray cheapest first; keep the fastest that reaches a target PSNR.
     Fit(cmd::fit::Args),
     /// Sweep weight bits, samples and early termination: PSNR against µs/ray.
     Tradeoff(cmd::tradeoff::Args),
@@ -39,6 +39,19 @@ enum Command {
     Demo(cmd::demo::Args),
 }
 
+/// `nerf info M | head -1`: end like other Unix tools when the reader
+/// closes the pipe (the default action of SIGPIPE, which Rust programs
+/// ignore), instead of panicking in `println!`. Only for `info`, which
+/// writes no files that a kill could leave half-written.
+fn exit_quietly_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: restores a signal's default action; no handler is installed
+    // and nothing else in this process depends on SIGPIPE being ignored.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 /// Runs one subcommand.
 fn dispatch(command: Command) -> cmd::CmdResult {
     match command {
@@ -46,7 +59,10 @@ fn dispatch(command: Command) -> cmd::CmdResult {
         Command::Eval(a) => cmd::eval::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Export(a) => cmd::export::run(a),
-        Command::Info(a) => cmd::info::run(a),
+        Command::Info(a) => {
+            exit_quietly_on_closed_pipe();
+            cmd::info::run(a)
+        }
         Command::Tradeoff(a) => cmd::tradeoff::run(a),
         Command::Fit(a) => cmd::fit::run(a),
         Command::Scene(a) => cmd::scene::run(a),

@@ -184,6 +184,19 @@ fn bad_inputs_give_one_line_errors() {
 }
 
 #[test]
+fn info_into_a_closed_pipe_ends_without_a_panic() {
+    // `nerf info M | head -1`: the reader gone before the first line
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let model = concat!(env!("CARGO_MANIFEST_DIR"), "/models/scene_int8.nerf");
+    let o = std::process::Command::new(support::cli::BIN).args(["info", model]).stdout(writer).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked") && err.is_empty(), "{err}");
+    use std::os::unix::process::ExitStatusExt;
+    assert_eq!(o.status.signal(), Some(13), "{:?}", o.status); // SIGPIPE
+}
+
+#[test]
 fn fit_keeps_the_cheapest_candidate_that_reaches_the_target_and_tables_what_it_tried() {
     let d = tmp("fit");
     let scene = d.join("scene");
