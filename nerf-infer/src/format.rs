@@ -490,6 +490,9 @@ impl<'a> Model<'a> {
         if self.grid.is_some_and(|g| !g.is_valid()) {
             return Err(Error::InvalidTopology("occupancy grid resolution or length"));
         }
+        if self.features.is_some() && !cfg!(feature = "feature-grid") {
+            return Err(Error::Capacity("feature grid (nerf-infer built without its `feature-grid` feature)"));
+        }
         let elem = if self.scheme().is_fixed() { 2 } else { 4 };
         if self.features.as_ref().is_some_and(|f| !f.is_valid(elem)) {
             return Err(Error::InvalidEncoding("feature grid shape, range or table length"));
@@ -680,6 +683,12 @@ pub fn crc32(data: &[u8]) -> u32 {
 #[cfg(feature = "alloc")]
 pub fn to_bytes(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
     model.validate()?;
+    encode(model)
+}
+
+/// [`to_bytes`] without the validation (tests write invalid models with it).
+#[cfg(feature = "alloc")]
+fn encode(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
     let mut payload = postcard::to_allocvec(model).map_err(|_| Error::Decode)?;
     // older versions are the same encoding without the trailing `None` bytes
     let absent = (FORMAT_VERSION - model.format_version()) as usize;
@@ -711,5 +720,23 @@ mod tests {
         h[..4].copy_from_slice(&MAGIC);
         h[4] = 9;
         assert_eq!(Model::from_bytes(&h).unwrap_err(), Error::UnsupportedVersion(9));
+    }
+
+    /// Without the `feature-grid` feature a model with a feature grid is
+    /// refused before anything else is checked; with it, this one (whose
+    /// layer 0 lacks the grid's inputs) fails on that instead.
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn feature_grid_models_need_the_feature() {
+        let table = [0u8; 8 * 2 * 2]; // 1 cell: 8 vertices of 2 i16
+        let mut m = Model::from_bytes(include_bytes!("../tests/data/golden.nerf")).unwrap();
+        let resolutions = heapless::Vec::from_slice(&[1]).unwrap();
+        m.features = Some(FeatureGrid { width: 2, log2_table: 3, frac_bits: 8, resolutions, table: &table });
+        let e = Model::from_bytes(&encode(&m).unwrap()).unwrap_err();
+        if cfg!(feature = "feature-grid") {
+            assert_eq!(e, Error::LayerShape(0));
+        } else {
+            assert!(matches!(e, Error::Capacity(s) if s.contains("feature-grid")), "{e:?}");
+        }
     }
 }

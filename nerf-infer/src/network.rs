@@ -238,6 +238,8 @@ impl<const B: usize> BlockF32<B> {
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
             pd = encode_f32(*p, e.pos_freqs as usize, e.include_input, &mut self.enc[s]);
+            // (models with a feature grid do not load without the feature)
+            #[cfg(feature = "feature-grid")]
             if let Some(f) = &model.features {
                 f.encode_f32(*p, &mut self.enc[s][pd..]);
                 pd += f.dim();
@@ -660,6 +662,7 @@ impl<const B: usize> BlockFixed<B> {
         for (s, p) in pos.iter().enumerate() {
             pd = encode_fixed(*p, e.pos_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc[s]);
         }
+        #[cfg(feature = "feature-grid")]
         if let Some(f) = &model.features {
             f.encode_fixed_rows(pos, enc, pd);
             pd += f.dim();
