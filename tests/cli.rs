@@ -93,6 +93,26 @@ fn scene_train_resume_eval_export_info_render() {
     let e = fails(&["export", s(&model), "--bits", "16", "--act-bits", "8", "--out", s(&d.join("x.nerf"))]);
     assert!(e.contains("--act-bits 8 needs --bits 8"), "{e}");
     assert!(!d.join("x.nerf").exists());
+    // every layer narrowed to int8 precision in an int16 model: the int8
+    // model's pixels; one layer: between the two
+    let info: serde_json::Value = serde_json::from_str(&ok(&["info", s(&model), "--json"])).unwrap();
+    let n = info["coarse"]["layers"].as_array().unwrap().len();
+    let all: Vec<String> = (0..n).map(|i| i.to_string()).collect();
+    let psnr_of = |m: &std::path::Path| -> f64 {
+        let r: serde_json::Value =
+            serde_json::from_str(&ok(&["eval", s(m), "--data", s(&data), "--split", "test"])).unwrap();
+        r["psnr"].as_f64().unwrap()
+    };
+    let narrow = d.join("narrow.nerf");
+    ok(&["export", s(&model), "--bits", "16", "--int8-layers", &all.join(","), "--out", s(&narrow)]);
+    assert_eq!(psnr_of(&narrow), psnr_of(&d.join("m8a16.nerf")));
+    assert_ne!(psnr_of(&narrow), psnr_of(&d.join("m16a16.nerf")));
+    let e = fails(&["export", s(&model), "--bits", "8", "--int8-layers", "0", "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains("--int8-layers needs --bits 16"), "{e}");
+    let e =
+        fails(&["export", s(&model), "--bits", "16", "--int8-layers", &n.to_string(), "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains(&format!("layers 0 to {}", n - 1)), "{e}");
+    assert!(!d.join("x.nerf").exists());
     // --coarse sets the default samples per ray, and rendering follows it
     let few = d.join("few.nerf");
     ok(&["export", s(&model), "--bits", "8", "--coarse", "4", "--out", s(&few)]);

@@ -379,6 +379,7 @@ fn quantise_network(
     scheme: Scheme,
     act_bits: u8,
     grid_frac: u8,
+    eight_bit: &[usize],
 ) -> Result<OwnedNetwork, String> {
     let qmax = match (scheme, act_bits) {
         (Scheme::I16, 16) => 32767.0,
@@ -391,6 +392,7 @@ fn quantise_network(
         let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i, act_bits, grid_frac);
         let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
         debug_assert_eq!(cols.len(), din);
+        let qmax = if eight_bit.contains(&i) { 127.0 } else { qmax };
         let mut q = vec![0i32; din * dout];
         let (mut bias, mut scales, mut requant) = (Vec::new(), Vec::new(), Vec::new());
         for c in 0..dout {
@@ -446,15 +448,25 @@ pub fn quantise(m: &Model<'_>, scheme: Scheme) -> Result<OwnedModel, String> {
 /// [`quantise`] with `act_bits`-bit hidden activations: 16, or 8 with int8
 /// weights (ReLU outputs u8, the feature layer i8; the encoding stays Q15).
 pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<OwnedModel, String> {
+    quantise_layers(m, scheme, act_bits, &[])
+}
+
+/// [`quantise_acts`] with the weights of layers `eight_bit` (indices in
+/// each network, in file order: trunk, density head, then the feature, view
+/// and colour layers) rounded to int8 precision (±127 steps per output)
+/// inside an int16 model: the int8 model's values for those layers, so
+/// listing every layer renders exactly as the int8 export does. Finds the
+/// layers whose 8-bit weights cost PSNR.
+pub fn quantise_layers(m: &Model<'_>, scheme: Scheme, act_bits: u8, eight_bit: &[usize]) -> Result<OwnedModel, String> {
     if m.scheme() != Scheme::F32 {
         return Err("the model is already quantised; export from the f32 model".into());
     }
     let mut out = OwnedModel::from_model(m);
     out.features = m.features.as_ref().map(quantise_features);
     let grid_frac = out.features.as_ref().map_or(0, |(f, _)| f.frac_bits);
-    out.coarse = quantise_network(m, &m.coarse, scheme, act_bits, grid_frac)?;
+    out.coarse = quantise_network(m, &m.coarse, scheme, act_bits, grid_frac, eight_bit)?;
     out.fine = match &m.fine {
-        Some(f) => Some(quantise_network(m, f, scheme, act_bits, grid_frac)?),
+        Some(f) => Some(quantise_network(m, f, scheme, act_bits, grid_frac, eight_bit)?),
         None => None,
     };
     Ok(out)

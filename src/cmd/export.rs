@@ -2,7 +2,7 @@
 
 use super::{decode, read_model, write_atomic, CmdResult};
 use nerf_infer::Scheme;
-use nerf_train::export::{quantise_acts, OwnedModel};
+use nerf_train::export::{quantise_layers, OwnedModel};
 use std::path::PathBuf;
 
 /// Arguments of `nerf export`.
@@ -22,6 +22,13 @@ pub struct Args {
     /// space sampled, nothing occupied lost.
     #[arg(long)]
     grid_res: Option<u16>,
+    /// With `--bits 16`: round these layers' weights to int8 precision
+    /// (comma-separated indices in file order: trunk layers, density head,
+    /// then the feature, view and colour layers; `nerf info --json` lists
+    /// them), to find which layers 8-bit weights cost PSNR. Listing every
+    /// layer renders exactly as `--bits 8` does.
+    #[arg(long, value_delimiter = ',')]
+    int8_layers: Vec<usize>,
     /// Set the model's default stratified samples per ray (2..=256; what a
     /// renderer uses unless told otherwise): fewer samples, less time per
     /// ray, some PSNR (measure with `nerf eval --coarse`).
@@ -37,6 +44,9 @@ pub fn run(a: Args) -> CmdResult {
     if a.act_bits == "8" && a.bits != "8" {
         return Err("--act-bits 8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into());
     }
+    if !a.int8_layers.is_empty() && a.bits != "16" {
+        return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
+    }
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let mut owned = match a.bits.as_str() {
@@ -45,7 +55,16 @@ pub fn run(a: Args) -> CmdResult {
         bits => {
             let scheme = if bits == "16" { Scheme::I16 } else { Scheme::I8 };
             let act_bits = if a.act_bits == "8" { 8 } else { 16 };
-            quantise_acts(&model, scheme, act_bits).map_err(|e| format!("{}: {e}", a.model.display()))?
+            let layers = model.coarse.layers.len();
+            if let Some(&bad) = a.int8_layers.iter().find(|&&i| i >= layers) {
+                return Err(format!(
+                    "{}: --int8-layers {bad}: the network has layers 0 to {}",
+                    a.model.display(),
+                    layers - 1
+                ));
+            }
+            quantise_layers(&model, scheme, act_bits, &a.int8_layers)
+                .map_err(|e| format!("{}: {e}", a.model.display()))?
         }
     };
     if let Some(r) = a.grid_res {
