@@ -364,12 +364,10 @@ pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]],
         let k = (g.levels() - l0).min(8);
         let mut c = LevelLanes { res: [1; 8], mul_y: [0; 8], mul_z: [0; 8], dense: [0; 8], mask: [0; 8], base: [0; 8] };
         for j in 0..k {
-            let res = g.resolutions[l0 + j] as u32;
-            let n = res + 1;
-            let dense = (n as u64).pow(3) <= 1u64 << g.log2_table;
+            let res = g.resolutions[l0 + j];
+            let (mul, dense) = g.lattice(res);
             c.res[j] = res as i32;
-            (c.mul_y[j], c.mul_z[j]) =
-                if dense { (n as i32, (n * n) as i32) } else { (2_654_435_761u32 as i32, 805_459_861) };
+            (c.mul_y[j], c.mul_z[j]) = (mul[1] as i32, mul[2] as i32);
             c.dense[j] = if dense { -1 } else { 0 };
             c.mask[j] = ((1u32 << g.log2_table) - 1) as i32;
             c.base[j] = base as i32;
@@ -419,7 +417,7 @@ unsafe fn levels8(table: &[u8], c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
     let wxy: [__m256i; 4] = core::array::from_fn(|k| _mm256_mullo_epi32(w[0][k & 1], w[1][k >> 1]));
     // per axis, the lower and upper vertex's index contribution
     let up = |v: __m256i| _mm256_add_epi32(v, one(1));
-    let px = [cell[0], up(cell[0])];
+    let px = [cell[0], up(cell[0])]; // x multiplier 1 in either lattice (FeatureGrid::lattice)
     let (my, mz) = (ld(&c.mul_y), ld(&c.mul_z));
     let py = [_mm256_mullo_epi32(cell[1], my), _mm256_mullo_epi32(up(cell[1]), my)];
     let pz = [_mm256_mullo_epi32(cell[2], mz), _mm256_mullo_epi32(up(cell[2]), mz)];

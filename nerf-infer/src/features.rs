@@ -124,11 +124,19 @@ impl FeatureGrid<'_> {
     /// or the hash primes; whether the level is dense; the table mask.
     #[inline(always)]
     fn axis_parts(&self, res: u16, cell: [u32; 3]) -> ([[u32; 2]; 3], bool, u32) {
-        let n = res as u32 + 1;
-        let dense = (n as u64) * (n as u64) * (n as u64) <= 1u64 << self.log2_table;
-        let mul = if dense { [1, n, n * n] } else { [1, 2_654_435_761, 805_459_861] };
+        let (mul, dense) = self.lattice(res);
         let parts = [0, 1, 2].map(|a| [cell[a].wrapping_mul(mul[a]), (cell[a] + 1).wrapping_mul(mul[a])]);
         (parts, dense, (1u32 << self.log2_table) - 1)
+    }
+
+    /// Index multipliers of a level with `res` cells per axis: the dense
+    /// strides `1, N+1, (N+1)²` when its `(N+1)³` vertices fit the table, else
+    /// the hash primes; and whether it is dense.
+    #[inline(always)]
+    pub(crate) fn lattice(&self, res: u16) -> ([u32; 3], bool) {
+        let n = res as u32 + 1;
+        let dense = (n as u64).pow(3) <= 1u64 << self.log2_table;
+        (if dense { [1, n, n * n] } else { [1, 2_654_435_761, 805_459_861] }, dense)
     }
 
     /// Corners and weights of level `l` at the normalised position `p`
