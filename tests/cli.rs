@@ -2,14 +2,12 @@
 
 mod support;
 
-use support::cli::{fails, ok, s, tmp};
+use support::cli::{blender_scene, fails, ok, s, tmp};
 
 #[test]
 fn scene_train_resume_eval_export_info_render() {
     let d = tmp("e2e");
-    let scene = d.join("scene");
-    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
-    let data = scene.join("blender");
+    let data = blender_scene(&d, 16, 6);
     let cfg = d.join("tiny.json");
     std::fs::write(
         &cfg,
@@ -161,12 +159,10 @@ fn scene_train_resume_eval_export_info_render() {
 #[test]
 fn a_config_file_overrides_the_named_preset() {
     let d = tmp("preset-config");
-    let scene = d.join("scene");
-    ok(&["scene", "--out", s(&scene), "--size", "8", "--train", "2"]);
+    let data = blender_scene(&d, 8, 2);
     let cfg = d.join("over.json");
     std::fs::write(&cfg, r#"{"n_coarse": 24, "feature_levels": 2, "feature_log2_table": 8}"#).unwrap();
     let run = d.join("run");
-    let data = scene.join("blender");
     let common = ["--iters", "2", "--val-views", "0"];
     ok(&[&["train", "--data", s(&data), "--preset", "features", "--config", s(&cfg), "--out", s(&run)], &common[..]]
         .concat());
@@ -219,9 +215,7 @@ fn info_into_a_closed_pipe_ends_without_a_panic() {
 #[test]
 fn fit_keeps_the_cheapest_candidate_that_reaches_the_target_and_tables_what_it_tried() {
     let d = tmp("fit");
-    let scene = d.join("scene");
-    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
-    let data = scene.join("blender");
+    let data = blender_scene(&d, 16, 6);
     let run = d.join("fit");
     let out = ok(&["fit", "--data", s(&data), "--target-psnr", "8", "--minutes", "0.01", "--out", s(&run)]);
     assert!(out.contains("| candidate |") && out.contains("fit: chose 2x32-noview"), "{out}");

@@ -36,6 +36,14 @@ pub fn tmp(name: &str) -> PathBuf {
     d
 }
 
+/// Generates the built-in scene under `dir/scene` (`size`² pixels,
+/// `train` training views); returns its Blender-layout dataset directory.
+pub fn blender_scene(dir: &Path, size: u32, train: u32) -> PathBuf {
+    let scene = dir.join("scene");
+    ok(&["scene", "--out", s(&scene), "--size", &size.to_string(), "--train", &train.to_string()]);
+    scene.join("blender")
+}
+
 /// `p` as a command-line argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
