@@ -1,6 +1,16 @@
 //! The `nerf` command: train, evaluate, render, export and inspect NeRF
 //! models, and run the whole path on the built-in scene (`nerf demo`).
 
+/// `println!` for results on standard output that ends quietly if the
+/// reader has gone (a closed pipe: `nerf eval … | head -1`) instead of
+/// panicking; what a command writes to files is written before it prints.
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
 mod cmd;
 
 use clap::{Parser, Subcommand};

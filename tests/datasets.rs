@@ -17,7 +17,7 @@ fn spec() -> SceneSpec {
 }
 
 fn opts(format: Format, downscale: u32) -> LoadOptions {
-    LoadOptions { format, downscale, holdout: 4 }
+    LoadOptions { format, downscale, holdout: 4, ..LoadOptions::default() }
 }
 
 #[test]

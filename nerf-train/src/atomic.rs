@@ -1,32 +1,55 @@
 //! Atomic file output: every file the tools write appears whole or not at
 //! all, whatever happens during the write (full disk, unwritable directory,
 //! the process killed).
+//!
+//! The bytes go to a temporary file with a unique name in the target's
+//! directory (the `tempfile` crate: `.tmpXXXXXX`, created exclusively, so
+//! no file of the user's is ever taken over or deleted), are flushed to
+//! disk, then renamed over the target, and the directory is flushed so the
+//! rename survives a power cut. Only a regular file (or nothing) is
+//! replaced: a device node, FIFO, socket or directory at the target is
+//! refused, and so is a symbolic link (renaming over it would replace the
+//! link, not the file it points to, which is never what was meant).
 
 use std::io::{self, Cursor, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// The temporary name `path` is written under before the rename.
-pub fn tmp_path(path: &Path) -> PathBuf {
-    let mut s = path.as_os_str().to_owned();
-    s.push(".tmp");
-    PathBuf::from(s)
+/// Fails unless `path` is absent or a regular file (not a symlink).
+pub fn check_replaceable(path: &Path) -> io::Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
+        Ok(m) if m.file_type().is_file() => Ok(()),
+        Ok(m) => {
+            let what = if m.file_type().is_symlink() {
+                "a symbolic link"
+            } else if m.is_dir() {
+                "a directory"
+            } else {
+                "not a regular file (a device, FIFO or socket)"
+            };
+            Err(io::Error::other(format!("is {what}; refusing to replace it")))
+        }
+    }
 }
 
-/// Writes `bytes` to `path` atomically: into `path.tmp` in the same
-/// directory, flushed to disk, then renamed over `path`. On failure the
-/// temporary file is removed and `path` is left as it was.
+/// Writes `bytes` to `path` atomically (see the module doc). On failure
+/// the temporary file is removed and `path` is left as it was.
 pub fn write(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    let tmp = tmp_path(path);
-    let res = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if res.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    check_replaceable(path)?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::Builder::new().prefix(".tmp").tempfile_in(dir)?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    // the rename is durable once the directory is flushed (not possible on every platform: best effort)
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
     }
-    res
+    Ok(())
 }
 
 /// Encodes `img` as PNG in memory and writes it atomically to `path`.

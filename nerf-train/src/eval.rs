@@ -16,31 +16,67 @@ pub struct Rendered {
     pub height: u32,
     /// Colour, row-major.
     pub rgb: Vec<[f32; 3]>,
-    /// Expected depth (ray parameter), row-major.
+    /// Expected depth (ray parameter: camera-space z in scene units, or
+    /// NDC `t` for forward-facing scenes), row-major.
     pub depth: Vec<f32>,
+    /// Accumulated opacity in `[0, 1]`, row-major.
+    pub opacity: Vec<f32>,
     /// Seconds of single-thread work per ray (sum of the threads' busy time / rays).
     pub secs_per_ray: f64,
     /// Mean network evaluations per ray.
     pub samples_per_ray: f64,
 }
 
+/// What a view is rendered through: a size and a ray per pixel. A
+/// [`Camera`] is an ideal pinhole; a dataset [`View`] bends its rays by
+/// the photo's lens, so its renders line up with its pixels.
+pub trait PixelRays: Sync {
+    /// Width and height in pixels.
+    fn size(&self) -> (u32, u32);
+    /// Origin and direction of the ray through pixel `(x, y)`.
+    fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3);
+}
+
+impl PixelRays for Camera {
+    fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+    fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3) {
+        Camera::ray(self, x, y)
+    }
+}
+
+impl PixelRays for View {
+    fn size(&self) -> (u32, u32) {
+        (self.camera.width, self.camera.height)
+    }
+    fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3) {
+        View::ray(self, x, y)
+    }
+}
+
 /// Renders every pixel of `camera` with the model's numeric path (f32 for
 /// f32 models, fixed point otherwise), rows in parallel on the current
 /// rayon pool.
-pub fn render_view(model: &Model<'_>, opts: RenderOptions, camera: &Camera) -> Result<Rendered, nerf_infer::Error> {
+pub fn render_view<C: PixelRays + ?Sized>(
+    model: &Model<'_>,
+    opts: RenderOptions,
+    camera: &C,
+) -> Result<Rendered, nerf_infer::Error> {
     render_view_marching(model, opts, camera, true)
 }
 
 /// [`render_view`] with the march's coarse occupancy level on or off
 /// (`FixedRenderer::with_coarse_skipping`): the same pixels, for timing
 /// what the coarse level buys.
-pub fn render_view_marching(
+pub fn render_view_marching<C: PixelRays + ?Sized>(
     model: &Model<'_>,
     opts: RenderOptions,
-    camera: &Camera,
+    camera: &C,
     coarse_skipping: bool,
 ) -> Result<Rendered, nerf_infer::Error> {
-    let (w, h) = (camera.width as usize, camera.height as usize);
+    let (w, h) = camera.size();
+    let (w, h) = (w as usize, h as usize);
     let rows: Vec<Row> = if model.scheme().is_fixed() {
         let r = FixedRenderer::new(model, opts)?.with_coarse_skipping(coarse_skipping);
         (0..h)
@@ -63,13 +99,15 @@ pub fn render_view_marching(
         height: h as u32,
         rgb: Vec::with_capacity(w * h),
         depth: Vec::with_capacity(w * h),
+        opacity: Vec::with_capacity(w * h),
         secs_per_ray: 0.0,
         samples_per_ray: 0.0,
     };
     let (mut secs, mut evals) = (0.0, 0u64);
-    for (rgb, depth, t, e) in rows {
-        out.rgb.extend(rgb);
-        out.depth.extend(depth);
+    for (px, t, e) in rows {
+        out.rgb.extend(px.iter().map(|p| p.rgb));
+        out.depth.extend(px.iter().map(|p| p.depth));
+        out.opacity.extend(px.iter().map(|p| p.opacity));
         secs += t;
         evals += e;
     }
@@ -78,12 +116,12 @@ pub fn render_view_marching(
     Ok(out)
 }
 
-/// One rendered row: colours, depths, busy seconds, network evaluations.
-type Row = (Vec<[f32; 3]>, Vec<f32>, f64, u64);
+/// One rendered row: pixels, busy seconds, network evaluations.
+type Row = (Vec<nerf_infer::Pixel>, f64, u64);
 
-fn render_row<S, R: RayRenderer<S>>(
+fn render_row<S, R: RayRenderer<S>, C: PixelRays + ?Sized>(
     r: &R,
-    camera: &Camera,
+    camera: &C,
     y: u32,
     w: usize,
     scratch: &mut S,
@@ -99,7 +137,7 @@ fn render_row<S, R: RayRenderer<S>>(
         })
         .collect();
     let t = start.elapsed().as_secs_f64();
-    (px.iter().map(|p| p.rgb).collect(), px.iter().map(|p| p.depth).collect(), t, evals(scratch) - e0)
+    (px, t, evals(scratch) - e0)
 }
 
 /// Scores of one view.
@@ -119,7 +157,7 @@ pub fn score_view(
     opts: RenderOptions,
     view: &View,
 ) -> Result<(Rendered, ViewScore), nerf_infer::Error> {
-    let r = render_view(model, opts, &view.camera)?;
+    let r = render_view(model, opts, view)?;
     let s = score_rendered(&r, view);
     Ok((r, s))
 }

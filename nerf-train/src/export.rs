@@ -568,15 +568,27 @@ pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::S
     out
 }
 
-/// A camera at 30° elevation on a circle around the scene centre at the
-/// middle of the near..far range, looking at the centre, turned by
-/// `turn` (fraction of a full circle); field of view 0.69 rad as lego's.
+/// A camera on a path around the scene, `turn` (fraction of the path)
+/// along it. Scenes seen from all around (Blender, fitted captures, whose
+/// up is +z): at 30° elevation on a circle around the bounds' centre at
+/// the middle of the near..far range, looking at the centre, field of view
+/// 0.69 rad as lego's. Forward-facing (NDC) scenes: a small circle in the
+/// image plane of the capture's average pose, looking down −z with the
+/// capture's field of view (LLFF's spiral without the depth motion).
 pub fn orbit_camera(scene: &Scene, turn: f32, width: u32, height: u32) -> nerf_infer::Camera {
+    let az = turn * std::f32::consts::TAU;
+    if let Some(n) = scene.ndc {
+        // the capture is normalised so its nearest depth is 1/0.75: move by a tenth of it
+        let r = 0.1;
+        let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
+        let fov = 2.0 * (0.5 * n.width / n.focal).atan();
+        return nerf_infer::Camera::from_fov(width, height, fov, m).expect("spiral camera is rigid");
+    }
     let lo = glam::Vec3::from(scene.bounds_min);
     let hi = glam::Vec3::from(scene.bounds_max);
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (scene.near + scene.far);
-    let (az, el) = (turn * std::f32::consts::TAU, 30f32.to_radians());
+    let el = 30f32.to_radians();
     let eye = centre + radius * glam::Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
     let mut m = crate::dataset::synthetic::look_at(eye - centre);
     for (r, c) in m.iter_mut().zip(eye.to_array()) {

@@ -217,17 +217,29 @@ impl Trainer {
         self.cfg.lr * (self.cfg.lr_final_ratio as f64).powf(p.clamp(0.0, 1.0)) as f32
     }
 
-    /// Draws `n` training rays uniformly over all pixels of `data`.
+    /// Draws `n` training rays uniformly over all pixels of `data` (views
+    /// may differ in size), through each view's lens. Pixels whose ray
+    /// misses the scene are drawn again, at most `64 n` draws in all:
+    /// [`crate::dataset::Dataset::check_rays`] makes sure at load time that
+    /// enough rays meet the scene, so a short batch is rare.
     pub fn draw_batch(data: &Dataset, n: usize, rng: &mut Rng) -> Vec<Sample> {
-        let per_view = data.views[0].rgb.len();
-        let total = per_view * data.views.len();
+        let mut ends = Vec::with_capacity(data.views.len());
+        let mut total = 0usize;
+        for v in &data.views {
+            total += v.rgb.len();
+            ends.push(total);
+        }
         let mut out = Vec::with_capacity(n);
-        while out.len() < n {
+        for _ in 0..n.saturating_mul(64) {
+            if out.len() == n || total == 0 {
+                break;
+            }
             let k = rng.below(total);
-            let v = &data.views[k / per_view];
-            let px = k % per_view;
+            let vi = ends.partition_point(|&e| e <= k);
+            let v = &data.views[vi];
+            let px = k - (ends[vi] - v.rgb.len());
             let (x, y) = ((px % v.camera.width as usize) as u32, (px / v.camera.width as usize) as u32);
-            let (o, d) = v.camera.ray(x, y);
+            let (o, d) = v.ray(x, y);
             if let Some(r) = Ray::new(&data.scene, o, d) {
                 out.push((r, v.rgb[px]));
             }

@@ -2,7 +2,7 @@
 //! and fixed point, print the PSNRs and write the images — the commands a
 //! user would type, run through the same parser.
 
-use super::CmdResult;
+use super::{num_in, CmdResult};
 use crate::Cli;
 use clap::Parser;
 use std::path::PathBuf;
@@ -14,7 +14,7 @@ pub struct Args {
     #[arg(long, default_value = "nerf-demo")]
     out: PathBuf,
     /// Minutes of training.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = num_in(0.01f64, 10_000.0))]
     minutes: f64,
 }
 
@@ -57,9 +57,9 @@ pub fn run(a: Args) -> CmdResult {
         let r = super::eval::evaluate(args)?;
         rows.push((name, r));
     }
-    println!("{:<6} {:>9} {:>7} {:>10} {:>12}", "model", "PSNR dB", "SSIM", "µs/ray", "bytes");
+    out!("{:<6} {:>9} {:>7} {:>10} {:>12}", "model", "PSNR dB", "SSIM", "µs/ray", "bytes");
     for (name, r) in &rows {
-        println!(
+        out!(
             "{:<6} {:>9.2} {:>7.4} {:>10.1} {:>12}",
             name,
             r["psnr"].as_f64().unwrap_or(0.0),
@@ -68,6 +68,6 @@ pub fn run(a: Args) -> CmdResult {
             r["model_bytes"]
         );
     }
-    println!("images: {out}/renders/{{f32,int16,int8}}/ (render beside *_gt.png ground truth)");
+    out!("images: {out}/renders/{{f32,int16,int8}}/ (render beside *_gt.png ground truth)");
     Ok(())
 }

@@ -1,7 +1,9 @@
 //! `nerf eval`: renders a split through nerf-infer and prints one JSON
 //! object with PSNR, SSIM, per-view scores, µs per ray and model size.
 
-use super::{create_dir, decode, load_split, read_model, with_threads, CmdResult, FormatArg, SplitArg};
+use super::{
+    create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, FormatArg, SplitArg,
+};
 use clap::Parser;
 use nerf_infer::RenderOptions;
 use nerf_train::dataset::save_png_rgb;
@@ -24,25 +26,27 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
+    #[command(flatten)]
+    capture: CaptureArgs,
     /// Downscale factor (default: the one the model was trained at).
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
     /// Worker threads (0: all cores); µs per ray is per core either way.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
     threads: usize,
     /// Write each render and its ground truth as PNG into this directory.
     #[arg(long)]
     save: Option<PathBuf>,
     /// Coarse samples per ray (default: the model's).
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(2usize, nerf_infer::format::MAX_COARSE))]
     coarse: Option<usize>,
     /// Fine samples per ray (default: the model's).
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(0usize, nerf_infer::format::MAX_FINE))]
     fine: Option<usize>,
     /// Early ray termination threshold on transmittance (0: off).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = num_in(0.0f32, 0.5))]
     early_stop: f32,
     /// Also render with this model (e.g. the f32 original of a quantised
     /// model) and report `psnr_vs_reference`, the mean PSNR between the two.
@@ -60,7 +64,7 @@ pub struct Args {
 
 /// Runs `nerf eval`.
 pub fn run(a: Args) -> CmdResult {
-    println!("{}", evaluate(a)?);
+    out!("{}", evaluate(a)?);
     Ok(())
 }
 
@@ -69,12 +73,13 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let downscale = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
-    let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold)?;
+    let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold, a.capture)?;
     let mut opts = RenderOptions::from_model(&model);
     opts.coarse = a.coarse.unwrap_or(opts.coarse);
     opts.fine = a.fine.unwrap_or(opts.fine);
     opts.early_stop = a.early_stop;
     if let Some(dir) = &a.save {
+        super::refuse_inside(dir, "--save", &a.data)?;
         create_dir(dir)?;
     }
     let ref_bytes = a.reference.as_ref().map(|p| read_model(p)).transpose()?;
@@ -87,7 +92,7 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
         let mut out = Vec::new();
         for v in &data.views {
             let render = || {
-                render_view_marching(&model, opts, &v.camera, !a.no_coarse_skip)
+                render_view_marching(&model, opts, v, !a.no_coarse_skip)
                     .map_err(|e| format!("{}: {e}", a.model.display()))
             };
             let mut r = render()?;
@@ -104,8 +109,7 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
             }
             let vs_ref = match &reference {
                 Some(m) => {
-                    let rr = render_view(m, RenderOptions::from_model(m), &v.camera)
-                        .map_err(|e| format!("reference: {e}"))?;
+                    let rr = render_view(m, RenderOptions::from_model(m), v).map_err(|e| format!("reference: {e}"))?;
                     Some(psnr(&r.rgb, &rr.rgb))
                 }
                 None => None,

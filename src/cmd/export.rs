@@ -47,6 +47,7 @@ pub fn run(a: Args) -> CmdResult {
     if !a.int8_layers.is_empty() && a.bits != "16" {
         return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
     }
+    super::refuse_same_file(&a.out, "--out", &a.model)?;
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let mut owned = match a.bits.as_str() {

@@ -10,10 +10,11 @@
 //! its fewest samples as the model's default. Writes the table of what it
 //! tried.
 
-use super::{create_dir, eval, train, write_atomic, CmdResult, FormatArg};
+use super::{create_dir, eval, num_in, train, write_atomic, CmdResult, FormatArg};
 use clap::Parser;
 use nerf_infer::Scheme;
 use nerf_train::config::TrainConfig;
+use nerf_train::dataset::Split;
 use nerf_train::export::{quantise, OwnedModel};
 use std::path::{Path, PathBuf};
 
@@ -27,19 +28,19 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// Downscale images by this integer factor.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = num_in(1u32, 64))]
     downscale: u32,
     /// PSNR (dB) the fixed-point render must reach on the validation views.
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(1.0f64, 99.0))]
     target_psnr: f64,
     /// Training minutes per candidate.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, value_parser = num_in(0.001f64, 100_000.0))]
     minutes: f64,
     /// Weight bits of the fixed-point model that is scored and timed.
     #[arg(long, default_value = "8", value_parser = ["8", "16"])]
     bits: String,
     /// Early ray termination (transmittance threshold) of the scored render.
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(long, default_value_t = 1e-3, value_parser = num_in(0.0f32, 0.5))]
     early_stop: f32,
     /// Run directory: one sub-directory per candidate, fit.csv, fit.md and
     /// the chosen model.nerf (f32) and model_fixed.nerf.
@@ -49,7 +50,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads for training (0: all cores); timing uses one.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
     threads: usize,
 }
 
@@ -166,6 +167,8 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
         a.threads.to_string(),
         "--val-views".into(),
         "0".into(),
+        // the candidate's folder is fit's own (fit refuses a RUN_DIR that holds a fit)
+        "--force".into(),
     ];
     train::run(TrainCli::try_parse_from(argv).map_err(|e| e.to_string())?.a)?;
     let f32_path = dir.join("model.nerf");
@@ -297,9 +300,15 @@ fn fewest_samples(
 }
 
 fn report(a: &Args, row: &Row) {
-    println!(
+    out!(
         "fit: {} at {} samples: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray evaluated",
-        row.name, row.coarse, a.bits, row.psnr_fixed, row.psnr_f32, row.us_per_ray, row.samples_per_ray
+        row.name,
+        row.coarse,
+        a.bits,
+        row.psnr_fixed,
+        row.psnr_f32,
+        row.us_per_ray,
+        row.samples_per_ray
     );
 }
 
@@ -311,9 +320,17 @@ fn save(a: &Args, rows: &[Row]) -> CmdResult {
 
 /// Runs `nerf fit`.
 pub fn run(a: Args) -> CmdResult {
-    if !(a.minutes > 0.0 && a.minutes.is_finite() && a.target_psnr.is_finite()) {
-        return Err("--minutes must be positive and --target-psnr finite".into());
+    // everything checked before the first candidate trains
+    super::refuse_inside(&a.out, "--out", &a.data)?;
+    if a.out.join("fit.csv").exists() {
+        return Err(format!("{}: holds the results of a fit (fit.csv); choose another --out", a.out.display()));
     }
+    let capture = super::CaptureArgs::default();
+    let data = super::load_split(&a.data, Split::Train, a.format, a.downscale, 8, capture)?;
+    data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
+    drop(data);
+    super::load_split(&a.data, Split::Val, a.format, a.downscale, 8, capture)
+        .map_err(|e| format!("{e} (nerf fit scores candidates on the validation views)"))?;
     create_dir(&a.out)?;
     let mut rows = Vec::new();
     // per candidate that reached the target: name, samples, µs/ray, cost per ray
@@ -322,11 +339,11 @@ pub fn run(a: Args) -> CmdResult {
         let least = cost_per_ray(&cfg, cfg.n_coarse.div_ceil(3));
         if let Some(best) = reached.iter().map(|r| r.3).min() {
             if least >= best {
-                println!("fit: not training {name}: even at a third of its samples it costs more per ray ({least} vs {best})");
+                out!("fit: not training {name}: even at a third of its samples it costs more per ray ({least} vs {best})");
                 continue;
             }
         }
-        println!("fit: training {name} ({} MAC/sample, cost {}) for {} min", macs(&cfg), cost(&cfg), a.minutes);
+        out!("fit: training {name} ({} MAC/sample, cost {}) for {} min", macs(&cfg), cost(&cfg), a.minutes);
         let row = try_one(&a, name, &cfg)?;
         report(&a, &row);
         let ok = row.psnr_fixed >= a.target_psnr;
@@ -338,7 +355,7 @@ pub fn run(a: Args) -> CmdResult {
             reached.push((name, coarse, us, cost_per_ray(&cfg, coarse)));
         }
     }
-    println!("{}", tables(&rows, &a.bits).1);
+    out!("{}", tables(&rows, &a.bits).1);
     // the lowest measured µs per ray of the fixed-point render
     let Some(&(name, coarse, us, _)) = reached.iter().min_by(|x, y| x.2.total_cmp(&y.2)) else {
         let best = rows.iter().map(|r| r.psnr_fixed).fold(f64::NEG_INFINITY, f64::max);
@@ -353,7 +370,7 @@ pub fn run(a: Args) -> CmdResult {
     for f in ["model.nerf", "model_fixed.nerf"] {
         with_coarse(&dir.join(f), coarse, &a.out.join(f))?;
     }
-    println!(
+    out!(
         "fit: chose {name} at {coarse} samples per ray ({us:.1} µs/ray); wrote {} and {}",
         a.out.join("model.nerf").display(),
         a.out.join("model_fixed.nerf").display()

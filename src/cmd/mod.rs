@@ -11,11 +11,30 @@ pub mod scene;
 pub mod tradeoff;
 pub mod train;
 
-use nerf_train::dataset::{self, Dataset, Format, LoadOptions, Split};
-use std::path::Path;
+use nerf_train::dataset::{self, Dataset, Format, LoadOptions, SceneKind, Split};
+use std::path::{Path, PathBuf};
 
 /// A command's failure: one line for the user.
 pub type CmdResult = Result<(), String>;
+
+/// A clap value parser for numbers in `lo..=hi`: anything else (not a
+/// number, NaN, out of range) is refused at parse time with the range in
+/// the message, which clap prefixes with the flag.
+pub fn num_in<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
+{
+    move |s: &str| {
+        let range = || format!("expected a number from {lo} to {hi}");
+        let v: T = s.trim().parse().map_err(|_| range())?;
+        // NaN compares false both ways and is refused here
+        if v >= lo && v <= hi {
+            Ok(v)
+        } else {
+            Err(range())
+        }
+    }
+}
 
 /// `--format` values.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -28,6 +47,8 @@ pub enum FormatArg {
     Llff,
     /// transforms.json (instant-ngp / nerfstudio)
     Ngp,
+    /// images/ + sparse/0/ (COLMAP, .bin or .txt)
+    Colmap,
 }
 
 impl From<FormatArg> for Format {
@@ -37,6 +58,7 @@ impl From<FormatArg> for Format {
             FormatArg::Blender => Format::Blender,
             FormatArg::Llff => Format::Llff,
             FormatArg::Ngp => Format::Ngp,
+            FormatArg::Colmap => Format::Colmap,
         }
     }
 }
@@ -62,19 +84,71 @@ impl From<SplitArg> for Split {
     }
 }
 
-/// Loads a split, mapping errors to one line; `holdout` is LLFF's
-/// `--llffhold` (every `holdout`-th image is a test/val view).
+/// How a real capture (COLMAP, instant-ngp) becomes a scene: the flags
+/// every command that loads a dataset shares.
+#[derive(clap::Args, Clone, Copy, Debug, Default)]
+pub struct CaptureArgs {
+    /// Scene treatment of COLMAP / instant-ngp captures: `auto` (from the cameras and points), `object` (a box
+    /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (a box holding the cameras and
+    /// their surroundings).
+    #[arg(long, value_enum, default_value = "auto")]
+    scene: SceneArg,
+    /// Treat every photo as an ideal pinhole: ignore the lens distortion the capture gives.
+    #[arg(long)]
+    ignore_distortion: bool,
+}
+
+/// `--scene` values.
+#[derive(Clone, Copy, Debug, Default, clap::ValueEnum)]
+pub enum SceneArg {
+    /// Decide from the cameras and points.
+    #[default]
+    Auto,
+    /// A box around what the cameras look at.
+    Object,
+    /// Forward-facing: NDC rays.
+    Forward,
+    /// A box holding the cameras and the bulk of the sparse points.
+    Unbounded,
+}
+
+impl From<SceneArg> for SceneKind {
+    fn from(s: SceneArg) -> Self {
+        match s {
+            SceneArg::Auto => SceneKind::Auto,
+            SceneArg::Object => SceneKind::Object,
+            SceneArg::Forward => SceneKind::Forward,
+            SceneArg::Unbounded => SceneKind::Unbounded,
+        }
+    }
+}
+
+/// Loads a split, mapping errors to one line and printing the loader's
+/// notes (skipped frames) as warnings; `holdout` is `--llffhold` (every
+/// `holdout`-th image is a test/val view).
 pub fn load_split(
     dir: &Path,
     split: Split,
     format: FormatArg,
     downscale: u32,
     holdout: usize,
+    capture: CaptureArgs,
 ) -> Result<Dataset, String> {
     if holdout == 0 {
         return Err("--llffhold must be at least 1".into());
     }
-    dataset::load(dir, split, LoadOptions { format: format.into(), downscale, holdout }).map_err(|e| e.to_string())
+    let opts = LoadOptions {
+        format: format.into(),
+        downscale,
+        holdout,
+        scene: capture.scene.into(),
+        lens: !capture.ignore_distortion,
+    };
+    let data = dataset::load(dir, split, opts).map_err(|e| e.to_string())?;
+    for n in &data.notes {
+        eprintln!("warning: {n}");
+    }
+    Ok(data)
 }
 
 /// Reads a model file into memory.
@@ -91,6 +165,68 @@ pub fn decode<'a>(path: &Path, bytes: &'a [u8]) -> Result<nerf_infer::Model<'a>,
 /// directory, then a rename, so a failure never leaves a partial file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
     nerf_train::atomic::write(path, bytes).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+}
+
+/// `path` made absolute with its symbolic links resolved, as far as it
+/// exists (the part that does not exist yet appended as given).
+fn resolved(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut head = abs.as_path();
+    let mut tail = Vec::new();
+    loop {
+        if let Ok(c) = head.canonicalize() {
+            return tail.iter().rev().fold(c, |p, t| p.join(t));
+        }
+        match (head.parent(), head.file_name()) {
+            (Some(p), Some(n)) => {
+                tail.push(n.to_os_string());
+                head = p;
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// Refuses an output (`flag`'s value `out`) that lies inside the dataset
+/// folder `data` or is the folder itself: outputs never go among the
+/// inputs, whose images they could replace.
+pub fn refuse_inside(out: &Path, flag: &str, data: &Path) -> CmdResult {
+    let (o, d) = (resolved(out), resolved(data));
+    if o.starts_with(&d) {
+        return Err(format!(
+            "{flag} {}: inside the dataset folder {}; choose a folder outside it (outputs never go among the inputs)",
+            out.display(),
+            data.display()
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses to write the output `out` (`flag`'s value) over the input file `input`.
+pub fn refuse_same_file(out: &Path, flag: &str, input: &Path) -> CmdResult {
+    if resolved(out) == resolved(input) {
+        return Err(format!("{flag} {}: is the input file; write to another file", out.display()));
+    }
+    Ok(())
+}
+
+/// Holds an exclusive lock on the run folder `dir` itself (flock on the
+/// directory: no file is created, and the lock goes when the process
+/// ends, however it ends) so that two runs never write one folder; fails,
+/// naming the folder, if another process holds it.
+pub fn lock_run_dir(dir: &Path) -> Result<std::fs::File, String> {
+    let f =
+        std::fs::File::open(dir).map_err(|e| format!("{}: cannot open the folder to lock it: {e}", dir.display()))?;
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsRawFd;
+        // SAFETY: flock on a file descriptor this function owns; no memory is shared.
+        let r = unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+        if r != 0 {
+            return Err(format!("{}: another process is using this run folder", dir.display()));
+        }
+    }
+    Ok(f)
 }
 
 /// Creates an output directory, naming it on failure.

@@ -1,10 +1,14 @@
-//! `nerf render`: PNGs (colour and depth) of a split's views or of an
-//! orbit around the scene, plus an animated GIF for orbits.
+//! `nerf render`: PNGs of a split's views (through each photo's lens) or of
+//! a path around the scene, plus an animated GIF for paths: per view the
+//! colour, the depth as 16-bit PNG in scene units (the step written to
+//! `depth.json`) and as a colour-mapped preview, and the opacity.
 
-use super::{create_dir, decode, load_split, read_model, with_threads, CmdResult, FormatArg, SplitArg};
+use super::{
+    create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, FormatArg, SplitArg,
+};
 use nerf_infer::{Camera, RenderOptions};
 use nerf_train::dataset::save_png_rgb;
-use nerf_train::eval::{render_view, Rendered};
+use nerf_train::eval::{render_view, PixelRays, Rendered};
 use nerf_train::export::orbit_camera;
 use std::path::{Path, PathBuf};
 
@@ -24,58 +28,91 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
+    #[command(flatten)]
+    capture: CaptureArgs,
     /// Downscale factor (default: the model's training downscale).
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
     /// Render N views on an orbit around the scene instead.
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(1usize, 10_000))]
     orbit: Option<usize>,
     /// Orbit image side in pixels.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = num_in(1u32, 4096))]
     size: u32,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
     threads: usize,
 }
 
-fn save_depth(path: &Path, r: &Rendered, near: f32, far: f32) -> Result<(), String> {
-    let grey: Vec<[f32; 3]> = r.depth.iter().map(|&d| [1.0 - ((d - near) / (far - near)).clamp(0.0, 1.0); 3]).collect();
-    save_png_rgb(path, r.width, r.height, &grey).map_err(|e| e.to_string())
+/// Writes `NAME_depth.png` (16-bit, `depth / step`), `NAME_depth_preview.png`
+/// (near..far colour-mapped, near warm) and `NAME_opacity.png` (8-bit grey).
+fn save_depth_opacity(out: &Path, name: &str, r: &Rendered, near: f32, far: f32, step: f32) -> CmdResult {
+    let path = out.join(format!("{name}_depth.png"));
+    let d16 = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(r.width, r.height, |x, y| {
+        let d = r.depth[(y * r.width + x) as usize];
+        image::Luma([(d / step).round().clamp(0.0, 65535.0) as u16])
+    });
+    nerf_train::atomic::write_png(&path, &d16).map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
+    let preview: Vec<[f32; 3]> = r.depth.iter().map(|&d| colour_map(1.0 - (d - near) / (far - near))).collect();
+    save_png_rgb(&out.join(format!("{name}_depth_preview.png")), r.width, r.height, &preview)
+        .map_err(|e| e.to_string())?;
+    let grey: Vec<[f32; 3]> = r.opacity.iter().map(|&a| [a; 3]).collect();
+    save_png_rgb(&out.join(format!("{name}_opacity.png")), r.width, r.height, &grey).map_err(|e| e.to_string())
+}
+
+/// A blue → green → yellow → red colour map of `v` in `[0, 1]`.
+fn colour_map(v: f32) -> [f32; 3] {
+    let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+    let r = (1.5 - (4.0 * v - 3.0).abs()).clamp(0.0, 1.0);
+    let g = (1.5 - (4.0 * v - 2.0).abs()).clamp(0.0, 1.0);
+    let b = (1.5 - (4.0 * v - 1.0).abs()).clamp(0.0, 1.0);
+    [r, g, b]
 }
 
 /// Runs `nerf render`.
 pub fn run(a: Args) -> CmdResult {
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
+    if let Some(d) = &a.data {
+        super::refuse_inside(&a.out, "--out", d)?;
+    }
     create_dir(&a.out)?;
-    let cams: Vec<(String, Camera)> = match (&a.data, a.split, a.orbit) {
+    let cams: Vec<(String, Box<dyn PixelRays>)> = match (&a.data, a.split, a.orbit) {
         (Some(dir), Some(split), _) => {
             let ds = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
-            load_split(dir, split.into(), a.format, ds, a.llffhold)?
+            load_split(dir, split.into(), a.format, ds, a.llffhold, a.capture)?
                 .views
                 .into_iter()
-                .map(|v| (v.name, v.camera))
+                .map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>))
                 .collect()
         }
         (_, _, Some(n)) => (0..n)
-            .map(|k| (format!("orbit_{k:03}"), orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size)))
+            .map(|k| {
+                let cam: Camera = orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size);
+                (format!("orbit_{k:03}"), Box::new(cam) as Box<dyn PixelRays>)
+            })
             .collect(),
         _ => return Err("give --data DIR --split S, or --orbit N".into()),
     };
     let opts = RenderOptions::from_model(&model);
     let (near, far) = (model.scene.near, model.scene.far);
+    // depth PNG step: far in 65535 steps
+    let step = far / 65535.0;
+    let units = if model.scene.ndc.is_some() { "NDC t (forward-facing scene)" } else { "scene units (camera-space z)" };
+    let meta = serde_json::json!({ "depth_png_step": step, "depth_units": units, "near": near, "far": far });
+    super::write_atomic(&a.out.join("depth.json"), meta.to_string().as_bytes())?;
     let pb = super::progress(cams.len() as u64, "{bar:30} {pos}/{len} views ({eta})");
     let mut frames = Vec::new();
     for (name, cam) in &cams {
-        let r = with_threads(a.threads, || render_view(&model, opts, cam))?
+        let r = with_threads(a.threads, || render_view(&model, opts, cam.as_ref()))?
             .map_err(|e| format!("{}: {e}", a.model.display()))?;
         save_png_rgb(&a.out.join(format!("{name}.png")), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
-        save_depth(&a.out.join(format!("{name}_depth.png")), &r, near, far)?;
+        save_depth_opacity(&a.out, name, &r, near, far, step)?;
         frames.push(r);
         pb.inc(1);
     }

@@ -1,20 +1,22 @@
 //! `nerf scene`: writes the built-in scene as datasets.
 
-use super::CmdResult;
-use nerf_train::dataset::synthetic::{write_blender, write_llff, SceneSpec};
+use super::{num_in, CmdResult};
+use nerf_train::dataset::synthetic::{write_blender, write_colmap, write_llff, ColmapText, SceneSpec};
 use std::path::PathBuf;
 
 /// Arguments of `nerf scene`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Output directory; gets `blender/` and `llff/` datasets.
+    /// Output directory; gets `blender/`, `llff/`, `colmap/` (binary model, JPEG, two cameras, one with
+    /// lens distortion), `colmap_text/` (the same as text) and `room/` (COLMAP, the scene inside a coloured
+    /// room: a 360° capture with a background).
     #[arg(long)]
     out: PathBuf,
     /// Image side in pixels.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, value_parser = num_in(8u32, 2048))]
     size: u32,
     /// Training views.
-    #[arg(long, default_value_t = 48)]
+    #[arg(long, default_value_t = 48, value_parser = num_in(1usize, 1000))]
     train: usize,
 }
 
@@ -23,6 +25,9 @@ pub fn run(a: Args) -> CmdResult {
     let spec = SceneSpec { size: a.size, train: a.train, ..SceneSpec::default() };
     write_blender(&a.out.join("blender"), spec).map_err(|e| e.to_string())?;
     write_llff(&a.out.join("llff"), spec).map_err(|e| e.to_string())?;
-    eprintln!("wrote {} (blender/ and llff/)", a.out.display());
+    write_colmap(&a.out.join("colmap"), spec, ColmapText::Binary, false).map_err(|e| e.to_string())?;
+    write_colmap(&a.out.join("colmap_text"), spec, ColmapText::Text, false).map_err(|e| e.to_string())?;
+    write_colmap(&a.out.join("room"), spec, ColmapText::Binary, true).map_err(|e| e.to_string())?;
+    eprintln!("wrote {} (blender/, llff/, colmap/, colmap_text/, room/)", a.out.display());
     Ok(())
 }

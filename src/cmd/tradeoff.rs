@@ -7,7 +7,10 @@
 //! writes `tradeoff.csv` and `tradeoff.png` (PSNR against µs/ray, Pareto
 //! front marked) and prints the table.
 
-use super::{create_dir, decode, load_split, read_model, with_threads, write_atomic, CmdResult, FormatArg, SplitArg};
+use super::{
+    create_dir, decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, FormatArg,
+    SplitArg,
+};
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
 use nerf_train::export::quantise_acts;
@@ -30,16 +33,18 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
+    #[command(flatten)]
+    capture: CaptureArgs,
     /// Downscale factor (default: the model's training downscale).
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
     /// Views rendered per point (the first N of the split).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = num_in(1usize, 10_000))]
     views: usize,
     /// Timed repetitions per point; the median is reported.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = num_in(1usize, 100))]
     repeats: usize,
     /// Output directory for tradeoff.csv and tradeoff.png.
     #[arg(long)]
@@ -113,8 +118,9 @@ pub fn run(a: Args) -> CmdResult {
     let decoded = |bytes| Model::from_bytes(bytes).map_err(|e| e.to_string());
     let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
     let downscale = a.downscale.unwrap_or(mf.meta.train_downscale.max(1) as u32);
-    let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold)?;
+    let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold, a.capture)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
+    super::refuse_inside(&a.out, "--out", &a.data)?;
     create_dir(&a.out)?;
     let knobs = sweep(&mf);
     // Repetitions are interleaved (every point once, then again), so drift
@@ -168,13 +174,13 @@ pub fn run(a: Args) -> CmdResult {
     pareto(&mut points);
     let mut csv =
         String::from("label,bits,coarse,fine,early_stop,psnr,ssim,us_per_ray,samples_per_ray,pareto,act_bits\n");
-    println!("{:<22} {:>9} {:>7} {:>9} {:>12} {:>7}", "point", "PSNR dB", "SSIM", "µs/ray", "samples/ray", "pareto");
+    out!("{:<22} {:>9} {:>7} {:>9} {:>12} {:>7}", "point", "PSNR dB", "SSIM", "µs/ray", "samples/ray", "pareto");
     for ((k, p, s, us, spr), pt) in rows.iter().zip(&points) {
         csv += &format!(
             "{},{},{},{},{},{p:.4},{s:.5},{us:.2},{spr:.2},{},{}\n",
             pt.label, k.bits, k.coarse, k.fine, k.early_stop, pt.front, k.act_bits
         );
-        println!("{:<22} {p:>9.3} {s:>7.4} {us:>9.1} {spr:>12.1} {:>7}", pt.label, if pt.front { "*" } else { "" });
+        out!("{:<22} {p:>9.3} {s:>7.4} {us:>9.1} {spr:>12.1} {:>7}", pt.label, if pt.front { "*" } else { "" });
     }
     write_atomic(&a.out.join("tradeoff.csv"), csv.as_bytes())?;
     let title = format!(

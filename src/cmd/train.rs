@@ -2,7 +2,10 @@
 //! validation, atomic checkpoints and `--resume`.
 
 use super::runlog::RunLog;
-use super::{create_dir, load_split, progress, with_threads, write_atomic, CmdResult, FormatArg};
+use super::{
+    create_dir, load_split, lock_run_dir, num_in, progress, refuse_inside, with_threads, write_atomic, CaptureArgs,
+    CmdResult, FormatArg,
+};
 use nerf_infer::{Model, RenderOptions};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::{Dataset, Split};
@@ -25,11 +28,13 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
+    #[command(flatten)]
+    capture: CaptureArgs,
     /// Downscale images by this integer factor (area averaging).
-    #[arg(long, default_value_t = 1)]
-    downscale: u32,
+    #[arg(long, value_parser = num_in(1u32, 64))]
+    downscale: Option<u32>,
     /// Named configuration: `fast` (default), `grid` (occupancy grid, one network), `features` (`grid` with a
     /// learned feature grid and a 2x64 network) or `paper`.
     #[arg(long)]
@@ -38,34 +43,37 @@ pub struct Args {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Train until this many steps in total.
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(1u64, 1_000_000_000))]
     iters: Option<u64>,
     /// Train until this many minutes of training in total.
-    #[arg(long)]
+    #[arg(long, value_parser = num_in(0.001f64, 100_000.0))]
     minutes: Option<f64>,
     /// Run directory: model.nerf, train.jsonl, checkpoint.bin.
     #[arg(long)]
     out: PathBuf,
-    /// Continue from RUN_DIR/checkpoint.bin.
-    #[arg(long)]
+    /// Continue from RUN_DIR/checkpoint.bin (the same data, downscale, preset and configuration).
+    #[arg(long, conflicts_with = "force")]
     resume: bool,
+    /// Start a new run in a RUN_DIR that holds one, replacing its checkpoint, model and log.
+    #[arg(long)]
+    force: bool,
     /// Seed of initialisation and ray sampling.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
     threads: usize,
-    /// Seconds of training between checkpoints.
-    #[arg(long, default_value_t = 60.0)]
+    /// Seconds of training between checkpoints (0: after every step).
+    #[arg(long, default_value_t = 60.0, value_parser = num_in(0.0f64, 1e6))]
     checkpoint_secs: f64,
-    /// Seconds of training between validation renders.
-    #[arg(long, default_value_t = 120.0)]
+    /// Seconds of training between validation renders (0: after every step).
+    #[arg(long, default_value_t = 120.0, value_parser = num_in(0.0f64, 1e6))]
     val_secs: f64,
     /// Validation views rendered each time (0: no periodic validation).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = num_in(0usize, 10_000))]
     val_views: usize,
     /// Steps between lines of train.jsonl.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = num_in(1u64, 1_000_000_000))]
     log_every: u64,
     /// Neurons never active on the calibration rays that model.nerf drops.
     #[arg(long, value_enum, default_value = "tiles")]
@@ -125,7 +133,7 @@ fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
     if a.val_views == 0 {
         return None;
     }
-    load_split(&a.data, Split::Val, a.format, downscale, a.llffhold).ok()
+    load_split(&a.data, Split::Val, a.format, downscale, a.llffhold, a.capture).ok()
 }
 
 /// Mean PSNR of the first `n` validation views rendered by the kernel's f32 path.
@@ -159,31 +167,71 @@ fn catch_interrupts() {
     });
 }
 
+/// `--resume` continues the checkpoint's run: a `--downscale`, `--preset`
+/// or `--config` that says otherwise is refused, naming what differs.
+fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
+    if let Some(d) = a.downscale.filter(|&d| d != tr.downscale) {
+        return Err(format!("--downscale {d} differs from the checkpoint's {}: resume without it", tr.downscale));
+    }
+    if a.preset.is_some() || a.config.is_some() {
+        let cfg = load_config(a)?;
+        if cfg != tr.cfg {
+            let (now, was) =
+                (serde_json::to_value(&cfg).unwrap_or_default(), serde_json::to_value(&tr.cfg).unwrap_or_default());
+            let differ: Vec<String> = now
+                .as_object()
+                .into_iter()
+                .flatten()
+                .filter(|(k, v)| was.get(k.as_str()) != Some(v))
+                .map(|(k, _)| k.clone())
+                .collect();
+            return Err(format!(
+                "--preset/--config differ from the checkpoint's configuration in {}: resume without them, or \
+                 start over with --force",
+                differ.join(", ")
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Runs `nerf train`.
 pub fn run(a: Args) -> CmdResult {
     with_threads(a.threads, || train(a))?
 }
 
 fn train(a: Args) -> CmdResult {
+    // the arguments first (configuration, where the output goes), then the run folder
+    let new_cfg = if a.resume { None } else { Some(load_config(&a)?) };
+    refuse_inside(&a.out, "--out", &a.data)?;
     create_dir(&a.out)?;
-    // temporary files of a run killed while writing: never whole outputs
-    for f in ["checkpoint.bin", "model.nerf", "train.jsonl"] {
-        let _ = std::fs::remove_file(nerf_train::atomic::tmp_path(&a.out.join(f)));
-    }
+    let _lock = lock_run_dir(&a.out)?;
     let ckpt = a.out.join("checkpoint.bin");
-    let mut tr = if a.resume && ckpt.is_file() {
+    let held = ["checkpoint.bin", "model.nerf", "train.jsonl"].into_iter().find(|f| a.out.join(f).exists());
+    if let (Some(f), false, false) = (held, a.resume, a.force) {
+        return Err(format!(
+            "{}: holds a run ({f}): continue it with --resume, or start over with --force",
+            a.out.display()
+        ));
+    }
+    let load = |downscale| load_split(&a.data, Split::Train, a.format, downscale, a.llffhold, a.capture);
+    let (mut tr, data) = if a.resume && ckpt.is_file() {
         let b = std::fs::read(&ckpt).map_err(|e| format!("{}: cannot read: {e}", ckpt.display()))?;
-        Trainer::from_bytes(&b).ok_or_else(|| {
+        let tr = Trainer::from_bytes(&b).ok_or_else(|| {
             format!("{}: not a valid checkpoint (corrupt, or written by an older build)", ckpt.display())
-        })?
+        })?;
+        check_resume(&a, &tr)?;
+        let data = load(tr.downscale)?;
+        (tr, data)
     } else if a.resume {
         return Err(format!("{}: no checkpoint to resume from", ckpt.display()));
     } else {
-        let cfg = load_config(&a)?;
-        let data = load_split(&a.data, Split::Train, a.format, a.downscale, a.llffhold)?;
-        Trainer::new(cfg, data.scene, a.downscale, a.seed)
+        let cfg = new_cfg.ok_or("a configuration for a new run")?;
+        let downscale = a.downscale.unwrap_or(1);
+        let data = load(downscale)?;
+        (Trainer::new(cfg, data.scene, downscale, a.seed), data)
     };
-    let data = load_split(&a.data, Split::Train, a.format, tr.downscale, a.llffhold)?;
+    data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     let val = load_val(&a, tr.downscale);
     let calib = Trainer::draw_batch(&data, 4096, &mut Rng::new(tr.seed ^ 0xCA11));
     let budget_secs = a.minutes.map(|m| m * 60.0);
@@ -206,6 +254,15 @@ fn train(a: Args) -> CmdResult {
     let (mut win_rays, mut win_samples, mut win_secs) = (0usize, 0usize, 0.0f64);
     let mut last_val_psnr = None;
     let wall = Instant::now();
+    if progress_of(&tr) >= 1.0 {
+        return Err(format!(
+            "{}: the checkpoint is at step {} ({:.2} training minutes), already the end of this budget: give a larger \
+             --iters or --minutes",
+            ckpt.display(),
+            tr.step,
+            tr.elapsed / 60.0
+        ));
+    }
     while progress_of(&tr) < 1.0 {
         let t0 = Instant::now();
         let st = tr.train_step(&data, progress_of(&tr));

@@ -3,12 +3,19 @@
 //! `cy`, `w`, `h`, global or per frame) loaders.
 //!
 //! Scene defaults: Blender uses the paper's near 2, far 6, bounds ±1.5 and
-//! a white background. ngp captures take bounds ±r, near 0.05·r, far 2·r
-//! where r is the largest camera distance from the origin, and black. Both
-//! honour optional keys `near`, `far`, `aabb` ([[min], [max]]) and
-//! `white_background`.
+//! a white background. An ngp capture that gives `aabb` (`[[min], [max]]`)
+//! or `near`/`far` keeps its frame and those values (near 0.05·r, far 2·r,
+//! bounds ±r for the ones it omits, r the largest camera distance from the
+//! origin); one that gives neither gets a scene fitted to its cameras
+//! ([`super::fit`]). Both honour `white_background`.
+//!
+//! ngp lens keys, global or per frame: `k1 k2 k3 k4 p1 p2` and
+//! `camera_model` (`OPENCV` or absent: `k1 k2 p1 p2` with `k3` in the
+//! numerator; `OPENCV_FISHEYE` or ngp's `is_fisheye`: `k1..k4`). Frames
+//! whose image file is missing are skipped and counted in the dataset's notes.
 
-use super::{image_io::load_rgb, rigid_pose, DataError, Dataset, Split, View};
+use super::capture::{build, CaptureOptions, CaptureView, Intrinsics as CaptureIntrinsics, Selection};
+use super::{image_io::load_rgb, rigid_pose, DataError, Dataset, Lens, LoadOptions, Split, View};
 use nerf_infer::camera::Camera;
 use nerf_infer::format::{CameraConvention, Scene};
 use serde::Deserialize;
@@ -22,6 +29,14 @@ struct Intrinsics {
     cy: Option<f64>,
     w: Option<f64>,
     h: Option<f64>,
+    k1: Option<f64>,
+    k2: Option<f64>,
+    k3: Option<f64>,
+    k4: Option<f64>,
+    p1: Option<f64>,
+    p2: Option<f64>,
+    camera_model: Option<String>,
+    is_fisheye: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -139,7 +154,7 @@ fn load_frames(
         }
         .map_err(|_| DataError::new(path, format!("{what}: invalid intrinsics")))?;
         let name = img.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        views.push(View { name, camera, rgb });
+        views.push(View { name, camera, rgb, lens: Lens::Pinhole });
     }
     Ok(views)
 }
@@ -151,38 +166,126 @@ pub fn load_blender(dir: &Path, split: Split, downscale: u32) -> Result<Dataset,
     let scene = scene_from(&path, &t, SceneDefaults { near: 2.0, far: 6.0, half: 1.5, white: true })?;
     let frames: Vec<&Frame> = t.frames.iter().collect();
     let views = load_frames(&path, dir, &t, &frames, downscale, scene.white_background)?;
-    Ok(Dataset { scene, views, downscale })
+    Ok(Dataset { scene, views, downscale, notes: Vec::new() })
 }
 
 /// Loads an instant-ngp / nerfstudio capture: `transforms_{split}.json` if
-/// present, otherwise `transforms.json` with every `holdout`-th frame as
-/// the val/test views.
-pub fn load_ngp(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Result<Dataset, DataError> {
+/// present (the fit then uses the cameras of `transforms_train.json`, or
+/// of `transforms.json` without it), otherwise
+/// `transforms.json` with every `holdout`-th frame as the val/test views.
+pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, DataError> {
     let own = dir.join(format!("transforms_{}.json", split.name()));
-    let (path, select_all) = if own.is_file() { (own, true) } else { (dir.join("transforms.json"), false) };
+    let split_files = own.is_file();
+    let (path, select_all) = if split_files { (own, true) } else { (dir.join("transforms.json"), false) };
     let t = read_transforms(&path)?;
-    let r = t
-        .frames
-        .iter()
-        .filter_map(|f| {
-            f.transform_matrix
-                .get(..3)
-                .map(|m| m.iter().map(|row| row.get(3).copied().unwrap_or(0.0).powi(2)).sum::<f64>().sqrt())
-        })
-        .fold(0.0f64, f64::max)
-        .max(1e-3);
-    let scene = scene_from(&path, &t, SceneDefaults { near: 0.05 * r, far: 2.0 * r, half: r, white: false })?;
-    let holdout = holdout.max(1);
-    let frames: Vec<&Frame> = t
-        .frames
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| select_all || ((i % holdout == 0) != (split == Split::Train)))
-        .map(|(_, f)| f)
-        .collect();
-    if frames.is_empty() {
-        return Err(DataError::new(&path, format!("no frames in the {} split", split.name())));
+    let (views, missing) = ngp_views(&path, dir, &t)?;
+    let fixed = if t.aabb.is_some() || t.near.is_some() || t.far.is_some() {
+        let r = views.iter().map(|v| v.pose.1.length()).fold(0.0f64, f64::max).max(1e-3);
+        Some(scene_from(&path, &t, SceneDefaults { near: 0.05 * r, far: 2.0 * r, half: r, white: false })?)
+    } else {
+        None
+    };
+    let copts = |select| CaptureOptions { split, select, downscale: opts.downscale, kind: opts.scene, lens: opts.lens };
+    let mut data = if !select_all {
+        build(&path, &views, &[], fixed, copts(Selection::Holdout(opts.holdout)))?
+    } else if split == Split::Train {
+        build(&path, &views, &[], fixed, copts(Selection::From(0)))?
+    } else {
+        // the split's own file: fitted on the training cameras first (transforms_train.json, else
+        // transforms.json), so all splits share one frame
+        let tp = Some(dir.join("transforms_train.json")).filter(|p| p.is_file()).unwrap_or(dir.join("transforms.json"));
+        let mut all = ngp_views(&tp, dir, &read_transforms(&tp)?)?.0;
+        let first = all.len();
+        all.extend(views);
+        build(&path, &all, &[], fixed, copts(Selection::From(first)))?
+    };
+    if let Some(s) = t.white_background {
+        data.scene.white_background = s;
     }
-    let views = load_frames(&path, dir, &t, &frames, downscale, scene.white_background)?;
-    Ok(Dataset { scene, views, downscale })
+    if missing > 0 {
+        data.notes.push(format!(
+            "{}: {missing} of {} frames skipped: image file not found",
+            path.display(),
+            t.frames.len()
+        ));
+    }
+    Ok(data)
+}
+
+/// The frames of an ngp file whose images exist, as capture views, and
+/// the number skipped because their image is missing.
+fn ngp_views(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<CaptureView>, usize), DataError> {
+    let mut out = Vec::with_capacity(t.frames.len());
+    let mut missing = 0;
+    for (i, f) in t.frames.iter().enumerate() {
+        let what = format!("frame {i} ({})", f.file_path);
+        let image = image_path(dir, &f.file_path);
+        if !image.exists() {
+            missing += 1;
+            continue;
+        }
+        let m = rigid_pose(path, &what, &f.transform_matrix)?;
+        let rot = glam::DMat3::from_cols(
+            glam::DVec3::new(m[0][0] as f64, m[1][0] as f64, m[2][0] as f64),
+            glam::DVec3::new(m[0][1] as f64, m[1][1] as f64, m[2][1] as f64),
+            glam::DVec3::new(m[0][2] as f64, m[1][2] as f64, m[2][2] as f64),
+        );
+        let pos = glam::DVec3::new(m[0][3] as f64, m[1][3] as f64, m[2][3] as f64);
+        let pick = |a: Option<f64>, b: Option<f64>| a.or(b);
+        let (w, h) = match (pick(f.intr.w, t.intr.w), pick(f.intr.h, t.intr.h)) {
+            (Some(w), Some(h)) => (w, h),
+            // without a stated size, the image's own (read from its header)
+            _ => image::image_dimensions(&image)
+                .map(|(w, h)| (w as f64, h as f64))
+                .map_err(|e| DataError::new(&image, format!("cannot read image: {e}")))?,
+        };
+        let fx = match (pick(f.intr.fl_x, t.intr.fl_x), t.camera_angle_x) {
+            (Some(fx), _) => fx,
+            (None, Some(fov)) => 0.5 * w / (0.5 * fov).tan(),
+            (None, None) => return Err(DataError::new(path, "neither camera_angle_x nor fl_x given")),
+        };
+        let fy = pick(f.intr.fl_y, t.intr.fl_y).unwrap_or(fx);
+        let cx = pick(f.intr.cx, t.intr.cx).unwrap_or(w / 2.0);
+        let cy = pick(f.intr.cy, t.intr.cy).unwrap_or(h / 2.0);
+        let ok = [w, h, fx, fy, cx, cy].iter().all(|v| v.is_finite()) && w > 0.0 && h > 0.0 && fx > 0.0 && fy > 0.0;
+        if !ok {
+            return Err(DataError::new(path, format!("{what}: invalid intrinsics")));
+        }
+        let lens = ngp_lens(path, &what, &f.intr, &t.intr)?;
+        let intrinsics = CaptureIntrinsics { size: [w, h], focal: [fx, fy], centre: [cx, cy] };
+        out.push(CaptureView { image, pose: (rot, pos), intrinsics, lens });
+    }
+    if out.is_empty() {
+        return Err(DataError::new(path, format!("none of the {} frames' images exist", t.frames.len())));
+    }
+    Ok((out, missing))
+}
+
+/// The lens of a frame: its own keys, else the file's.
+fn ngp_lens(path: &Path, what: &str, f: &Intrinsics, g: &Intrinsics) -> Result<Lens, DataError> {
+    let k = |a: Option<f64>, b: Option<f64>| a.or(b).unwrap_or(0.0);
+    let model = f.camera_model.as_deref().or(g.camera_model.as_deref()).unwrap_or("OPENCV");
+    let fisheye = f.is_fisheye.or(g.is_fisheye).unwrap_or(false);
+    let (k1, k2, k3, k4) = (k(f.k1, g.k1), k(f.k2, g.k2), k(f.k3, g.k3), k(f.k4, g.k4));
+    let (p1, p2) = (k(f.p1, g.p1), k(f.p2, g.p2));
+    let lens = match model {
+        "OPENCV_FISHEYE" => Lens::Fisheye { k: [k1, k2, k3, k4] },
+        "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" if fisheye => {
+            Lens::Fisheye { k: [k1, k2, k3, k4] }
+        }
+        "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" => {
+            Lens::Opencv { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2] }
+        }
+        other => {
+            return Err(DataError::new(
+                path,
+                format!("{what}: camera_model {other} is not supported (OPENCV, OPENCV_FISHEYE, PINHOLE are)"),
+            ))
+        }
+    }
+    .simplified();
+    if !lens.is_finite() {
+        return Err(DataError::new(path, format!("{what}: non-finite distortion coefficient")));
+    }
+    Ok(lens)
 }

@@ -1,15 +1,33 @@
-//! PNG reading with compositing and area downscaling, and PNG writing.
+//! Image reading (PNG and JPEG: 8/16-bit, grey, RGB, RGBA; EXIF
+//! orientation applied) with compositing and area downscaling, and PNG
+//! writing.
 
 use super::DataError;
 use std::path::Path;
+
+/// Decodes the image at `path` (format from its content) upright: the
+/// rotation or mirroring its EXIF orientation tag asks for is applied, as
+/// a photo viewer shows it.
+pub fn read_upright(path: &Path) -> Result<image::DynamicImage, DataError> {
+    use image::ImageDecoder;
+    let bad = |e: &dyn std::fmt::Display| DataError::new(path, format!("cannot read image: {e}"));
+    if !path.is_file() {
+        return Err(DataError::new(path, "cannot read image: no such file"));
+    }
+    let reader = image::ImageReader::open(path).map_err(|e| bad(&e))?.with_guessed_format().map_err(|e| bad(&e))?;
+    let mut decoder = reader.into_decoder().map_err(|e| bad(&e))?;
+    let orientation = decoder.orientation().unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut img = image::DynamicImage::from_decoder(decoder).map_err(|e| bad(&e))?;
+    img.apply_orientation(orientation);
+    Ok(img)
+}
 
 /// Loads an image as RGB in `[0, 1]`: RGBA is composited on white if
 /// `white_bg` (the Blender convention) or black; then each `n × n` block is
 /// averaged (`n = downscale`; a remainder at the right/bottom is cropped).
 /// Returns (width, height, pixels).
 pub fn load_rgb(path: &Path, downscale: u32, white_bg: bool) -> Result<(u32, u32, Vec<[f32; 3]>), DataError> {
-    let img = image::open(path).map_err(|e| DataError::new(path, format!("cannot read image: {e}")))?;
-    let img = img.to_rgba32f();
+    let img = read_upright(path)?.to_rgba32f();
     let (w, h) = img.dimensions();
     let n = downscale.max(1);
     let (ow, oh) = (w / n, h / n);

@@ -7,7 +7,7 @@
 //! NDC (near plane 1), so `t ∈ [0, 1]` and the bounds are `[−1, 1]³`;
 //! every `holdout`-th image is a test/val view.
 
-use super::{image_io::load_rgb, npy::read_npy_f64, DataError, Dataset, Split, View};
+use super::{image_io::load_rgb, npy::read_npy_f64, DataError, Dataset, Lens, Split, View};
 use glam::{DMat3, DVec3};
 use nerf_infer::camera::Camera;
 use nerf_infer::format::{CameraConvention, Ndc, Scene};
@@ -61,24 +61,13 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
         poses.push((m, t));
     }
     let (h_full, w_full, focal_full) = (vals[4], vals[9], vals[14]);
-    let sc = 1.0 / (min_near * 0.75);
-    // average pose: mean centre, z = mean back axis, y from mean up.
-    let centre = poses.iter().map(|p| p.1 * sc).sum::<DVec3>() / rows as f64;
-    let z = poses.iter().map(|p| p.0.z_axis).sum::<DVec3>().normalize();
-    let up = poses.iter().map(|p| p.0.y_axis).sum::<DVec3>();
-    let x = up.cross(z).normalize();
-    let y = z.cross(x);
-    let avg = DMat3::from_cols(x, y, z);
-    let inv = avg.transpose();
+    let frame = ForwardFrame::new(&poses, min_near);
     let holdout = holdout.max(1);
     let mut views: Vec<View> = Vec::new();
     for (i, file) in files.iter().enumerate() {
         if (i % holdout == 0) == (split == Split::Train) {
             continue;
         }
-        let (m, t) = poses[i];
-        let rm = inv * m;
-        let tm = inv * (t * sc - centre);
         let (w, h, rgb) = load_rgb(file, downscale, false)?;
         if let Some(v0) = views.first() {
             if (w, h) != (v0.camera.width, v0.camera.height) {
@@ -90,21 +79,22 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
         }
         let f = (focal_full * w as f64 / w_full) as f32;
         let fy = (focal_full * h as f64 / h_full) as f32;
-        let c2w = [
-            [rm.x_axis.x as f32, rm.y_axis.x as f32, rm.z_axis.x as f32, tm.x as f32],
-            [rm.x_axis.y as f32, rm.y_axis.y as f32, rm.z_axis.y as f32, tm.y as f32],
-            [rm.x_axis.z as f32, rm.y_axis.z as f32, rm.z_axis.z as f32, tm.z as f32],
-        ];
-        let camera = Camera::new(w, h, f, fy, w as f32 / 2.0, h as f32 / 2.0, c2w)
+        let camera = Camera::new(w, h, f, fy, w as f32 / 2.0, h as f32 / 2.0, frame.apply(&poses[i]))
             .map_err(|_| DataError::new(&npy, format!("pose {i}: invalid camera")))?;
         let name = file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        views.push(View { name, camera, rgb });
+        views.push(View { name, camera, rgb, lens: Lens::Pinhole });
     }
     if views.is_empty() {
         return Err(DataError::new(dir, format!("no images in the {} split", split.name())));
     }
-    let v0 = &views[0].camera;
-    let scene = Scene {
+    let scene = ndc_scene(&views[0].camera);
+    Ok(Dataset { scene, views, downscale, notes: Vec::new() })
+}
+
+/// The NDC scene of a forward-facing capture whose first view is `v0`:
+/// bounds `[−1, 1]³`, `t ∈ [0, 1]`, black background.
+pub(super) fn ndc_scene(v0: &Camera) -> Scene {
+    Scene {
         bounds_min: [-1.0; 3],
         bounds_max: [1.0; 3],
         near: 0.0,
@@ -112,6 +102,40 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
         white_background: false,
         convention: CameraConvention::OpenGl,
         ndc: Some(Ndc { focal: v0.fx, width: v0.width as f32, height: v0.height as f32 }),
-    };
-    Ok(Dataset { scene, views, downscale })
+    }
+}
+
+/// nerf-pytorch's normalisation of a forward-facing capture: scale so the
+/// nearest depth bound is 1/0.75, then recentre on the average pose.
+pub(super) struct ForwardFrame {
+    inv: DMat3,
+    centre: DVec3,
+    sc: f64,
+}
+
+impl ForwardFrame {
+    /// The frame of `poses` (OpenGL axes: right, up, back; centres) whose
+    /// nearest scene depth is `min_near` (capture units, > 0).
+    pub(super) fn new(poses: &[(DMat3, DVec3)], min_near: f64) -> Self {
+        let n = poses.len().max(1) as f64;
+        let sc = 1.0 / (min_near * 0.75);
+        // average pose: mean centre, z = mean back axis, y from mean up.
+        let centre = poses.iter().map(|p| p.1 * sc).sum::<DVec3>() / n;
+        let z = poses.iter().map(|p| p.0.z_axis).sum::<DVec3>().normalize();
+        let up = poses.iter().map(|p| p.0.y_axis).sum::<DVec3>();
+        let x = up.cross(z).normalize();
+        let y = z.cross(x);
+        Self { inv: DMat3::from_cols(x, y, z).transpose(), centre, sc }
+    }
+
+    /// `pose` in the normalised frame, row-major 3×4 camera-to-world.
+    pub(super) fn apply(&self, pose: &(DMat3, DVec3)) -> [[f32; 4]; 3] {
+        let rm = self.inv * pose.0;
+        let tm = self.inv * (pose.1 * self.sc - self.centre);
+        [
+            [rm.x_axis.x as f32, rm.y_axis.x as f32, rm.z_axis.x as f32, tm.x as f32],
+            [rm.x_axis.y as f32, rm.y_axis.y as f32, rm.z_axis.y as f32, tm.y as f32],
+            [rm.x_axis.z as f32, rm.y_axis.z as f32, rm.z_axis.z as f32, tm.z as f32],
+        ]
+    }
 }

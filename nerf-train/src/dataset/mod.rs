@@ -1,15 +1,23 @@
-//! Posed image datasets: Blender synthetic, LLFF forward-facing, and the
-//! instant-ngp / nerfstudio `transforms.json` variant, loaded into one
-//! [`Dataset`] type. Every failure is a [`DataError`] naming the file.
+//! Posed image datasets: Blender synthetic, LLFF forward-facing, the
+//! instant-ngp / nerfstudio `transforms.json` variant and COLMAP sparse
+//! models, loaded into one [`Dataset`] type. Every failure is a
+//! [`DataError`] naming the file.
 
 mod blender;
+pub mod capture;
+pub mod colmap;
+pub mod colmap_io;
+pub mod fit;
 mod image_io;
+pub mod lens;
 mod llff;
 mod npy;
 pub mod synthetic;
 
 pub use blender::{load_blender, load_ngp};
+pub use fit::SceneKind;
 pub use image_io::{load_rgb, save_png_rgb};
+pub use lens::Lens;
 pub use llff::load_llff;
 pub use npy::{read_npy_f64, write_npy_f64};
 
@@ -65,6 +73,9 @@ pub enum Format {
     Blender,
     /// `poses_bounds.npy` + `images/`.
     Llff,
+    /// COLMAP: `images/` + `sparse/0/` (or `sparse/`) with `cameras`,
+    /// `images`, `points3D` as `.bin` or `.txt`.
+    Colmap,
     /// instant-ngp / nerfstudio `transforms.json` with `fl_x`, `cx`, ….
     Ngp,
 }
@@ -78,6 +89,27 @@ pub struct View {
     pub camera: Camera,
     /// Pixels row-major, `camera.width × camera.height`.
     pub rgb: Vec<[f32; 3]>,
+    /// The photo's lens distortion ([`Lens::Pinhole`] for rendered data):
+    /// [`View::ray`] bends each pixel's ray by it.
+    pub lens: Lens,
+}
+
+impl View {
+    /// Origin and direction (camera-space `z = −1`, as [`Camera::ray`]) of
+    /// the ray through the centre of pixel `(x, y)` of the photo, through
+    /// the lens: the ray of the ideal pinhole point the lens moved there.
+    /// A pixel outside the lens model's invertible region keeps its pinhole ray.
+    pub fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3) {
+        let c = &self.camera;
+        if self.lens == Lens::Pinhole {
+            return c.ray(x, y);
+        }
+        let xd = (x as f64 + 0.5 - c.cx as f64) / c.fx as f64;
+        let yd = (y as f64 + 0.5 - c.cy as f64) / c.fy as f64;
+        let (ux, uy) = self.lens.undistort(xd, yd).unwrap_or((xd, yd));
+        // OpenCV's y points down, the camera's (OpenGL) y up
+        (c.position, c.rotation * glam::Vec3::new(ux as f32, -uy as f32, -1.0))
+    }
 }
 
 /// The views of one split and the scene they show.
@@ -89,12 +121,55 @@ pub struct Dataset {
     pub views: Vec<View>,
     /// Downscale factor applied when loading.
     pub downscale: u32,
+    /// What the loader passed over, for the user (one line each): frames
+    /// whose images are missing, images the capture did not register.
+    pub notes: Vec<String>,
 }
 
 impl Dataset {
     /// Number of pixels over all views.
     pub fn pixel_count(&self) -> usize {
         self.views.iter().map(|v| v.rgb.len()).sum()
+    }
+
+    /// The fraction of pixels whose ray meets the scene's bounds within
+    /// near..far, estimated on at most 4096 pixels spread evenly over all views.
+    pub fn ray_hit_fraction(&self) -> f64 {
+        let total = self.pixel_count();
+        let step = (total / 4096).max(1);
+        let (mut tried, mut hit) = (0usize, 0usize);
+        let mut k = 0usize;
+        for v in &self.views {
+            let w = v.camera.width as usize;
+            while k < v.rgb.len() {
+                let (o, d) = v.ray((k % w) as u32, (k / w) as u32);
+                tried += 1;
+                hit += nerf_infer::Ray::new(&self.scene, o, d).is_some() as usize;
+                k += step;
+            }
+            k -= v.rgb.len();
+        }
+        hit as f64 / tried.max(1) as f64
+    }
+
+    /// Fails, saying why and what to try, if fewer than 1 % of the pixels'
+    /// rays meet the scene: training would see almost nothing.
+    pub fn check_rays(&self) -> Result<(), String> {
+        let f = self.ray_hit_fraction();
+        if f >= 0.01 {
+            return Ok(());
+        }
+        let s = &self.scene;
+        Err(format!(
+            "only {:.2} % of the training rays meet the scene box {:?}..{:?} within near {} .. far {}: \
+             the cameras look away from it or the bounds are wrong; check the poses, the aabb/near/far of the \
+             transforms file, or try --scene unbounded",
+            100.0 * f,
+            s.bounds_min,
+            s.bounds_max,
+            s.near,
+            s.far
+        ))
     }
 }
 
@@ -105,13 +180,17 @@ pub struct LoadOptions {
     pub format: Format,
     /// Integer downscale by area averaging (≥ 1).
     pub downscale: u32,
-    /// LLFF / ngp hold-out: every `holdout`-th image is a test (and val) view.
+    /// LLFF / COLMAP / ngp hold-out: every `holdout`-th image is a test (and val) view.
     pub holdout: usize,
+    /// Scene treatment of COLMAP and instant-ngp captures ([`SceneKind::Auto`]: fitted).
+    pub scene: SceneKind,
+    /// Bend rays by the photos' lens distortion (COLMAP, instant-ngp); false treats them as pinholes.
+    pub lens: bool,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        Self { format: Format::Auto, downscale: 1, holdout: 8 }
+        Self { format: Format::Auto, downscale: 1, holdout: 8, scene: SceneKind::Auto, lens: true }
     }
 }
 
@@ -123,10 +202,12 @@ pub fn detect(dir: &Path) -> Result<Format, DataError> {
         Ok(Format::Llff)
     } else if dir.join("transforms.json").is_file() {
         Ok(Format::Ngp)
+    } else if colmap_io::find_model_dir(dir).is_some() {
+        Ok(Format::Colmap)
     } else if !dir.is_dir() {
         Err(DataError::new(dir, "no such directory"))
     } else {
-        Err(DataError::new(dir, "no transforms_train.json, transforms.json or poses_bounds.npy found"))
+        Err(DataError::new(dir, "no transforms_train.json, transforms.json, poses_bounds.npy or COLMAP sparse/0 found"))
     }
 }
 
@@ -141,7 +222,8 @@ pub fn load(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, Data
     };
     match format {
         Format::Blender => load_blender(dir, split, opts.downscale),
-        Format::Ngp => load_ngp(dir, split, opts.downscale, opts.holdout),
+        Format::Ngp => load_ngp(dir, split, opts),
+        Format::Colmap => colmap::load_colmap(dir, split, opts),
         Format::Llff => load_llff(dir, split, opts.downscale, opts.holdout),
         Format::Auto => unreachable!("resolved above"),
     }

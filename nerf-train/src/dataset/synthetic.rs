@@ -255,3 +255,133 @@ pub fn write_llff(dir: &Path, spec: SceneSpec) -> Result<(), DataError> {
     let path = dir.join("poses_bounds.npy");
     write_npy_f64(&path, n, 17, &rows).map_err(io(&path))
 }
+
+/// Colour of the room around the scene (a sphere of radius 12 about the
+/// origin, in coloured bands) seen along the unit ray `o + t d` from inside.
+fn room(o: Vec3, d: Vec3) -> (Vec3, f32) {
+    let b = o.dot(d);
+    let t = -b + (b * b - (o.length_squared() - 144.0)).max(0.0).sqrt();
+    let p = o + t * d;
+    let az = p.y.atan2(p.x);
+    let c = Vec3::new(0.55 + 0.35 * (3.0 * az).sin(), 0.5 + 0.3 * (0.8 * p.z).cos(), 0.45 + 0.35 * (5.0 * az).cos());
+    (c, t)
+}
+
+/// How [`write_colmap`] writes the sparse model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColmapText {
+    /// `cameras.bin`, `images.bin`, `points3D.bin`.
+    Binary,
+    /// `cameras.txt`, `images.txt`, `points3D.txt`.
+    Text,
+}
+
+/// Writes the scene as a COLMAP capture into `dir`: `images/` (JPEG,
+/// quality 95) and `sparse/0/`, `spec.train + spec.val` cameras on the
+/// hemisphere around the scene. Even views use an OPENCV camera of
+/// `size × size` with a little barrel distortion (the images show it),
+/// odd views a PINHOLE camera of `size × 3/4 size`. With `room`, a
+/// coloured room surrounds the scene (a 360° capture with a background);
+/// without, the background is black. Sparse points are surface points
+/// seen by the cameras.
+pub fn write_colmap(dir: &Path, spec: SceneSpec, format: ColmapText, with_room: bool) -> Result<(), DataError> {
+    use super::colmap_io::{
+        write_model_bin, write_model_txt, CameraModel, ColmapCamera, ColmapImage, ColmapPoint, Reconstruction,
+    };
+    use super::Lens;
+    let img_dir = dir.join("images");
+    let model_dir = dir.join("sparse").join("0");
+    for d in [&img_dir, &model_dir] {
+        std::fs::create_dir_all(d).map_err(io(d))?;
+    }
+    let s = spec.size as f64;
+    let f = 0.5 * s / (0.5 * FOV_X as f64).tan();
+    let (k1, k2) = (-0.05, 0.01);
+    let cams = [
+        (
+            ColmapCamera {
+                id: 1,
+                model: CameraModel::Opencv,
+                width: spec.size as u64,
+                height: spec.size as u64,
+                params: vec![f, f, s / 2.0, s / 2.0, k1, k2, 0.0, 0.0],
+            },
+            Lens::opencv(k1, k2, 0.0, 0.0),
+        ),
+        (
+            ColmapCamera {
+                id: 2,
+                model: CameraModel::Pinhole,
+                width: spec.size as u64,
+                height: (spec.size * 3 / 4) as u64,
+                params: vec![0.9 * f, 0.9 * f, s / 2.0, 3.0 * s / 8.0],
+            },
+            Lens::Pinhole,
+        ),
+    ];
+    let mut rec = Reconstruction { cameras: cams.iter().map(|c| c.0.clone()).collect(), ..Default::default() };
+    let n = spec.train + spec.val;
+    for (k, eye) in hemisphere(n, 0.0).into_iter().enumerate() {
+        let (cam, lens) = &cams[k % 2];
+        let c2w = look_at(eye);
+        let col = |c: usize| Vec3::new(c2w[0][c], c2w[1][c], c2w[2][c]);
+        let (rx, ry, rz) = (col(0), col(1), col(2));
+        let (w, h) = (cam.width as u32, cam.height as u32);
+        let (fx, cx, cy) = (cam.params[0], cam.params[2], cam.params[3]);
+        let mut img = image::RgbImage::new(w, h);
+        for (i, j, p) in img.enumerate_pixels_mut() {
+            let mut acc = Vec3::ZERO;
+            for sub in 0..4 {
+                let xd = (i as f64 + 0.25 + 0.5 * (sub % 2) as f64 - cx) / fx;
+                let yd = (j as f64 + 0.25 + 0.5 * (sub / 2) as f64 - cy) / fx;
+                let (x, y) = lens.undistort(xd, yd).unwrap_or((xd, yd));
+                let d = (rx * x as f32 - ry * y as f32 - rz).normalize();
+                acc += match shade(eye, d) {
+                    Some((c, _)) => c,
+                    None if with_room => room(eye, d).0,
+                    None => Vec3::ZERO,
+                };
+            }
+            p.0 = (acc / 4.0).to_array().map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+        }
+        let name = format!("img_{k:03}.jpg");
+        let path = img_dir.join(&name);
+        let mut buf = std::io::Cursor::new(Vec::new());
+        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 95)
+            .encode_image(&img)
+            .map_err(|e| DataError::new(&path, format!("cannot encode JPEG: {e}")))?;
+        crate::atomic::write(&path, buf.get_ref()).map_err(io(&path))?;
+        // world-to-camera in OpenCV axes: rows of R are right, down, forward
+        let r = glam::DMat3::from_cols(rx.as_dvec3(), -ry.as_dvec3(), -rz.as_dvec3()).transpose();
+        let q = glam::DQuat::from_mat3(&r);
+        let t = -(r * eye.as_dvec3());
+        rec.images.push(ColmapImage {
+            id: k as u32 + 1,
+            qvec: [q.w, q.x, q.y, q.z],
+            tvec: t.to_array(),
+            camera_id: cam.id,
+            name,
+        });
+        // surface points: the hits of a sparse grid of this camera's rays
+        for j in (0..h).step_by(8) {
+            for i in (0..w).step_by(8) {
+                let d = (rx * ((i as f64 - cx) / fx) as f32 - ry * ((j as f64 - cy) / fx) as f32 - rz).normalize();
+                let hit = match shade(eye, d) {
+                    Some((c, t)) => Some((c, t)),
+                    None if with_room => Some(room(eye, d)),
+                    None => None,
+                };
+                if let Some((c, t)) = hit {
+                    let p = eye + t * d;
+                    let rgb = c.to_array().map(|v| (v.clamp(0.0, 1.0) * 255.0) as u8);
+                    rec.points.push(ColmapPoint { xyz: p.as_dvec3().to_array(), rgb, error: 0.5, track_len: 2 });
+                }
+            }
+        }
+    }
+    let res = match format {
+        ColmapText::Binary => write_model_bin(&model_dir, &rec),
+        ColmapText::Text => write_model_txt(&model_dir, &rec),
+    };
+    res.map_err(io(&model_dir))
+}

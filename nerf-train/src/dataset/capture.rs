@@ -1,0 +1,158 @@
+//! From a real capture's cameras to a [`Dataset`]: the scene fitted to all
+//! of the capture's cameras (so every split shares one frame), every
+//! `holdout`-th image held out, images loaded and intrinsics scaled to
+//! the loaded size. Used by the COLMAP and instant-ngp loaders.
+
+use super::fit::{fit_scene, Pose, SceneKind};
+use super::llff::{ndc_scene, ForwardFrame};
+use super::{image_io::load_rgb, DataError, Dataset, Lens, Split, View};
+use glam::DVec3;
+use nerf_infer::camera::Camera;
+use nerf_infer::format::Scene;
+use std::path::{Path, PathBuf};
+
+/// Pinhole intrinsics at an image's full resolution, pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Intrinsics {
+    /// Full width and height the other values refer to.
+    pub size: [f64; 2],
+    /// Focal lengths along x and y.
+    pub focal: [f64; 2],
+    /// Principal point from the top-left corner.
+    pub centre: [f64; 2],
+}
+
+/// One registered image of a capture.
+#[derive(Clone, Debug)]
+pub struct CaptureView {
+    /// The image file.
+    pub image: PathBuf,
+    /// Camera-to-world pose, OpenGL axes, capture units.
+    pub pose: Pose,
+    /// Intrinsics at the full resolution.
+    pub intrinsics: Intrinsics,
+    /// The lens's distortion.
+    pub lens: Lens,
+}
+
+/// Which views of a capture make a split.
+#[derive(Clone, Copy, Debug)]
+pub enum Selection {
+    /// Every N-th view (0, N, 2N, … in capture order) is a val/test view,
+    /// the others train (N ≥ 1).
+    Holdout(usize),
+    /// The views from this index on (the ones before only take part in the fit).
+    From(usize),
+}
+
+/// How to turn a capture into a dataset.
+#[derive(Clone, Copy, Debug)]
+pub struct CaptureOptions {
+    /// Which split to load.
+    pub split: Split,
+    /// Which of the views make the split.
+    pub select: Selection,
+    /// Integer downscale of the images.
+    pub downscale: u32,
+    /// Scene treatment (`Auto`: fitted).
+    pub kind: SceneKind,
+    /// Bend rays by each view's lens (false: treat every photo as a pinhole).
+    pub lens: bool,
+}
+
+/// Builds the split `opts.split` of a capture. `all` holds every view in
+/// capture order (the fit uses them all); `points` the capture's sparse
+/// points (may be empty); `fixed` a scene given by the capture's own
+/// files, used as is with the poses unchanged. `path` names the capture's
+/// pose file in errors.
+pub fn build(
+    path: &Path,
+    all: &[CaptureView],
+    points: &[DVec3],
+    fixed: Option<Scene>,
+    opts: CaptureOptions,
+) -> Result<Dataset, DataError> {
+    if all.is_empty() {
+        return Err(DataError::new(path, "no registered images"));
+    }
+    let poses: Vec<Pose> = all.iter().map(|v| v.pose).collect();
+    enum Frame {
+        Fixed(Scene),
+        Fitted(super::fit::Fitted),
+        Forward(ForwardFrame),
+    }
+    let frame = match fixed {
+        Some(s) => Frame::Fixed(s),
+        None => {
+            let f = fit_scene(&poses, points, opts.kind);
+            if f.kind == SceneKind::Forward {
+                Frame::Forward(ForwardFrame::new(&poses, nearest_depth(&poses, points)))
+            } else {
+                Frame::Fitted(f)
+            }
+        }
+    };
+    let keep = |i: usize| match opts.select {
+        Selection::Holdout(n) => i.is_multiple_of(n.max(1)) != (opts.split == Split::Train),
+        Selection::From(first) => i >= first,
+    };
+    let mut views = Vec::new();
+    for (_, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
+        let (w, h, rgb) = load_rgb(&v.image, opts.downscale, false)?;
+        let k = &v.intrinsics;
+        let (sx, sy) = (k.size[0] / w as f64, k.size[1] / h as f64);
+        let c2w = match &frame {
+            Frame::Fixed(_) => pose_rows(&v.pose),
+            Frame::Fitted(f) => f.apply(&v.pose),
+            Frame::Forward(f) => f.apply(&v.pose),
+        };
+        let [fx, fy] = [k.focal[0] / sx, k.focal[1] / sy];
+        let [cx, cy] = [k.centre[0] / sx, k.centre[1] / sy];
+        let camera = Camera::new(w, h, fx as f32, fy as f32, cx as f32, cy as f32, c2w)
+            .map_err(|_| DataError::new(&v.image, "invalid camera (intrinsics or pose)"))?;
+        let name = v.image.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let lens = if opts.lens { v.lens } else { Lens::Pinhole };
+        views.push(View { name, camera, rgb, lens });
+    }
+    if views.is_empty() {
+        return Err(DataError::new(path, format!("no images in the {} split", opts.split.name())));
+    }
+    let scene = match frame {
+        Frame::Fixed(s) => s,
+        Frame::Fitted(f) => f.scene,
+        Frame::Forward(_) => ndc_scene(&views[0].camera),
+    };
+    Ok(Dataset { scene, views, downscale: opts.downscale, notes: Vec::new() })
+}
+
+/// `pose` as a row-major 3×4 camera-to-world matrix.
+fn pose_rows(p: &Pose) -> [[f32; 4]; 3] {
+    let (r, t) = p;
+    [
+        [r.x_axis.x as f32, r.y_axis.x as f32, r.z_axis.x as f32, t.x as f32],
+        [r.x_axis.y as f32, r.y_axis.y as f32, r.z_axis.y as f32, t.y as f32],
+        [r.x_axis.z as f32, r.y_axis.z as f32, r.z_axis.z as f32, t.z as f32],
+    ]
+}
+
+/// The nearest scene depth of a forward-facing capture (capture units):
+/// the 1st percentile of the depths of the sparse points in front of the
+/// cameras (LLFF's bound), or without points half the distance from the
+/// cameras to where their axes meet, or 1.
+fn nearest_depth(poses: &[Pose], points: &[DVec3]) -> f64 {
+    let step = (points.len() / 4000).max(1);
+    let mut depths: Vec<f64> = poses
+        .iter()
+        .flat_map(|(r, c)| points.iter().step_by(step).map(move |p| -(*p - *c).dot(r.z_axis)))
+        .filter(|d| d.is_finite() && *d > 0.0)
+        .collect();
+    if depths.len() >= 20 {
+        depths.sort_by(f64::total_cmp);
+        return depths[depths.len() / 100].max(1e-6);
+    }
+    let mean = poses.iter().map(|p| p.1).sum::<DVec3>() / poses.len().max(1) as f64;
+    match super::fit::focus_point(poses) {
+        Some(f) if (f - mean).length() > 1e-9 => 0.5 * (f - mean).length(),
+        _ => 1.0,
+    }
+}

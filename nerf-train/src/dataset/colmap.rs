@@ -1,0 +1,127 @@
+//! COLMAP captures: `DIR/images/` and a sparse model in `DIR/sparse/0/`
+//! (or `DIR/sparse/`, or `DIR/`) as `.bin` or `.txt` ([`super::colmap_io`]).
+//!
+//! Camera models: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV,
+//! FULL_OPENCV and OPENCV_FISHEYE (their distortion becomes the view's
+//! [`Lens`]); any other is refused by name. Each image keeps its own
+//! camera, so one capture may mix intrinsics and image sizes. Images are
+//! taken in name order (as LLFF), every `holdout`-th held out; files in
+//! `images/` that COLMAP did not register are counted in the notes.
+//! Poses: COLMAP stores world-to-camera `q, t` in OpenCV axes (x right,
+//! y down, z forward); the camera-to-world pose in OpenGL axes is
+//! `[Rᵀx, −Rᵀy, −Rᵀz | −Rᵀt]`.
+
+use super::capture::{build, CaptureOptions, CaptureView, Intrinsics, Selection};
+use super::colmap_io::{find_model_dir, read_model, CameraModel, ColmapCamera, ColmapImage};
+use super::{DataError, Dataset, Lens, LoadOptions, Split};
+use glam::{DMat3, DQuat, DVec3};
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+
+impl From<super::colmap_io::ParseError> for DataError {
+    fn from(e: super::colmap_io::ParseError) -> Self {
+        DataError::new(e.path, e.msg)
+    }
+}
+
+/// Intrinsics and lens of a COLMAP camera, or the reason it is refused.
+pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), String> {
+    let p = &c.params;
+    if p.len() != c.model.num_params() {
+        return Err(format!("{} needs {} parameters, found {}", c.model.name(), c.model.num_params(), p.len()));
+    }
+    let size = [c.width as f64, c.height as f64];
+    let k = |focal: [f64; 2], centre: [f64; 2]| Intrinsics { size, focal, centre };
+    let z = 0.0;
+    let (intr, lens) = match c.model {
+        CameraModel::SimplePinhole => (k([p[0], p[0]], [p[1], p[2]]), Lens::Pinhole),
+        CameraModel::Pinhole => (k([p[0], p[1]], [p[2], p[3]]), Lens::Pinhole),
+        CameraModel::SimpleRadial => (k([p[0], p[0]], [p[1], p[2]]), Lens::opencv(p[3], z, z, z)),
+        CameraModel::Radial => (k([p[0], p[0]], [p[1], p[2]]), Lens::opencv(p[3], p[4], z, z)),
+        CameraModel::Opencv => (k([p[0], p[1]], [p[2], p[3]]), Lens::opencv(p[4], p[5], p[6], p[7])),
+        CameraModel::FullOpencv => (
+            k([p[0], p[1]], [p[2], p[3]]),
+            Lens::Opencv { k: [p[4], p[5], p[8], p[9], p[10], p[11]], p: [p[6], p[7]] }.simplified(),
+        ),
+        CameraModel::OpencvFisheye => {
+            (k([p[0], p[1]], [p[2], p[3]]), Lens::Fisheye { k: [p[4], p[5], p[6], p[7]] }.simplified())
+        }
+        m => {
+            return Err(format!(
+                "camera model {} is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, \
+                 FULL_OPENCV, OPENCV_FISHEYE are; undistort the images with colmap image_undistorter)",
+                m.name()
+            ))
+        }
+    };
+    let ok = intr.focal.iter().all(|f| f.is_finite() && *f > 0.0) && intr.centre.iter().all(|c| c.is_finite());
+    if !ok || !lens.is_finite() {
+        return Err("non-finite or non-positive camera parameters".into());
+    }
+    Ok((intr, lens))
+}
+
+/// The OpenGL camera-to-world pose of a COLMAP image, or `None` if its
+/// quaternion is zero or not finite.
+pub fn image_pose(im: &ColmapImage) -> Option<(DMat3, DVec3)> {
+    let [w, x, y, z] = im.qvec;
+    let q = DQuat::from_xyzw(x, y, z, w);
+    if !q.is_finite() || q.length() < 1e-9 {
+        return None;
+    }
+    let r = DMat3::from_quat(q.normalize()); // world → camera
+    let rt = r.transpose();
+    let centre = -(rt * DVec3::from(im.tvec));
+    Some((DMat3::from_cols(rt.x_axis, -rt.y_axis, -rt.z_axis), centre))
+}
+
+/// Loads a COLMAP capture's split (see the module doc).
+pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, DataError> {
+    let model_dir = find_model_dir(dir)
+        .ok_or_else(|| DataError::new(dir, "no COLMAP model: expected sparse/0/ or sparse/ with cameras and images"))?;
+    let rec = read_model(&model_dir)?;
+    let cams: HashMap<u32, &ColmapCamera> = rec.cameras.iter().map(|c| (c.id, c)).collect();
+    let img_dir = dir.join("images");
+    if !img_dir.is_dir() {
+        return Err(DataError::new(&img_dir, "no such directory (COLMAP's images/ folder)"));
+    }
+    let mut images: Vec<&ColmapImage> = rec.images.iter().collect();
+    images.sort_by(|a, b| a.name.cmp(&b.name));
+    let mut views = Vec::with_capacity(images.len());
+    for im in &images {
+        let what = format!("image {} ({})", im.id, im.name);
+        let cam = cams.get(&im.camera_id).ok_or_else(|| {
+            DataError::new(&model_dir, format!("{what}: camera {} is not in the model", im.camera_id))
+        })?;
+        let (intrinsics, lens) =
+            camera_lens(cam).map_err(|e| DataError::new(&model_dir, format!("camera {}: {e}", cam.id)))?;
+        let pose = image_pose(im).ok_or_else(|| DataError::new(&model_dir, format!("{what}: invalid rotation")))?;
+        let image = img_dir.join(&im.name);
+        if !image.is_file() {
+            return Err(DataError::new(&image, format!("image not found (registered in {})", model_dir.display())));
+        }
+        views.push(CaptureView { image, pose, intrinsics, lens });
+    }
+    let points: Vec<DVec3> = rec.points.iter().map(|p| DVec3::from(p.xyz)).collect();
+    let copts = CaptureOptions {
+        split,
+        select: Selection::Holdout(opts.holdout),
+        downscale: opts.downscale,
+        kind: opts.scene,
+        lens: opts.lens,
+    };
+    let mut data = build(&model_dir, &views, &points, None, copts)?;
+    let registered: HashSet<&str> = images.iter().map(|im| im.name.as_str()).collect();
+    let unregistered = std::fs::read_dir(&img_dir)
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter(|e| e.path().is_file())
+                .filter(|e| !registered.contains(e.file_name().to_string_lossy().as_ref()))
+                .count()
+        })
+        .unwrap_or(0);
+    if unregistered > 0 {
+        data.notes.push(format!("{}: {unregistered} images not registered by COLMAP, skipped", img_dir.display()));
+    }
+    Ok(data)
+}

@@ -1,0 +1,205 @@
+//! Lens distortion of real cameras (the models of COLMAP and OpenCV), so
+//! that a training or evaluation ray goes through the scene point a pixel
+//! of the photo actually saw.
+//!
+//! Coordinates are normalised image coordinates in OpenCV's convention:
+//! `x = (u − cx) / fx`, `y = (v − cy) / fy` with `u` right and `v` down, in
+//! f64. [`Lens::distort`] maps an ideal pinhole point to where the lens
+//! puts it; [`Lens::undistort`] inverts it by Newton's method.
+
+/// A lens distortion model; coefficients act on normalised coordinates,
+/// so they do not change when images are downscaled.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Lens {
+    /// No distortion (an ideal pinhole).
+    #[default]
+    Pinhole,
+    /// OpenCV's rational radial + tangential model (COLMAP `FULL_OPENCV`;
+    /// `OPENCV`, `RADIAL`, `SIMPLE_RADIAL` and instant-ngp's `k1 k2 p1 p2`
+    /// are this with the other coefficients 0):
+    /// radial factor `(1 + k1 r² + k2 r⁴ + k3 r⁶) / (1 + k4 r² + k5 r⁴ + k6 r⁶)`.
+    Opencv {
+        /// Radial coefficients `k1..k6` (`k4..k6` in the denominator).
+        k: [f64; 6],
+        /// Tangential coefficients `p1, p2`.
+        p: [f64; 2],
+    },
+    /// OpenCV's fisheye model (COLMAP `OPENCV_FISHEYE`): the angle θ from
+    /// the axis becomes `θ (1 + k1 θ² + k2 θ⁴ + k3 θ⁶ + k4 θ⁸)`.
+    Fisheye {
+        /// Coefficients `k1..k4`.
+        k: [f64; 4],
+    },
+}
+
+impl Lens {
+    /// The OpenCV model from `k1, k2, p1, p2` (the others 0), or
+    /// [`Lens::Pinhole`] if all are 0.
+    pub fn opencv(k1: f64, k2: f64, p1: f64, p2: f64) -> Self {
+        Self::Opencv { k: [k1, k2, 0.0, 0.0, 0.0, 0.0], p: [p1, p2] }.simplified()
+    }
+
+    /// [`Lens::Pinhole`] if every coefficient is 0, else `self`.
+    pub fn simplified(self) -> Self {
+        let zero = match self {
+            Lens::Pinhole => true,
+            Lens::Opencv { k, p } => k.iter().chain(&p).all(|&c| c == 0.0),
+            Lens::Fisheye { k } => k.iter().all(|&c| c == 0.0),
+        };
+        if zero {
+            Lens::Pinhole
+        } else {
+            self
+        }
+    }
+
+    /// True if every coefficient is finite.
+    pub fn is_finite(&self) -> bool {
+        match self {
+            Lens::Pinhole => true,
+            Lens::Opencv { k, p } => k.iter().chain(p).all(|c| c.is_finite()),
+            Lens::Fisheye { k } => k.iter().all(|c| c.is_finite()),
+        }
+    }
+
+    /// Where the lens images the ideal (pinhole) normalised point `(x, y)`.
+    pub fn distort(&self, x: f64, y: f64) -> (f64, f64) {
+        match *self {
+            Lens::Pinhole => (x, y),
+            Lens::Opencv { k, p } => {
+                let r2 = x * x + y * y;
+                let num = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[2]));
+                let den = 1.0 + r2 * (k[3] + r2 * (k[4] + r2 * k[5]));
+                let radial = num / den;
+                let xd = x * radial + 2.0 * p[0] * x * y + p[1] * (r2 + 2.0 * x * x);
+                let yd = y * radial + p[0] * (r2 + 2.0 * y * y) + 2.0 * p[1] * x * y;
+                (xd, yd)
+            }
+            Lens::Fisheye { k } => {
+                let r = (x * x + y * y).sqrt();
+                if r < 1e-12 {
+                    return (x, y);
+                }
+                let th = r.atan();
+                let t2 = th * th;
+                let thd = th * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))));
+                (x * thd / r, y * thd / r)
+            }
+        }
+    }
+
+    /// The ideal normalised point that [`Lens::distort`] maps to `(xd, yd)`:
+    /// Newton's method from the distorted point (at most 50 steps, stopping
+    /// below 10⁻¹² normalised units). Returns `None` if it does not converge
+    /// (a point outside the region where the model is invertible).
+    pub fn undistort(&self, xd: f64, yd: f64) -> Option<(f64, f64)> {
+        match *self {
+            Lens::Pinhole => Some((xd, yd)),
+            Lens::Opencv { .. } => {
+                let (mut x, mut y) = (xd, yd);
+                for _ in 0..50 {
+                    let (fx, fy) = self.distort(x, y);
+                    let (ex, ey) = (fx - xd, fy - yd);
+                    if ex.abs().max(ey.abs()) < 1e-12 {
+                        return Some((x, y));
+                    }
+                    // Jacobian by central differences (as COLMAP)
+                    let h = 1e-7 * (1.0 + x.abs().max(y.abs()));
+                    let (ax, ay) = self.distort(x + h, y);
+                    let (bx, by) = self.distort(x - h, y);
+                    let (cx, cy) = self.distort(x, y + h);
+                    let (dx, dy) = self.distort(x, y - h);
+                    let (j00, j10) = ((ax - bx) / (2.0 * h), (ay - by) / (2.0 * h));
+                    let (j01, j11) = ((cx - dx) / (2.0 * h), (cy - dy) / (2.0 * h));
+                    let det = j00 * j11 - j01 * j10;
+                    if !det.is_finite() || det.abs() < 1e-12 {
+                        return None;
+                    }
+                    x -= (j11 * ex - j01 * ey) / det;
+                    y -= (-j10 * ex + j00 * ey) / det;
+                    if !x.is_finite() || !y.is_finite() {
+                        return None;
+                    }
+                }
+                let (fx, fy) = self.distort(x, y);
+                ((fx - xd).abs().max((fy - yd).abs()) < 1e-9).then_some((x, y))
+            }
+            Lens::Fisheye { k } => {
+                let rd = (xd * xd + yd * yd).sqrt();
+                if rd < 1e-12 {
+                    return Some((xd, yd));
+                }
+                // solve θ (1 + k1 θ² + …) = rd for θ ∈ [0, π/2)
+                let f = |th: f64| {
+                    let t2 = th * th;
+                    th * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3])))) - rd
+                };
+                let df = |th: f64| {
+                    let t2 = th * th;
+                    1.0 + t2 * (3.0 * k[0] + t2 * (5.0 * k[1] + t2 * (7.0 * k[2] + t2 * 9.0 * k[3])))
+                };
+                let mut th = rd.min(1.5);
+                for _ in 0..50 {
+                    let e = f(th);
+                    if e.abs() < 1e-12 {
+                        break;
+                    }
+                    let d = df(th);
+                    if !d.is_finite() || d.abs() < 1e-12 {
+                        return None;
+                    }
+                    th -= e / d;
+                }
+                let ok = th.is_finite() && (0.0..std::f64::consts::FRAC_PI_2).contains(&th) && f(th).abs() < 1e-9;
+                let r = th.tan();
+                ok.then_some((xd * r / rd, yd * r / rd))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pixels of a 640×480 camera, f = 500: project an ideal point,
+    /// distort, undistort; the round trip returns within 1e-4 px.
+    fn round_trip(lens: Lens) {
+        let (f, cx, cy) = (500.0, 320.0, 240.0);
+        let mut worst = 0.0f64;
+        for v in (0..=480).step_by(16) {
+            for u in (0..=640).step_by(16) {
+                let (x, y) = ((u as f64 - cx) / f, (v as f64 - cy) / f);
+                let (xd, yd) = lens.distort(x, y);
+                let (ux, uy) = lens.undistort(xd, yd).expect("invertible inside the image");
+                worst = worst.max(((ux - x) * f).abs()).max(((uy - y) * f).abs());
+            }
+        }
+        assert!(worst < 1e-4, "{lens:?}: round trip error {worst} px");
+    }
+
+    #[test]
+    fn opencv_round_trip_within_1e4_px() {
+        // the fox capture's coefficients, then stronger barrel and pincushion
+        round_trip(Lens::opencv(0.0578421, -0.0805099, -0.000980296, 0.00015575));
+        round_trip(Lens::opencv(-0.25, 0.05, 0.001, -0.002));
+        round_trip(Lens::Opencv { k: [0.1, 0.02, 0.003, 0.05, 0.01, 0.002], p: [0.002, -0.001] });
+    }
+
+    #[test]
+    fn fisheye_round_trip_within_1e4_px() {
+        round_trip(Lens::Fisheye { k: [0.05, -0.01, 0.002, -0.0005] });
+        round_trip(Lens::Fisheye { k: [-0.1, 0.01, 0.0, 0.0] });
+    }
+
+    #[test]
+    fn distortion_moves_points_as_the_coefficients_say() {
+        // k1 > 0 pushes points outwards (pincushion), k1 < 0 inwards (barrel)
+        let (x, _) = Lens::opencv(0.1, 0.0, 0.0, 0.0).distort(0.5, 0.0);
+        assert!((x - 0.5 * (1.0 + 0.1 * 0.25)).abs() < 1e-15);
+        let (x, _) = Lens::opencv(-0.1, 0.0, 0.0, 0.0).distort(0.5, 0.0);
+        assert!(x < 0.5);
+        assert_eq!(Lens::opencv(0.0, 0.0, 0.0, 0.0), Lens::Pinhole);
+        assert_eq!(Lens::Pinhole.distort(0.3, -0.2), (0.3, -0.2));
+    }
+}

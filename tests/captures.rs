@@ -1,0 +1,238 @@
+//! Real-capture inputs on data the tests make: COLMAP models (binary and
+//! text, several cameras, lens distortion, unregistered images, refused
+//! camera models), JPEG with EXIF orientation, instant-ngp files with
+//! missing frames and distortion keys, the fitted scene, and captures
+//! whose rays miss the scene.
+
+mod support;
+
+use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
+use nerf_train::dataset::{load, load_rgb, Format, Lens, LoadOptions, SceneKind, Split};
+use std::path::Path;
+use support::cli::{nerf, s, tmp};
+
+fn spec() -> SceneSpec {
+    SceneSpec { size: 16, train: 8, val: 2, test: 0 }
+}
+
+fn opts(format: Format) -> LoadOptions {
+    LoadOptions { format, downscale: 1, holdout: 4, scene: SceneKind::Auto, lens: true }
+}
+
+#[test]
+fn colmap_binary_and_text_models_give_identical_cameras() {
+    let d = tmp("colmap-bin-txt");
+    write_colmap(&d.join("bin"), spec(), ColmapText::Binary, false).unwrap();
+    write_colmap(&d.join("txt"), spec(), ColmapText::Text, false).unwrap();
+    assert!(d.join("bin/sparse/0/images.bin").is_file() && d.join("txt/sparse/0/images.txt").is_file());
+    for split in [Split::Train, Split::Test] {
+        let a = load(&d.join("bin"), split, opts(Format::Auto)).unwrap();
+        let b = load(&d.join("txt"), split, opts(Format::Colmap)).unwrap();
+        assert_eq!(a.views.len(), b.views.len());
+        assert_eq!(a.scene, b.scene);
+        for (u, v) in a.views.iter().zip(&b.views) {
+            assert_eq!((&u.name, u.camera, u.lens), (&v.name, v.camera, v.lens));
+            assert_eq!(u.rgb, v.rgb);
+        }
+    }
+    // 10 images, every 4th held out: 0, 4, 8
+    assert_eq!(load(&d.join("bin"), Split::Test, opts(Format::Auto)).unwrap().views.len(), 3);
+}
+
+#[test]
+fn colmap_capture_keeps_each_camera_and_bends_rays_through_its_lens() {
+    let d = tmp("colmap-cams");
+    write_colmap(&d, spec(), ColmapText::Binary, false).unwrap();
+    let data = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    // even images: OPENCV 16×16 with distortion; odd: PINHOLE 16×12
+    let sizes: Vec<(u32, u32)> = data.views.iter().map(|v| (v.camera.width, v.camera.height)).collect();
+    assert!(sizes.contains(&(16, 16)) && sizes.contains(&(16, 12)), "{sizes:?}");
+    for v in &data.views {
+        let distorted = v.camera.height == 16;
+        assert_eq!(v.lens != Lens::Pinhole, distorted, "{}: {:?}", v.name, v.lens);
+        // each pixel's ray, projected back through the lens, lands on the pixel centre
+        for (x, y) in [(0, 0), (15, 0), (7, 5), (15, v.camera.height - 1)] {
+            let (_, dir) = v.ray(x, y);
+            let c = v.camera.rotation.transpose() * dir;
+            let (px, py) = ((c.x / -c.z) as f64, (-c.y / -c.z) as f64);
+            let (xd, yd) = v.lens.distort(px, py);
+            let u = xd * v.camera.fx as f64 + v.camera.cx as f64 - 0.5;
+            let w = yd * v.camera.fy as f64 + v.camera.cy as f64 - 0.5;
+            assert!((u - x as f64).abs() < 1e-3 && (w - y as f64).abs() < 1e-3, "{}: ({x},{y}) → ({u},{w})", v.name);
+        }
+    }
+    // ignoring the lens makes every view a pinhole
+    let flat = load(&d, Split::Train, LoadOptions { lens: false, ..opts(Format::Auto) }).unwrap();
+    assert!(flat.views.iter().all(|v| v.lens == Lens::Pinhole));
+}
+
+#[test]
+fn colmap_refuses_unsupported_camera_models_by_name_and_counts_unregistered_images() {
+    let d = tmp("colmap-bad");
+    write_colmap(&d, spec(), ColmapText::Text, false).unwrap();
+    std::fs::copy(d.join("images/img_000.jpg"), d.join("images/extra.jpg")).unwrap();
+    let data = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert!(data.notes.iter().any(|n| n.contains("1 images not registered")), "{:?}", data.notes);
+    let cams = d.join("sparse/0/cameras.txt");
+    let text = std::fs::read_to_string(&cams).unwrap();
+    let fov: String = text
+        .lines()
+        .map(|l| if l.starts_with("2 ") { "2 FOV 16 12 10 10 8 6 0.5".to_string() } else { l.to_string() })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&cams, fov).unwrap();
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("FOV") && e.contains("not supported") && e.contains("camera 2"), "{e}");
+    assert!(!e.contains('\n'));
+    // an image file the model registers but the folder lacks is named
+    std::fs::write(&cams, text).unwrap();
+    std::fs::remove_file(d.join("images/img_003.jpg")).unwrap();
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("img_003.jpg") && e.contains("not found"), "{e}");
+}
+
+#[test]
+fn scene_is_fitted_to_the_capture() {
+    let d = tmp("colmap-fit");
+    write_colmap(&d.join("object"), spec(), ColmapText::Binary, false).unwrap();
+    write_colmap(&d.join("room"), spec(), ColmapText::Binary, true).unwrap();
+    let object = load(&d.join("object"), Split::Train, opts(Format::Auto)).unwrap();
+    let room = load(&d.join("room"), Split::Train, opts(Format::Auto)).unwrap();
+    // cameras at distance 1 from the fitted centre; the object box inside their ring, the room's around them
+    for v in object.views.iter().chain(&room.views) {
+        assert!((v.camera.position.length() - 1.0).abs() < 0.35, "{}: {}", v.name, v.camera.position);
+    }
+    let inside = |b: [f32; 3]| b.iter().all(|c| c.abs() < 0.9);
+    assert!(inside(object.scene.bounds_min) && inside(object.scene.bounds_max), "{:?}", object.scene);
+    assert!(room.scene.bounds_max.iter().all(|&c| c > 1.0), "{:?}", room.scene);
+    assert!(object.scene.ndc.is_none() && room.scene.ndc.is_none());
+    // --scene object on the room capture keeps the box on the object
+    let forced = load(&d.join("room"), Split::Train, LoadOptions { scene: SceneKind::Object, ..opts(Format::Auto) });
+    assert!(inside(forced.unwrap().scene.bounds_max));
+    // the fitted scene is seen by the training rays
+    assert!(object.ray_hit_fraction() > 0.5 && room.ray_hit_fraction() > 0.99);
+}
+
+/// Minimal EXIF (big-endian TIFF) holding one tag: orientation `o`.
+fn exif_orientation(o: u16) -> Vec<u8> {
+    let mut v = b"MM\0\x2a\0\0\0\x08\0\x01".to_vec();
+    v.extend_from_slice(&[0x01, 0x12, 0x00, 0x03, 0, 0, 0, 1]);
+    v.extend_from_slice(&o.to_be_bytes());
+    v.extend_from_slice(&[0, 0, 0, 0, 0, 0]);
+    v
+}
+
+fn write_jpeg(path: &Path, img: &image::RgbImage, exif: Option<Vec<u8>>) {
+    use image::ImageEncoder;
+    let mut buf = Vec::new();
+    let mut enc = image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 100);
+    if let Some(e) = exif {
+        enc.set_exif_metadata(e).unwrap();
+    }
+    enc.write_image(img, img.width(), img.height(), image::ExtendedColorType::Rgb8).unwrap();
+    std::fs::write(path, buf).unwrap();
+}
+
+#[test]
+fn jpeg_loads_upright_with_its_exif_orientation() {
+    let d = tmp("jpeg");
+    // 16×8, left half black, right half white
+    let img = image::RgbImage::from_fn(16, 8, |x, _| if x < 8 { image::Rgb([0; 3]) } else { image::Rgb([255; 3]) });
+    write_jpeg(&d.join("plain.jpg"), &img, None);
+    write_jpeg(&d.join("rot90.jpg"), &img, Some(exif_orientation(6)));
+    let (w, h, px) = load_rgb(&d.join("plain.jpg"), 1, false).unwrap();
+    assert_eq!((w, h), (16, 8));
+    assert!(px[0][0] < 0.05 && px[15][0] > 0.95);
+    // orientation 6: shown turned 90° clockwise, so the black half is on top
+    let (w, h, px) = load_rgb(&d.join("rot90.jpg"), 1, false).unwrap();
+    assert_eq!((w, h), (8, 16));
+    assert!(px[0][0] < 0.05 && px[(15 * 8) as usize][0] > 0.95, "{:?} {:?}", px[0], px[120]);
+    // 16-bit grey PNG with alpha
+    let grey = image::ImageBuffer::<image::LumaA<u16>, Vec<u16>>::from_pixel(4, 4, image::LumaA([32768, 65535]));
+    grey.save(d.join("grey16.png")).unwrap();
+    let (_, _, px) = load_rgb(&d.join("grey16.png"), 2, false).unwrap();
+    assert!((px[0][0] - 0.5).abs() < 1e-3 && px[0][0] == px[0][2]);
+    // a file that is not an image is named
+    std::fs::write(d.join("bad.jpg"), b"not a jpeg").unwrap();
+    let e = load_rgb(&d.join("bad.jpg"), 1, false).unwrap_err().to_string();
+    assert!(e.contains("bad.jpg") && e.contains("cannot read image"), "{e}");
+}
+
+/// An instant-ngp capture from the COLMAP one: transforms.json with the
+/// OPENCV camera's intrinsics and distortion keys, two frames whose
+/// images were deleted.
+fn ngp_capture(d: &Path) {
+    write_colmap(d, spec(), ColmapText::Binary, false).unwrap();
+    // holdout 1: every view is a test view
+    let data = load(d, Split::Test, LoadOptions { holdout: 1, ..opts(Format::Colmap) }).unwrap();
+    let v0 = &data.views[0];
+    let frames: Vec<serde_json::Value> = data
+        .views
+        .iter()
+        .filter(|v| v.camera.height == 16)
+        .map(|v| {
+            let r = v.camera.rotation;
+            let p = v.camera.position;
+            let m = [
+                [r.x_axis.x, r.y_axis.x, r.z_axis.x, p.x],
+                [r.x_axis.y, r.y_axis.y, r.z_axis.y, p.y],
+                [r.x_axis.z, r.y_axis.z, r.z_axis.z, p.z],
+                [0.0, 0.0, 0.0, 1.0],
+            ];
+            serde_json::json!({ "file_path": format!("images/{}.jpg", v.name), "transform_matrix": m })
+        })
+        .collect();
+    let Lens::Opencv { k, p } = v0.lens else { panic!("view 0 has the OPENCV camera") };
+    let c = &v0.camera;
+    let t = serde_json::json!({
+        "fl_x": c.fx, "fl_y": c.fy, "cx": c.cx, "cy": c.cy, "w": 16, "h": 16,
+        "k1": k[0], "k2": k[1], "p1": p[0], "p2": p[1], "frames": frames,
+    });
+    std::fs::write(d.join("transforms.json"), t.to_string()).unwrap();
+    std::fs::remove_dir_all(d.join("sparse")).unwrap();
+    std::fs::remove_file(d.join("images/img_002.jpg")).unwrap();
+    std::fs::remove_file(d.join("images/img_004.jpg")).unwrap();
+}
+
+#[test]
+fn ngp_capture_skips_missing_frames_and_reads_its_lens() {
+    let d = tmp("ngp-capture");
+    ngp_capture(&d);
+    let train = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    let test = load(&d, Split::Test, opts(Format::Ngp)).unwrap();
+    // 5 frames listed, 2 images missing: 3 kept, every 4th held out (1)
+    assert_eq!((train.views.len(), test.views.len()), (2, 1));
+    assert!(train.notes.iter().any(|n| n.contains("2 of 5 frames skipped")), "{:?}", train.notes);
+    assert!(train.views.iter().all(|v| matches!(v.lens, Lens::Opencv { .. })));
+    let flat = load(&d, Split::Train, LoadOptions { lens: false, ..opts(Format::Auto) }).unwrap();
+    assert!(flat.views.iter().all(|v| v.lens == Lens::Pinhole));
+    // an unknown camera model is refused by name
+    let t = std::fs::read_to_string(d.join("transforms.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&t).unwrap();
+    v["camera_model"] = "EQUIRECTANGULAR".into();
+    std::fs::write(d.join("transforms.json"), v.to_string()).unwrap();
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("EQUIRECTANGULAR") && e.contains("not supported"), "{e}");
+}
+
+#[test]
+fn training_on_a_capture_whose_rays_miss_the_scene_fails_at_once() {
+    let root = tmp("miss");
+    let d = root.join("capture");
+    ngp_capture(&d);
+    let t = std::fs::read_to_string(d.join("transforms.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&t).unwrap();
+    // a box far behind every camera
+    v["aabb"] = serde_json::json!([[100.0, 100.0, 100.0], [101.0, 101.0, 101.0]]);
+    std::fs::write(d.join("transforms.json"), v.to_string()).unwrap();
+    let out = root.join("run");
+    let start = std::time::Instant::now();
+    let o = nerf(&["train", "--data", s(&d), "--iters", "5", "--out", s(&out)]);
+    assert!(start.elapsed().as_secs() < 30, "took {:?}", start.elapsed());
+    assert!(!o.status.success());
+    // the warning about the missing frames, then the error
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let e = stderr.lines().last().unwrap_or_default();
+    assert!(e.contains("meet the scene") && e.contains("aabb"), "{e}");
+    assert!(!out.join("model.nerf").exists() && !out.join("checkpoint.bin").exists());
+}

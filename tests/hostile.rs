@@ -1,0 +1,186 @@
+//! Hostile command lines, one or more per kind of misbehaviour: values out
+//! of range (refused at parse time, naming the flag and its range), outputs
+//! aimed at inputs or special files (refused, nothing touched), runs that
+//! would overwrite or share a run folder, `--resume` with settings that
+//! differ from the checkpoint's, and a reader that closes the pipe. Each
+//! case checks the exit status, the one-line message and the files.
+
+mod support;
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use support::cli::{blender_scene, fails, nerf, ok, s, tmp, BIN};
+
+fn model_file() -> String {
+    format!("{}/models/scene.nerf", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Fails with one line naming every needle.
+fn fails_naming(args: &[&str], needles: &[&str]) {
+    let e = fails(args);
+    for n in needles {
+        assert!(e.contains(n), "nerf {args:?}: {n:?} not in {e}");
+    }
+}
+
+/// Every file under `dir` with its bytes, sorted by path.
+fn snapshot(dir: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push((p.clone(), std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn numbers_out_of_range_are_refused_naming_the_flag_and_range() {
+    let m = model_file();
+    let d = tmp("hostile-ranges");
+    let out = d.join("out");
+    let cases: &[(&[&str], &str)] = &[
+        (&["train", "--data", "x", "--out", "y", "--minutes=-1"], "--minutes"),
+        (&["train", "--data", "x", "--out", "y", "--minutes", "NaN"], "--minutes"),
+        (&["train", "--data", "x", "--out", "y", "--iters", "0"], "--iters"),
+        (&["train", "--data", "x", "--out", "y", "--iters", "5", "--log-every", "0"], "--log-every"),
+        (&["train", "--data", "x", "--out", "y", "--iters", "5", "--downscale", "0"], "--downscale"),
+        (&["train", "--data", "x", "--out", "y", "--iters", "5", "--llffhold", "0"], "--llffhold"),
+        (&["render", &m, "--orbit", "1", "--size", "0", "--out", s(&out)], "--size"),
+        (&["render", &m, "--orbit", "0", "--out", s(&out)], "--orbit"),
+        (&["render", &m, "--orbit", "2", "--size", "100000", "--out", s(&out)], "--size"),
+        (&["eval", &m, "--data", "x", "--split", "val", "--coarse", "0"], "--coarse"),
+        (&["eval", &m, "--data", "x", "--split", "val", "--fine", "99999"], "--fine"),
+        (&["eval", &m, "--data", "x", "--split", "val", "--early-stop", "2"], "--early-stop"),
+        (&["fit", "--data", "x", "--target-psnr", "inf", "--out", s(&out)], "--target-psnr"),
+        (&["scene", "--out", s(&out), "--size", "0"], "--size"),
+    ];
+    for (args, flag) in cases {
+        let o = nerf(args);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "nerf {args:?}: {e}");
+        assert!(e.contains(flag) && e.contains("expected a number from"), "nerf {args:?}: {e}");
+    }
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn outputs_never_replace_inputs_or_special_files() {
+    let d = tmp("hostile-outputs");
+    let data = blender_scene(&d, 16, 4);
+    let before = snapshot(&data);
+    let m = model_file();
+    fails_naming(
+        &["eval", &m, "--data", s(&data), "--split", "val", "--save", s(&data.join("val"))],
+        &["--save", "inside the dataset"],
+    );
+    fails_naming(
+        &["render", &m, "--data", s(&data), "--split", "val", "--out", s(&data)],
+        &["--out", "inside the dataset"],
+    );
+    fails_naming(&["tradeoff", &m, "--data", s(&data), "--out", s(&data.join("t"))], &["--out", "inside the dataset"]);
+    fails_naming(
+        &["train", "--data", s(&data), "--iters", "2", "--out", s(&data.join("run"))],
+        &["--out", "inside the dataset"],
+    );
+    assert_eq!(snapshot(&data), before, "the dataset is untouched");
+    // export onto its own input
+    let f32_model = d.join("m.nerf");
+    std::fs::copy(&m, &f32_model).unwrap();
+    let bytes = std::fs::read(&f32_model).unwrap();
+    fails_naming(&["export", s(&f32_model), "--bits", "8", "--out", s(&f32_model)], &["--out", "is the input file"]);
+    assert_eq!(std::fs::read(&f32_model).unwrap(), bytes);
+    // a symbolic link and a FIFO at the output path are refused, their targets untouched
+    let target = d.join("target.nerf");
+    std::fs::write(&target, b"keep").unwrap();
+    let link = d.join("link.nerf");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    fails_naming(&["export", s(&f32_model), "--bits", "8", "--out", s(&link)], &["link.nerf", "symbolic link"]);
+    assert_eq!(std::fs::read(&target).unwrap(), b"keep");
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+    let fifo = d.join("fifo.nerf");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    fails_naming(&["export", s(&f32_model), "--bits", "8", "--out", s(&fifo)], &["fifo.nerf", "not a regular file"]);
+    // the user's own files in the output folder are left alone
+    let run = d.join("run");
+    std::fs::create_dir_all(&run).unwrap();
+    std::fs::write(run.join("notes.tmp"), b"mine").unwrap();
+    std::fs::write(run.join("model.nerf.tmp"), b"mine too").unwrap();
+    ok(&["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"]);
+    assert_eq!(std::fs::read(run.join("notes.tmp")).unwrap(), b"mine");
+    assert_eq!(std::fs::read(run.join("model.nerf.tmp")).unwrap(), b"mine too");
+}
+
+#[test]
+fn a_run_folder_is_never_overwritten_or_shared() {
+    let d = tmp("hostile-runs");
+    let data = blender_scene(&d, 16, 4);
+    let run = d.join("run");
+    let train = |iters: &str, extra: &[&str]| {
+        let mut args = vec!["train", "--data", s(&data), "--iters", iters, "--out", s(&run), "--val-views", "0"];
+        args.extend_from_slice(extra);
+        args.iter().map(|a| a.to_string()).collect::<Vec<_>>()
+    };
+    let run_args = |extra: &[&str]| {
+        let a = train("3", extra);
+        nerf(&a.iter().map(String::as_str).collect::<Vec<_>>())
+    };
+    assert!(run_args(&[]).status.success());
+    let model = std::fs::read(run.join("model.nerf")).unwrap();
+    // a second run into the folder: refused, the first run's files kept
+    let o = run_args(&[]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("holds a run") && e.contains("--resume") && e.contains("--force"), "{e}");
+    assert_eq!(std::fs::read(run.join("model.nerf")).unwrap(), model);
+    // --resume with other settings than the checkpoint's: refused, naming them
+    let o = run_args(&["--resume", "--downscale", "2"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("--downscale 2 differs"), "{e}");
+    let o = run_args(&["--resume", "--preset", "grid"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("differ from the checkpoint") && e.contains("n_fine"), "{e}");
+    // while a run holds the folder, another is refused
+    let a = train("100000", &["--force"]);
+    let mut first = Command::new(BIN).args(&a).stderr(Stdio::null()).spawn().unwrap();
+    let lock_held = || {
+        // refused either way, before writing: for the lock, or for the downscale
+        let o = run_args(&["--resume", "--downscale", "2"]);
+        String::from_utf8_lossy(&o.stderr).contains("another process")
+    };
+    let start = std::time::Instant::now();
+    let mut seen = false;
+    while start.elapsed().as_secs() < 20 && !seen {
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        seen = lock_held();
+    }
+    first.kill().unwrap();
+    first.wait().unwrap();
+    assert!(seen, "a second run into a busy folder must be refused");
+    // --force starts over
+    assert!(run_args(&["--force"]).status.success());
+}
+
+#[test]
+fn a_closed_pipe_ends_commands_quietly() {
+    let d = tmp("hostile-pipe");
+    let data = blender_scene(&d, 16, 4);
+    let m = model_file();
+    let mut child = Command::new(BIN)
+        .args(["eval", &m, "--data", s(&data), "--split", "val"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take()); // the reader is gone before eval prints
+    let o = child.wait_with_output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!e.contains("panicked"), "{e}");
+    assert!(o.status.success(), "{e}");
+}
