@@ -236,3 +236,45 @@ fn training_on_a_capture_whose_rays_miss_the_scene_fails_at_once() {
     assert!(e.contains("meet the scene") && e.contains("aabb"), "{e}");
     assert!(!out.join("model.nerf").exists() && !out.join("checkpoint.bin").exists());
 }
+
+#[test]
+fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
+    let root = tmp("paths");
+    let scene = root.join("scene");
+    support::cli::ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
+    let data = scene.join("colmap");
+    let run = root.join("run");
+    support::cli::ok(&["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"]);
+    let model = run.join("model.nerf");
+    let a = root.join("a");
+    support::cli::ok(&["render", s(&model), "--data", s(&data), "--trajectory", "3", "--size", "20", "--out", s(&a)]);
+    for f in ["frame_000.png", "frame_002_depth.png", "frame_001_depth_preview.png", "frame_000_opacity.png"] {
+        assert!(a.join(f).is_file(), "{f}");
+    }
+    assert!(a.join("path.gif").is_file() && a.join("depth.json").is_file());
+    // the path written beside the frames renders the same frames again
+    let b = root.join("b");
+    support::cli::ok(&[
+        "render",
+        s(&model),
+        "--camera-path",
+        s(&a.join("camera_path.json")),
+        "--size",
+        "20",
+        "--out",
+        s(&b),
+    ]);
+    for k in 0..3 {
+        let f = format!("frame_{k:03}.png");
+        assert_eq!(std::fs::read(a.join(&f)).unwrap(), std::fs::read(b.join(&f)).unwrap(), "{f}");
+    }
+    let depth = image::open(a.join("frame_000_depth.png")).unwrap();
+    assert_eq!(depth.color(), image::ColorType::L16);
+    // a forward-facing model's orbit is a circle in front of the capture: every ray meets the scene
+    let llff = load(&scene.join("llff"), Split::Train, opts(Format::Auto)).unwrap();
+    let cam = nerf_train::export::orbit_camera(&llff.scene, 0.3, 8, 6);
+    for (x, y) in [(0, 0), (7, 5), (4, 3)] {
+        let (o, d) = cam.ray(x, y);
+        assert!(nerf_infer::Ray::new(&llff.scene, o, d).is_some(), "({x},{y})");
+    }
+}

@@ -20,6 +20,7 @@ pub mod gemm;
 pub mod grid;
 pub mod metrics;
 pub mod mlp;
+pub mod path;
 pub mod plot;
 pub mod rng;
 pub mod train;

@@ -8,21 +8,23 @@ use super::{
 };
 use nerf_infer::{Camera, RenderOptions};
 use nerf_train::dataset::save_png_rgb;
+use nerf_train::dataset::Split;
 use nerf_train::eval::{render_view, PixelRays, Rendered};
 use nerf_train::export::orbit_camera;
+use nerf_train::path::{read_camera_path, smooth_trajectory, to_camera_path};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nerf render`.
 #[derive(clap::Args)]
-#[command(group(clap::ArgGroup::new("views").required(true).args(["data", "orbit"])))]
+#[command(group(clap::ArgGroup::new("views").required(true).args(["split", "orbit", "trajectory", "camera_path"])))]
 pub struct Args {
     /// Model file (.nerf).
     model: PathBuf,
-    /// Render the views of this dataset's split.
-    #[arg(long, requires = "split")]
+    /// The dataset whose views (`--split`) or trajectory (`--trajectory`) to render.
+    #[arg(long)]
     data: Option<PathBuf>,
-    /// Split whose views to render.
-    #[arg(long, value_enum)]
+    /// Render this split's views, each through its photo's lens.
+    #[arg(long, value_enum, requires = "data")]
     split: Option<SplitArg>,
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
@@ -35,10 +37,18 @@ pub struct Args {
     /// Downscale factor (default: the model's training downscale).
     #[arg(long, value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
-    /// Render N views on an orbit around the scene instead.
+    /// Render N views on an orbit around the scene (a small circle in front for forward-facing scenes).
     #[arg(long, value_parser = num_in(1usize, 10_000))]
     orbit: Option<usize>,
-    /// Orbit image side in pixels.
+    /// Render N views along the capture's own camera trajectory (its views in name order, smoothed), with the
+    /// field of view of its first camera.
+    #[arg(long, requires = "data", value_parser = num_in(1usize, 10_000))]
+    trajectory: Option<usize>,
+    /// Render the cameras of a nerfstudio camera_path.json (its rendered camera list; poses in the model's frame,
+    /// as the camera_path.json that --orbit and --trajectory write).
+    #[arg(long)]
+    camera_path: Option<PathBuf>,
+    /// Image width in pixels of --orbit (square), --trajectory and --camera-path frames.
     #[arg(long, default_value_t = 100, value_parser = num_in(1u32, 4096))]
     size: u32,
     /// Output directory.
@@ -82,22 +92,41 @@ pub fn run(a: Args) -> CmdResult {
         super::refuse_inside(&a.out, "--out", d)?;
     }
     create_dir(&a.out)?;
-    let cams: Vec<(String, Box<dyn PixelRays>)> = match (&a.data, a.split, a.orbit) {
-        (Some(dir), Some(split), _) => {
-            let ds = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
-            load_split(dir, split.into(), a.format, ds, a.llffhold, a.capture)?
-                .views
-                .into_iter()
-                .map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>))
+    let ds = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
+    let path: Option<Vec<Camera>> = match (&a.data, a.orbit, a.trajectory, &a.camera_path) {
+        (_, Some(n), _, _) => {
+            Some((0..n).map(|k| orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size)).collect())
+        }
+        (Some(dir), _, Some(n), _) => {
+            // every view: holdout 1 makes the whole capture the test split
+            let views = load_split(dir, Split::Test, a.format, ds, 1, a.capture)?.views;
+            let mut views: Vec<_> = views.into_iter().map(|v| (v.name, v.camera)).collect();
+            views.sort_by(|x, y| x.0.cmp(&y.0));
+            let cams: Vec<Camera> = views.into_iter().map(|v| v.1).collect();
+            Some(smooth_trajectory(&cams, n, a.size))
+        }
+        (_, _, _, Some(file)) => Some(read_camera_path(file, a.size)?),
+        _ => None,
+    };
+    let cams: Vec<(String, Box<dyn PixelRays>)> = match (&a.data, a.split, &path) {
+        (_, _, Some(path)) => {
+            // the path as nerfstudio's camera_path.json, to edit and render again with --camera-path
+            let json = to_camera_path(path, 12.5);
+            super::write_atomic(&a.out.join("camera_path.json"), json.to_string().as_bytes())?;
+            let stem = if a.orbit.is_some() { "orbit" } else { "frame" };
+            path.iter()
+                .enumerate()
+                .map(|(k, c)| (format!("{stem}_{k:03}"), Box::new(*c) as Box<dyn PixelRays>))
                 .collect()
         }
-        (_, _, Some(n)) => (0..n)
-            .map(|k| {
-                let cam: Camera = orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size);
-                (format!("orbit_{k:03}"), Box::new(cam) as Box<dyn PixelRays>)
-            })
+        (Some(dir), Some(split), _) => load_split(dir, split.into(), a.format, ds, a.llffhold, a.capture)?
+            .views
+            .into_iter()
+            .map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>))
             .collect(),
-        _ => return Err("give --data DIR --split S, or --orbit N".into()),
+        _ => {
+            return Err("give --data DIR --split S, --orbit N, --data DIR --trajectory N, or --camera-path FILE".into())
+        }
     };
     let opts = RenderOptions::from_model(&model);
     let (near, far) = (model.scene.near, model.scene.far);
@@ -117,8 +146,9 @@ pub fn run(a: Args) -> CmdResult {
         pb.inc(1);
     }
     pb.finish_and_clear();
-    if a.orbit.is_some() {
-        write_gif(&a.out.join("orbit.gif"), &frames)?;
+    if path.is_some() {
+        let gif = if a.orbit.is_some() { "orbit.gif" } else { "path.gif" };
+        write_gif(&a.out.join(gif), &frames)?;
     }
     eprintln!("wrote {} views to {}", cams.len(), a.out.display());
     Ok(())

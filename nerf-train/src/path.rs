@@ -1,0 +1,177 @@
+//! Camera paths for videos: the capture's own trajectory smoothed, and
+//! nerfstudio's `camera_path.json` (its rendered camera list), read and
+//! written, so a path made here can be edited elsewhere and rendered again.
+//!
+//! Poses are camera-to-world in the model's frame (OpenGL axes, as
+//! nerfstudio's), fields of view in degrees.
+
+use glam::{Mat3, Quat, Vec3};
+use nerf_infer::Camera;
+use std::path::Path;
+
+/// `n ≥ 1` cameras along the trajectory of `cams` (in capture order),
+/// smoothed: positions and orientations are Gaussian-weighted means over
+/// the capture (σ = a twentieth of its length, at least one camera), so a
+/// handheld capture's shake does not reach the video. Each camera has
+/// `cams[0]`'s field of view, with `width` pixels across and the height
+/// that keeps `cams[0]`'s aspect ratio. `cams` must not be empty.
+pub fn smooth_trajectory(cams: &[Camera], n: usize, width: u32) -> Vec<Camera> {
+    let m = cams.len();
+    let sigma = (m as f32 / 20.0).max(1.0);
+    let c0 = &cams[0];
+    let height = ((width as f32 * c0.height as f32 / c0.width as f32).round() as u32).max(1);
+    let (sx, sy) = (width as f32 / c0.width as f32, height as f32 / c0.height as f32);
+    let q0 = Quat::from_mat3(&c0.rotation);
+    (0..n)
+        .map(|k| {
+            let s = if n < 2 { 0.0 } else { k as f32 * (m - 1) as f32 / (n - 1) as f32 };
+            let (mut wsum, mut pos, mut q) = (0.0f32, Vec3::ZERO, Quat::from_xyzw(0.0, 0.0, 0.0, 0.0));
+            for (j, c) in cams.iter().enumerate() {
+                let w = (-0.5 * ((j as f32 - s) / sigma).powi(2)).exp();
+                let cq = Quat::from_mat3(&c.rotation);
+                // quaternions q and −q are one rotation: add them on one side
+                let cq = if cq.dot(q0) < 0.0 { -cq } else { cq };
+                wsum += w;
+                pos += w * c.position;
+                q += cq * w;
+            }
+            let r = Mat3::from_quat(q.normalize());
+            let c2w = rows(&r, pos / wsum);
+            Camera::new(width, height, c0.fx * sx, c0.fy * sy, c0.cx * sx, c0.cy * sy, c2w)
+                .expect("a normalised quaternion gives a rotation")
+        })
+        .collect()
+}
+
+fn rows(r: &Mat3, t: Vec3) -> [[f32; 4]; 3] {
+    [
+        [r.x_axis.x, r.y_axis.x, r.z_axis.x, t.x],
+        [r.x_axis.y, r.y_axis.y, r.z_axis.y, t.y],
+        [r.x_axis.z, r.y_axis.z, r.z_axis.z, t.z],
+    ]
+}
+
+/// `cams` as nerfstudio's `camera_path.json` (perspective cameras, their
+/// camera-to-world matrices row-major, vertical field of view in degrees),
+/// at `fps` frames per second.
+pub fn to_camera_path(cams: &[Camera], fps: f32) -> serde_json::Value {
+    let (w, h) = cams.first().map_or((1, 1), |c| (c.width, c.height));
+    let list: Vec<serde_json::Value> = cams
+        .iter()
+        .map(|c| {
+            let m = rows(&c.rotation, c.position);
+            let flat: Vec<f32> = m.iter().flatten().copied().chain([0.0, 0.0, 0.0, 1.0]).collect();
+            let fov = 2.0 * (0.5 * c.height as f32 / c.fy).atan().to_degrees();
+            serde_json::json!({ "camera_to_world": flat, "fov": fov, "aspect": c.width as f32 / c.height as f32 })
+        })
+        .collect();
+    serde_json::json!({
+        "camera_type": "perspective",
+        "render_width": w,
+        "render_height": h,
+        "fps": fps,
+        "seconds": cams.len() as f32 / fps,
+        "camera_path": list,
+    })
+}
+
+/// The cameras of a nerfstudio `camera_path.json` at `path` (its rendered
+/// list `camera_path`: `camera_to_world` as 16 or 12 numbers row-major,
+/// `fov` the vertical field of view in degrees, `aspect` width/height),
+/// `width` pixels across (the height from each camera's aspect ratio).
+/// Errors name the file and the camera.
+pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> {
+    let bad = |m: String| format!("{}: {m}", path.display());
+    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("malformed JSON: {e}")))?;
+    if let Some(t) = v.get("camera_type").and_then(|t| t.as_str()).filter(|t| *t != "perspective") {
+        return Err(bad(format!("camera_type {t} is not supported (perspective is)")));
+    }
+    let list = v
+        .get("camera_path")
+        .and_then(|l| l.as_array())
+        .ok_or_else(|| bad("no camera_path list (keyframes alone are not read: export the rendered path)".into()))?;
+    if list.is_empty() || list.len() > 100_000 {
+        return Err(bad(format!("camera_path holds {} cameras (1 to 100000 are rendered)", list.len())));
+    }
+    let default_aspect = match (v.get("render_width"), v.get("render_height")) {
+        (Some(w), Some(h)) => w.as_f64().zip(h.as_f64()).map(|(w, h)| w / h),
+        _ => None,
+    };
+    list.iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let m: Vec<f64> = c
+                .get("camera_to_world")
+                .and_then(|m| serde_json::from_value(m.clone()).ok())
+                .ok_or_else(|| bad(format!("camera {i}: camera_to_world missing or not a list of numbers")))?;
+            if m.len() != 16 && m.len() != 12 {
+                return Err(bad(format!("camera {i}: camera_to_world has {} numbers (16 or 12)", m.len())));
+            }
+            let fov = c.get("fov").and_then(|f| f.as_f64()).unwrap_or(50.0);
+            let aspect = c.get("aspect").and_then(|a| a.as_f64()).or(default_aspect).unwrap_or(1.0);
+            let ok = (1.0..179.0).contains(&fov) && aspect.is_finite() && (0.01..100.0).contains(&aspect);
+            if !ok {
+                return Err(bad(format!("camera {i}: fov {fov}° or aspect {aspect} out of range")));
+            }
+            let height = ((width as f64 / aspect).round() as u32).clamp(1, 16_384);
+            let f = 0.5 * height as f64 / (0.5 * fov.to_radians()).tan();
+            let mut c2w = [[0f32; 4]; 3];
+            for (r, row) in c2w.iter_mut().enumerate() {
+                for (k, v) in row.iter_mut().enumerate() {
+                    *v = m[r * 4 + k] as f32;
+                }
+            }
+            let (w, h) = (width as f32, height as f32);
+            Camera::new(width, height, f as f32, f as f32, w / 2.0, h / 2.0, c2w)
+                .map_err(|_| bad(format!("camera {i}: not finite, or the rotation is not rigid")))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam(x: f32, yaw: f32) -> Camera {
+        let r = Mat3::from_rotation_z(yaw);
+        Camera::new(40, 30, 35.0, 35.0, 20.0, 15.0, rows(&r, Vec3::new(x, 0.0, 0.0))).unwrap()
+    }
+
+    #[test]
+    fn smoothing_removes_shake_and_keeps_the_path() {
+        // a straight walk with alternating sideways shake and a steady turn
+        let cams: Vec<Camera> =
+            (0..40).map(|i| cam(i as f32 + if i % 2 == 0 { 0.3 } else { -0.3 }, 0.02 * i as f32)).collect();
+        let out = smooth_trajectory(&cams, 20, 80);
+        assert_eq!((out[0].width, out[0].height), (80, 60));
+        assert!((out[0].fx - 70.0).abs() < 1e-4);
+        for w in out.windows(2) {
+            assert!(w[1].position.x > w[0].position.x, "the walk goes forward");
+        }
+        // frame 10 of 20 sits at capture index s = 10 · 39 / 19; the ±0.3 shake averages out
+        let (mid, s) = (&out[10], 10.0 * 39.0 / 19.0);
+        assert!(mid.position.y.abs() < 1e-4 && (mid.position.x - s).abs() < 0.05, "{}", mid.position);
+        let yaw = mid.rotation.x_axis.y.atan2(mid.rotation.x_axis.x);
+        assert!((yaw - 0.02 * s).abs() < 0.005, "{yaw}");
+    }
+
+    #[test]
+    fn camera_path_round_trips_through_nerfstudios_format() {
+        let cams: Vec<Camera> = (0..5).map(|i| cam(i as f32, 0.3 * i as f32)).collect();
+        let d = std::env::temp_dir().join(format!("nerf-camera-path-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let p = d.join("camera_path.json");
+        std::fs::write(&p, to_camera_path(&cams, 24.0).to_string()).unwrap();
+        let back = read_camera_path(&p, 40).unwrap();
+        for (a, b) in cams.iter().zip(&back) {
+            assert_eq!((a.width, a.height), (b.width, b.height));
+            assert!((a.fy - b.fy).abs() < 1e-3 && (a.position - b.position).length() < 1e-6);
+            assert!((a.rotation.x_axis - b.rotation.x_axis).length() < 1e-6);
+        }
+        std::fs::write(&p, r#"{"camera_path": [{"camera_to_world": [1, 0, 0]}]}"#).unwrap();
+        let e = read_camera_path(&p, 40).unwrap_err();
+        assert!(e.contains("camera_path.json") && e.contains("camera 0") && e.contains("3 numbers"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
+    }
+}
