@@ -36,7 +36,7 @@ PY
   tail -1 "$csv" >&2
 }
 run bird auto
-run bird unbounded --scene unbounded
+run bird object --scene object
 run fox auto
-run fox unbounded --scene unbounded
+run fox object --scene object
 run fox no-distortion --ignore-distortion

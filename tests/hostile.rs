@@ -184,3 +184,27 @@ fn a_closed_pipe_ends_commands_quietly() {
     assert!(!e.contains("panicked"), "{e}");
     assert!(o.status.success(), "{e}");
 }
+
+#[test]
+fn a_damaged_checkpoint_is_refused_and_left_in_place() {
+    let d = tmp("hostile-checkpoint");
+    let data = blender_scene(&d, 16, 4);
+    let run = d.join("run");
+    ok(&["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"]);
+    let ckpt = run.join("checkpoint.bin");
+    let good = std::fs::read(&ckpt).unwrap();
+    assert_eq!(&good[..8], b"NERFCKPT");
+    let resume = ["train", "--data", s(&data), "--iters", "4", "--out", s(&run), "--val-views", "0", "--resume"];
+    // a flipped bit in the payload (the CRC-32), a cut file (the length), another version
+    let mut flipped = good.clone();
+    flipped[good.len() / 2] ^= 1;
+    let mut version = good.clone();
+    version[8] = 9;
+    for bad in [flipped, good[..good.len() - 3].to_vec(), version] {
+        std::fs::write(&ckpt, &bad).unwrap();
+        fails_naming(&resume, &["checkpoint.bin", "not a valid checkpoint"]);
+        assert_eq!(std::fs::read(&ckpt).unwrap(), bad, "the damaged file is kept for the user");
+    }
+    std::fs::write(&ckpt, &good).unwrap();
+    ok(&resume);
+}

@@ -392,6 +392,12 @@ fn quantise_network(
         let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i, act_bits, grid_frac);
         let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
         debug_assert_eq!(cols.len(), din);
+        if let Some(bad) = cols.iter().chain(&[target]).find(|v| !v.is_finite() || **v <= 0.0) {
+            return Err(format!(
+                "layer {i}: activation range is not finite or not positive (scale {bad}): the model's calibration \
+                 saw non-finite activations; retrain or export at 32 bits"
+            ));
+        }
         let qmax = if eight_bit.contains(&i) { 127.0 } else { qmax };
         let mut q = vec![0i32; din * dout];
         let (mut bias, mut scales, mut requant) = (Vec::new(), Vec::new(), Vec::new());

@@ -39,6 +39,11 @@ pub struct StepStats {
     pub skipped: bool,
 }
 
+/// The first bytes of a checkpoint file.
+pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
+/// The checkpoint format [`Trainer::to_bytes`] writes and reads.
+pub const CHECKPOINT_VERSION: u16 = 1;
+
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Trainer {
@@ -500,14 +505,33 @@ impl Trainer {
         }
     }
 
-    /// Serialises the run (postcard) for a checkpoint.
+    /// Serialises the run for a checkpoint: [`CHECKPOINT_MAGIC`], the
+    /// format version (u16 LE), the payload's length (u64 LE) and CRC-32
+    /// (u32 LE), then the payload (postcard).
     pub fn to_bytes(&self) -> Vec<u8> {
-        postcard::to_stdvec(self).expect("trainer state serialises")
+        let payload = postcard::to_stdvec(self).expect("trainer state serialises");
+        let mut out = Vec::with_capacity(payload.len() + 22);
+        out.extend_from_slice(CHECKPOINT_MAGIC);
+        out.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&nerf_infer::format::crc32(&payload).to_le_bytes());
+        out.extend_from_slice(&payload);
+        out
     }
 
-    /// Restores a run from [`Trainer::to_bytes`].
+    /// Restores a run from [`Trainer::to_bytes`]; `None` if the header,
+    /// length or checksum do not match (a damaged or foreign file) or the
+    /// state is inconsistent (parameters that its configuration does not lay out).
     pub fn from_bytes(b: &[u8]) -> Option<Self> {
-        let t: Self = postcard::from_bytes(b).ok()?;
+        let (head, payload) = b.split_at_checked(22)?;
+        let version = u16::from_le_bytes([head[8], head[9]]);
+        let len = u64::from_le_bytes(head[10..18].try_into().ok()?);
+        let crc = u32::from_le_bytes(head[18..22].try_into().ok()?);
+        let whole = &head[..8] == CHECKPOINT_MAGIC && version == CHECKPOINT_VERSION && len == payload.len() as u64;
+        if !whole || nerf_infer::format::crc32(payload) != crc {
+            return None;
+        }
+        let t: Self = postcard::from_bytes(payload).ok()?;
         let grid_ok = match &t.grid {
             None => t.cfg.grid_res == 0,
             Some(g) => g.res == t.cfg.grid_res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),

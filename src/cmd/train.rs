@@ -333,7 +333,10 @@ fn train(a: Args) -> CmdResult {
         tr.step,
         tr.elapsed,
         a.out.join("model.nerf").display(),
-        val_psnr.map(|v| format!("; validation PSNR {v:.2} dB on {} views", a.val_views)).unwrap_or_default()
+        val_psnr
+            .zip(val.as_ref())
+            .map(|(v, d)| format!("; validation PSNR {v:.2} dB on {} views", a.val_views.min(d.views.len())))
+            .unwrap_or_default()
     );
     Ok(())
 }

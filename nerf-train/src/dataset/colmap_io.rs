@@ -299,8 +299,12 @@ fn check_image(path: &Path, im: &ColmapImage, seen: &mut HashSet<u32>) -> Result
 
 /// Reads `cameras.bin`.
 pub fn read_cameras_bin(path: &Path) -> Result<Vec<ColmapCamera>, ParseError> {
-    let bytes = read_file(path)?;
-    let mut r = Bin { path, b: &bytes, at: 0 };
+    parse_cameras_bin(path, &read_file(path)?)
+}
+
+/// [`read_cameras_bin`] on the file's bytes (`path` names it in errors).
+pub fn parse_cameras_bin(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapCamera>, ParseError> {
+    let mut r = Bin { path, b: bytes, at: 0 };
     let n = r.count(24, "camera count")?;
     let mut out = Vec::with_capacity(n);
     let mut seen = HashSet::new();
@@ -324,8 +328,12 @@ pub fn read_cameras_bin(path: &Path) -> Result<Vec<ColmapCamera>, ParseError> {
 
 /// Reads `images.bin` (2-D points skipped).
 pub fn read_images_bin(path: &Path) -> Result<Vec<ColmapImage>, ParseError> {
-    let bytes = read_file(path)?;
-    let mut r = Bin { path, b: &bytes, at: 0 };
+    parse_images_bin(path, &read_file(path)?)
+}
+
+/// [`read_images_bin`] on the file's bytes (`path` names it in errors).
+pub fn parse_images_bin(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapImage>, ParseError> {
+    let mut r = Bin { path, b: bytes, at: 0 };
     let n = r.count(73, "image count")?;
     let mut out = Vec::with_capacity(n);
     let mut seen = HashSet::new();
@@ -352,8 +360,12 @@ pub fn read_images_bin(path: &Path) -> Result<Vec<ColmapImage>, ParseError> {
 
 /// Reads `points3D.bin`.
 pub fn read_points_bin(path: &Path) -> Result<Vec<ColmapPoint>, ParseError> {
-    let bytes = read_file(path)?;
-    let mut r = Bin { path, b: &bytes, at: 0 };
+    parse_points_bin(path, &read_file(path)?)
+}
+
+/// [`read_points_bin`] on the file's bytes (`path` names it in errors).
+pub fn parse_points_bin(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapPoint>, ParseError> {
+    let mut r = Bin { path, b: bytes, at: 0 };
     let n = r.count(51, "point count")?;
     let mut out = Vec::with_capacity(n);
     for _ in 0..n {
@@ -371,9 +383,8 @@ pub fn read_points_bin(path: &Path) -> Result<Vec<ColmapPoint>, ParseError> {
 }
 
 /// The non-comment, non-blank lines of a text model with their line numbers.
-fn text_lines(path: &Path) -> Result<Vec<(usize, String)>, ParseError> {
-    let bytes = read_file(path)?;
-    let text = String::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
+fn text_lines(path: &Path, bytes: &[u8]) -> Result<Vec<(usize, String)>, ParseError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
     Ok(text.lines().enumerate().map(|(i, l)| (i + 1, l.to_string())).filter(|(_, l)| !l.starts_with('#')).collect())
 }
 
@@ -392,9 +403,14 @@ fn finite_field(path: &Path, line: usize, tok: Option<&str>, what: &str) -> Resu
 
 /// Reads `cameras.txt`.
 pub fn read_cameras_txt(path: &Path) -> Result<Vec<ColmapCamera>, ParseError> {
+    parse_cameras_txt(path, &read_file(path)?)
+}
+
+/// [`read_cameras_txt`] on the file's bytes (`path` names it in errors).
+pub fn parse_cameras_txt(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapCamera>, ParseError> {
     let mut out = Vec::new();
     let mut seen = HashSet::new();
-    for (ln, l) in text_lines(path)? {
+    for (ln, l) in text_lines(path, bytes)? {
         let mut t = l.split_whitespace();
         let Some(first) = t.next() else { continue };
         let id: u32 = field(path, ln, Some(first), "camera id")?;
@@ -420,8 +436,12 @@ pub fn read_cameras_txt(path: &Path) -> Result<Vec<ColmapCamera>, ParseError> {
 /// Reads `images.txt`: per image a pose line, then a line of 2-D points
 /// (possibly empty, or missing after the last image).
 pub fn read_images_txt(path: &Path) -> Result<Vec<ColmapImage>, ParseError> {
-    let bytes = read_file(path)?;
-    let text = String::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
+    parse_images_txt(path, &read_file(path)?)
+}
+
+/// [`read_images_txt`] on the file's bytes (`path` names it in errors).
+pub fn parse_images_txt(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapImage>, ParseError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.starts_with('#'));
     let mut out = Vec::new();
     let mut seen = HashSet::new();
@@ -457,8 +477,13 @@ pub fn read_images_txt(path: &Path) -> Result<Vec<ColmapImage>, ParseError> {
 
 /// Reads `points3D.txt`.
 pub fn read_points_txt(path: &Path) -> Result<Vec<ColmapPoint>, ParseError> {
+    parse_points_txt(path, &read_file(path)?)
+}
+
+/// [`read_points_txt`] on the file's bytes (`path` names it in errors).
+pub fn parse_points_txt(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapPoint>, ParseError> {
     let mut out = Vec::new();
-    for (ln, l) in text_lines(path)? {
+    for (ln, l) in text_lines(path, bytes)? {
         let mut t = l.split_whitespace();
         let Some(first) = t.next() else { continue };
         let _id: u64 = field(path, ln, Some(first), "point id")?;

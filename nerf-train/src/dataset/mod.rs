@@ -19,7 +19,7 @@ pub use fit::SceneKind;
 pub use image_io::{load_rgb, save_png_rgb};
 pub use lens::Lens;
 pub use llff::load_llff;
-pub use npy::{read_npy_f64, write_npy_f64};
+pub use npy::{parse_npy_f64, read_npy_f64, write_npy_f64};
 
 use nerf_infer::camera::Camera;
 use nerf_infer::format::Scene;

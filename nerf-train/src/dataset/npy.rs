@@ -6,6 +6,11 @@ use std::path::Path;
 /// Reads a C-order 2-D `<f8` or `<f4` array; returns (rows, cols, values).
 pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> {
     let bytes = std::fs::read(path).map_err(|e| DataError::new(path, format!("cannot read: {e}")))?;
+    parse_npy_f64(path, &bytes)
+}
+
+/// [`read_npy_f64`] on the file's bytes (`path` names it in errors).
+pub fn parse_npy_f64(path: &Path, bytes: &[u8]) -> Result<(usize, usize, Vec<f64>), DataError> {
     let bad = |m: &str| DataError::new(path, format!("malformed NPY: {m}"));
     if bytes.len() < 10 || &bytes[..6] != b"\x93NUMPY" {
         return Err(bad("missing magic"));
@@ -45,9 +50,9 @@ pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> 
         _ => return Err(bad("expected a 2-D array")),
     };
     let data = &bytes[start + hlen..];
-    let n = rows.checked_mul(cols).ok_or_else(|| bad("shape overflows"))?;
-    if data.len() != n * descr {
-        return Err(bad(&format!("expected {} data bytes, found {}", n * descr, data.len())));
+    let need = rows.checked_mul(cols).and_then(|n| n.checked_mul(descr)).ok_or_else(|| bad("shape overflows"))?;
+    if data.len() != need {
+        return Err(bad(&format!("expected {need} data bytes, found {}", data.len())));
     }
     let vals = if descr == 8 {
         data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect()
