@@ -270,6 +270,10 @@ fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
         let f = format!("frame_{k:03}.png");
         assert_eq!(std::fs::read(a.join(&f)).unwrap(), std::fs::read(b.join(&f)).unwrap(), "{f}");
     }
+    // views loaded in another frame than the model's are refused
+    let o = nerf(&["eval", s(&model), "--data", s(&data), "--split", "val", "--scene", "forward"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("forward-facing") && e.contains("--scene"), "{e}");
     let depth = image::open(a.join("frame_000_depth.png")).unwrap();
     assert_eq!(depth.color(), image::ColorType::L16);
     // a forward-facing model's orbit is a circle in front of the capture: every ray meets the scene

@@ -74,6 +74,7 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
     let model = decode(&a.model, &bytes)?;
     let downscale = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
     let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold, a.capture)?;
+    super::same_frame(&data, &model, &a.model)?;
     let mut opts = RenderOptions::from_model(&model);
     opts.coarse = a.coarse.unwrap_or(opts.coarse);
     opts.fine = a.fine.unwrap_or(opts.fine);

@@ -151,6 +151,23 @@ pub fn load_split(
     Ok(data)
 }
 
+/// Refuses views loaded in another frame than the model's: a capture
+/// loaded forward-facing (NDC) for a model trained looking inward, or the
+/// other way round (`--scene` differs from the training run's).
+pub fn same_frame(data: &Dataset, model: &nerf_infer::Model<'_>, model_path: &Path) -> CmdResult {
+    let (d, m) = (data.scene.ndc.is_some(), model.scene.ndc.is_some());
+    if d != m {
+        let kind = |ndc: bool| if ndc { "forward-facing (NDC)" } else { "inward-looking" };
+        return Err(format!(
+            "{}: the model is {} but the dataset loads as {}; give the --scene the model was trained with",
+            model_path.display(),
+            kind(m),
+            kind(d)
+        ));
+    }
+    Ok(())
+}
+
 /// Reads a model file into memory.
 pub fn read_model(path: &Path) -> Result<Vec<u8>, String> {
     std::fs::read(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))

@@ -99,7 +99,9 @@ pub fn run(a: Args) -> CmdResult {
         }
         (Some(dir), _, Some(n), _) => {
             // every view: holdout 1 makes the whole capture the test split
-            let views = load_split(dir, Split::Test, a.format, ds, 1, a.capture)?.views;
+            let data = load_split(dir, Split::Test, a.format, ds, 1, a.capture)?;
+            super::same_frame(&data, &model, &a.model)?;
+            let views = data.views;
             let mut views: Vec<_> = views.into_iter().map(|v| (v.name, v.camera)).collect();
             views.sort_by(|x, y| x.0.cmp(&y.0));
             let cams: Vec<Camera> = views.into_iter().map(|v| v.1).collect();
@@ -119,11 +121,11 @@ pub fn run(a: Args) -> CmdResult {
                 .map(|(k, c)| (format!("{stem}_{k:03}"), Box::new(*c) as Box<dyn PixelRays>))
                 .collect()
         }
-        (Some(dir), Some(split), _) => load_split(dir, split.into(), a.format, ds, a.llffhold, a.capture)?
-            .views
-            .into_iter()
-            .map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>))
-            .collect(),
+        (Some(dir), Some(split), _) => {
+            let data = load_split(dir, split.into(), a.format, ds, a.llffhold, a.capture)?;
+            super::same_frame(&data, &model, &a.model)?;
+            data.views.into_iter().map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>)).collect()
+        }
         _ => {
             return Err("give --data DIR --split S, --orbit N, --data DIR --trajectory N, or --camera-path FILE".into())
         }

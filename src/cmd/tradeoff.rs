@@ -107,6 +107,7 @@ fn sweep(m: &Model<'_>) -> Vec<Knobs> {
 
 /// Runs `nerf tradeoff`.
 pub fn run(a: Args) -> CmdResult {
+    super::refuse_inside(&a.out, "--out", &a.data)?;
     let bytes = read_model(&a.model)?;
     let mf = decode(&a.model, &bytes)?;
     if mf.scheme() != Scheme::F32 {
@@ -119,8 +120,8 @@ pub fn run(a: Args) -> CmdResult {
     let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
     let downscale = a.downscale.unwrap_or(mf.meta.train_downscale.max(1) as u32);
     let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold, a.capture)?;
+    super::same_frame(&data, &mf, &a.model)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
-    super::refuse_inside(&a.out, "--out", &a.data)?;
     create_dir(&a.out)?;
     let knobs = sweep(&mf);
     // Repetitions are interleaved (every point once, then again), so drift
