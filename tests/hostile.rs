@@ -97,6 +97,12 @@ fn outputs_never_replace_inputs_or_special_files() {
     let bytes = std::fs::read(&f32_model).unwrap();
     fails_naming(&["export", s(&f32_model), "--bits", "8", "--out", s(&f32_model)], &["--out", "is the input file"]);
     assert_eq!(std::fs::read(&f32_model).unwrap(), bytes);
+    // an existing file that is not a model (a photo) is not replaced
+    let photo = d.join("photo.png");
+    std::fs::copy(data.join("train/r_0.png"), &photo).unwrap();
+    let png = std::fs::read(&photo).unwrap();
+    fails_naming(&["export", s(&f32_model), "--bits", "8", "--out", s(&photo)], &["photo.png", "not a model file"]);
+    assert_eq!(std::fs::read(&photo).unwrap(), png);
     // a symbolic link and a FIFO at the output path are refused, their targets untouched
     let target = d.join("target.nerf");
     std::fs::write(&target, b"keep").unwrap();

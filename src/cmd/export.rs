@@ -39,6 +39,21 @@ pub struct Args {
     out: PathBuf,
 }
 
+/// An existing `--out` is replaced only if it is a model file (starts with
+/// the `NERF` magic): a photo or any other file of the user's is kept.
+fn refuse_foreign_file(out: &std::path::Path) -> CmdResult {
+    use std::io::Read;
+    // only a regular file is opened (a FIFO would block); the atomic write refuses the rest
+    let regular = std::fs::symlink_metadata(out).is_ok_and(|m| m.is_file());
+    if let Some(mut f) = regular.then(|| std::fs::File::open(out).ok()).flatten() {
+        let mut magic = [0u8; 4];
+        if !(f.read_exact(&mut magic).is_ok() && &magic == b"NERF") {
+            return Err(format!("--out {}: exists and is not a model file; refusing to replace it", out.display()));
+        }
+    }
+    Ok(())
+}
+
 /// Runs `nerf export`.
 pub fn run(a: Args) -> CmdResult {
     if a.act_bits == "8" && a.bits != "8" {
@@ -48,6 +63,7 @@ pub fn run(a: Args) -> CmdResult {
         return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
     }
     super::refuse_same_file(&a.out, "--out", &a.model)?;
+    refuse_foreign_file(&a.out)?;
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let mut owned = match a.bits.as_str() {

@@ -1,0 +1,277 @@
+#!/usr/bin/env python3
+"""A hostile pass over the `nerf` command: every numeric flag of every
+subcommand with out-of-range and malformed values, broken model files,
+broken datasets (Blender, instant-ngp, LLFF, COLMAP) and outputs aimed at
+inputs or special files. Each case must end within 60 s, without a panic,
+with exit status 0 or a single `error:` line, the last on stderr (progress
+and warnings before it allowed), and must leave the inputs it was given
+unchanged.
+
+    scripts/hostile_pass.py [--markdown]
+
+Prints one row per class: cases tried, cases handled; lists the cases that
+were not handled. Builds the release binary first.
+"""
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BIN = os.path.join(ROOT, "target", "release", "nerf")
+MODEL = os.path.join(ROOT, "models", "scene.nerf")
+
+
+def tree_digest(path):
+    """Digest of every file under `path` (or of the file), to detect changes."""
+    h = hashlib.sha256()
+    if os.path.isfile(path):
+        h.update(open(path, "rb").read())
+        return h.hexdigest()
+    for d, _, files in sorted(os.walk(path)):
+        for f in sorted(files):
+            p = os.path.join(d, f)
+            h.update(p.encode())
+            if os.path.isfile(p):
+                h.update(open(p, "rb").read())
+    return h.hexdigest()
+
+
+def run_case(args, guard):
+    """Runs `nerf args`; returns None if handled, else the reason."""
+    before = {g: tree_digest(g) for g in guard}
+    start = time.time()
+    try:
+        p = subprocess.run([BIN] + args, capture_output=True, timeout=60, stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired:
+        return "hang (over 60 s)"
+    took = time.time() - start
+    err = p.stderr.decode(errors="replace")
+    if "panicked" in err or p.returncode < 0:
+        return f"panic or signal (status {p.returncode}): {err.strip()[:200]}"
+    for g in guard:
+        if tree_digest(g) != before[g]:
+            return f"changed an input: {g}"
+    if p.returncode != 0:
+        # progress and warnings may come first; the failure is one last line
+        lines = err.strip().splitlines()
+        errors = [l for l in lines if l.startswith("error:")]
+        if len(errors) != 1 or lines[-1] != errors[0]:
+            return f"not one error line: {err.strip()[:300]}"
+    return None if took < 60 else "slow"
+
+
+def main():
+    subprocess.run(["cargo", "build", "--release", "--quiet"], cwd=ROOT, check=True)
+    work = tempfile.mkdtemp(prefix="nerf-hostile-")
+    try:
+        cases = build_cases(work)
+        results = {}
+        failures = []
+        for cls, args, guard in cases:
+            why = run_case(args, guard)
+            tried, ok = results.get(cls, (0, 0))
+            results[cls] = (tried + 1, ok + (why is None))
+            if why is not None:
+                failures.append((cls, args, why))
+        md = "--markdown" in sys.argv
+        if md:
+            print("| class | tried | handled |\n|---|---:|---:|")
+        for cls, (tried, ok) in results.items():
+            print(f"| {cls} | {tried} | {ok} |" if md else f"{cls:<40} {tried:>5} {ok:>5}")
+        total = sum(t for t, _ in results.values())
+        handled = sum(o for _, o in results.values())
+        print(f"| all | {total} | {handled} |" if md else f"{'all':<40} {total:>5} {handled:>5}")
+        for cls, args, why in failures:
+            print(f"NOT HANDLED [{cls}] nerf {' '.join(args)}: {why}", file=sys.stderr)
+        return 1 if failures else 0
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def build_cases(work):
+    scene = os.path.join(work, "scene")
+    subprocess.run([BIN, "scene", "--out", scene, "--size", "16", "--train", "4"], check=True, capture_output=True)
+    blender = os.path.join(scene, "blender")
+    nodata = os.path.join(work, "nodata")
+    out = os.path.join(work, "out")
+    cases = []
+
+    # 1. every numeric flag with hostile values; the anchor makes valid values fail fast (missing data/model)
+    values = ["-1", "0", "NaN", "inf", "-inf", "1e309", "99999999999999999999", "", "abc", "0x10", "1.5", "1e-9"]
+    flags = {
+        ("train", "--data", nodata, "--out", out, "--iters", "5"): [
+            "--minutes", "--downscale", "--llffhold", "--seed", "--threads", "--checkpoint-secs", "--val-secs",
+            "--val-views", "--log-every"],
+        ("train", "--data", nodata, "--out", out, "--minutes", "1"): ["--iters"],
+        ("eval", MODEL, "--data", nodata, "--split", "val"): [
+            "--downscale", "--llffhold", "--threads", "--coarse", "--fine", "--early-stop", "--repeat"],
+        ("render", MODEL, "--data", nodata, "--split", "val", "--out", out): [
+            "--downscale", "--llffhold", "--size", "--threads"],
+        ("render", MODEL, "--camera-path", nodata, "--out", out): ["--orbit", "--trajectory"],
+        ("export", nodata, "--out", out): ["--bits", "--act-bits", "--grid-res", "--coarse", "--int8-layers"],
+        ("tradeoff", MODEL, "--data", nodata, "--out", out): ["--downscale", "--llffhold", "--views", "--repeats"],
+        ("fit", "--data", nodata, "--out", out, "--target-psnr", "20"): [
+            "--downscale", "--minutes", "--early-stop", "--seed", "--threads", "--bits"],
+        ("fit", "--data", nodata, "--out", out): ["--target-psnr"],
+        ("scene", "--out", "/proc/nerf-hostile"): ["--size", "--train"],
+        ("demo", "--out", "/proc/nerf-hostile"): ["--minutes"],
+    }
+    for anchor, fl in flags.items():
+        for f in fl:
+            for v in values:
+                cases.append(("numbers out of range or malformed", list(anchor) + [f, v], [blender, MODEL]))
+
+    # 2. broken model files, for every command that reads one
+    models = os.path.join(work, "models")
+    os.makedirs(models)
+    good = open(MODEL, "rb").read()
+    variants = {
+        "empty.nerf": b"",
+        "half.nerf": good[: len(good) // 2],
+        "flip.nerf": good[:500] + bytes([good[500] ^ 8]) + good[501:],
+        "random.nerf": os.urandom(4096),
+        "header-only.nerf": good[:14],
+        "png.nerf": open(os.path.join(blender, "train", "r_0.png"), "rb").read(),
+    }
+    for name, data in variants.items():
+        open(os.path.join(models, name), "wb").write(data)
+    bad_models = [os.path.join(models, n) for n in variants] + [models, "/dev/null", os.path.join(models, "missing.nerf")]
+    loop = os.path.join(models, "loop.nerf")
+    os.symlink(loop, loop)
+    bad_models.append(loop)
+    for m in bad_models:
+        for args in (["info", m], ["info", m, "--json"], ["export", m, "--bits", "8", "--out", out + ".nerf"],
+                     ["eval", m, "--data", blender, "--split", "val"],
+                     ["render", m, "--orbit", "2", "--size", "8", "--out", out],
+                     ["tradeoff", m, "--data", blender, "--out", out]):
+            cases.append(("broken or missing model files", args, [blender]))
+
+    # 3. broken datasets, through train (1 step) and eval
+    import json
+    datasets = os.path.join(work, "datasets")
+    os.makedirs(datasets)
+    base = json.load(open(os.path.join(blender, "transforms_train.json")))
+
+    def blender_variant(name, mutate):
+        d = os.path.join(datasets, name)
+        shutil.copytree(blender, d)
+        t = json.loads(json.dumps(base))
+        mutate(t, d)
+        open(os.path.join(d, "transforms_train.json"), "w").write(json.dumps(t) if not isinstance(t, str) else t)
+        return d
+
+    def set_(path, value):
+        def f(t, d):
+            cur = t
+            for k in path[:-1]:
+                cur = cur[k]
+            cur[path[-1]] = value
+        return f
+
+    muts = {
+        "no-frames": set_(["frames"], []),
+        "huge-translation": set_(["frames", 0, "transform_matrix", 0, 3], 1e308),
+        "3x3-pose": set_(["frames", 0, "transform_matrix"], [[1, 0, 0], [0, 1, 0], [0, 0, 1]]),
+        "scaled-pose": set_(["frames", 0, "transform_matrix", 0, 0], 2.0),
+        "no-fov": lambda t, d: t.pop("camera_angle_x"),
+        "zero-fov": set_(["camera_angle_x"], 0.0),
+        "huge-fov": set_(["camera_angle_x"], 1e30),
+        "negative-fov": set_(["camera_angle_x"], -1.0),
+        "bad-near-far": set_(["near"], 9.0),
+        "inverted-aabb": set_(["aabb"], [[1, 1, 1], [-1, -1, -1]]),
+        "far-aabb": set_(["aabb"], [[100, 100, 100], [101, 101, 101]]),
+        "missing-image": set_(["frames", 0, "file_path"], "./train/nothing"),
+        "path-escape": set_(["frames", 0, "file_path"], "/etc/passwd"),
+        "string-matrix": set_(["frames", 0, "transform_matrix"], "identity"),
+        "fl-negative": lambda t, d: t.update({"fl_x": -5.0}),
+    }
+    broken = [blender_variant(n, m) for n, m in muts.items()]
+    d = os.path.join(datasets, "truncated-json")
+    shutil.copytree(blender, d)
+    open(os.path.join(d, "transforms_train.json"), "w").write('{"camera_angle_x": 0.7, "frames": [')
+    broken.append(d)
+    d = os.path.join(datasets, "empty-image")
+    shutil.copytree(blender, d)
+    open(os.path.join(d, "train", "r_0.png"), "wb").write(b"")
+    broken.append(d)
+    d = os.path.join(datasets, "text-image")
+    shutil.copytree(blender, d)
+    open(os.path.join(d, "train", "r_1.png"), "w").write("not an image")
+    broken.append(d)
+    # COLMAP variants
+    for name, edit in {
+        "colmap-cut-cameras": lambda d: open(os.path.join(d, "sparse/0/cameras.bin"), "r+b").truncate(10),
+        "colmap-cut-images": lambda d: open(os.path.join(d, "sparse/0/images.bin"), "r+b").truncate(100),
+        "colmap-cut-points": lambda d: open(os.path.join(d, "sparse/0/points3D.bin"), "r+b").truncate(50),
+        "colmap-no-images": lambda d: shutil.rmtree(os.path.join(d, "images")),
+        "colmap-no-cameras": lambda d: os.remove(os.path.join(d, "sparse/0/cameras.bin")),
+        "colmap-huge-count": lambda d: open(os.path.join(d, "sparse/0/points3D.bin"), "r+b").write(b"\xff" * 8),
+    }.items():
+        d = os.path.join(datasets, name)
+        shutil.copytree(os.path.join(scene, "colmap"), d)
+        edit(d)
+        broken.append(d)
+    for name, text in {
+        "colmap-txt-fov-model": "1 FOV 16 16 10 10 8 8 0.5\n",
+        "colmap-txt-nan": "1 PINHOLE 16 16 nan 10 8 8\n",
+        "colmap-txt-garbage": "\x00\x01\x02 garbage\n",
+        "colmap-txt-few-params": "1 OPENCV 16 16 10 10\n",
+    }.items():
+        d = os.path.join(datasets, name)
+        shutil.copytree(os.path.join(scene, "colmap_text"), d)
+        open(os.path.join(d, "sparse/0/cameras.txt"), "w").write(text)
+        broken.append(d)
+    # LLFF variants
+    for name, data in {"llff-empty-npy": b"", "llff-bad-npy": b"\x93NUMPY\x01\x00\xff\xff{",
+                       "llff-huge-shape": b"\x93NUMPY\x01\x00\x46\x00{'descr': '<f8', 'fortran_order': False, 'shape': (99999999999, 99999999999), }"}.items():
+        d = os.path.join(datasets, name)
+        shutil.copytree(os.path.join(scene, "llff"), d)
+        open(os.path.join(d, "poses_bounds.npy"), "wb").write(data)
+        broken.append(d)
+    broken += [nodata, work + "/scene/blender/train/r_0.png", "/dev/null", "/proc/self"]
+    for d in broken:
+        guard = [d] if os.path.exists(d) and d not in ("/dev/null", "/proc/self") else []
+        for fmt in ("auto",):
+            run_dir = os.path.join(work, "runs", os.path.basename(d.rstrip("/")) or "x")
+            cases.append(("broken datasets", ["train", "--data", d, "--format", fmt, "--iters", "1", "--val-views", "0",
+                                               "--out", run_dir], guard))
+            cases.append(("broken datasets", ["eval", MODEL, "--data", d, "--split", "val"], guard))
+            cases.append(("broken datasets", ["render", MODEL, "--data", d, "--split", "val", "--out", run_dir + "-r"],
+                          guard))
+
+    # 4. outputs aimed at inputs and special files
+    copy = os.path.join(work, "copy.nerf")
+    shutil.copy(MODEL, copy)
+    link = os.path.join(work, "link.nerf")
+    os.symlink(copy, link)
+    fifo = os.path.join(work, "fifo.nerf")
+    os.mkfifo(fifo)
+    for o in [copy, link, fifo, "/dev/null", blender, os.path.join(blender, "train", "r_0.png"), "/proc/version"]:
+        cases.append(("outputs onto inputs or special files", ["export", copy, "--bits", "8", "--out", o],
+                      [copy, blender]))
+    for o in [blender, os.path.join(blender, "train"), os.path.join(blender, "new")]:
+        cases.append(("outputs onto inputs or special files", ["eval", MODEL, "--data", blender, "--split", "val",
+                                                                 "--save", o], [blender]))
+        cases.append(("outputs onto inputs or special files", ["render", MODEL, "--data", blender, "--split", "val",
+                                                                 "--out", o], [blender]))
+        cases.append(("outputs onto inputs or special files", ["train", "--data", blender, "--iters", "1", "--out", o],
+                      [blender]))
+        cases.append(("outputs onto inputs or special files", ["tradeoff", MODEL, "--data", blender, "--out", o],
+                      [blender]))
+        cases.append(("outputs onto inputs or special files", ["fit", "--data", blender, "--target-psnr", "20",
+                                                                 "--out", o], [blender]))
+    run = os.path.join(work, "run")
+    subprocess.run([BIN, "train", "--data", blender, "--iters", "2", "--val-views", "0", "--out", run], check=True,
+                   capture_output=True)
+    for extra in ([], ["--resume", "--downscale", "2"], ["--resume", "--preset", "grid"], ["--resume", "--iters", "1"]):
+        args = ["train", "--data", blender, "--val-views", "0", "--out", run] + (["--iters", "3"] if "--iters" not in extra else []) + extra
+        cases.append(("runs into a folder that holds a run", args, [run, blender]))
+    return cases
+
+
+if __name__ == "__main__":
+    sys.exit(main())
