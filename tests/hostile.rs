@@ -214,3 +214,20 @@ fn a_damaged_checkpoint_is_refused_and_left_in_place() {
     std::fs::write(&ckpt, &good).unwrap();
     ok(&resume);
 }
+
+#[test]
+fn outputs_get_the_usual_permissions() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = tmp("hostile-mode");
+    let out = d.join("m8.nerf");
+    ok(&["export", &model_file(), "--bits", "8", "--out", s(&out)]);
+    // 0666 less the umask, as any file a program creates (not the 0600 of a private temporary file)
+    let umask = umask_of_children();
+    assert_eq!(std::fs::metadata(&out).unwrap().permissions().mode() & 0o777, 0o666 & !umask);
+}
+
+/// The umask a child shell reports (inherited from this process).
+fn umask_of_children() -> u32 {
+    let out = Command::new("sh").args(["-c", "umask"]).output().unwrap();
+    u32::from_str_radix(String::from_utf8_lossy(&out.stdout).trim(), 8).unwrap()
+}
