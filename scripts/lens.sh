@@ -4,11 +4,12 @@
 # load does not favour either: trains each for STEPS at 1/8 size and scores
 # the held-out views. Appends rows to docs/captures.csv.
 #
-#   scripts/lens.sh [DATA_ROOT] [STEPS]
+#   scripts/lens.sh [DATA_ROOT] [STEPS] [SEED]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=${1:-../shared/data}
 steps=${2:-4000}
+seed=${3:-0}
 cargo build --release --quiet
 bin=target/release/nerf
 work=$(mktemp -d)
@@ -21,13 +22,13 @@ for name in lens no-distortion; do
   flags=()
   [ "$name" = no-distortion ] && flags=(--ignore-distortion)
   out="$work/fox-$name"
-  "$bin" train --data "$root/fox" --downscale 8 --iters "$steps" --out "$out" "${flags[@]}" >&2
+  "$bin" train --data "$root/fox" --downscale 8 --iters "$steps" --seed "$seed" --out "$out" "${flags[@]}" >&2
   mins=$(tail -1 "$out/train.jsonl" | python3 -c 'import json,sys; print("%.1f" % (json.load(sys.stdin)["train_secs"] / 60))')
   "$bin" eval "$out/model.nerf" --data "$root/fox" --split val "${flags[@]}" > "$out/eval.json"
   python3 - "$out/eval.json" <<PY >> "$csv"
 import json, sys
 e = json.load(open(sys.argv[1]))
-print("$(date -u +%F),$commit,$cpu,fox,$name (equal steps),$mins,$steps,%.2f,%.4f" % (e["psnr"], e["ssim"]))
+print("$(date -u +%F),$commit,$cpu,fox,$name (equal steps; seed $seed),$mins,$steps,%.2f,%.4f" % (e["psnr"], e["ssim"]))
 PY
   tail -1 "$csv" >&2
 done
