@@ -29,11 +29,11 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Train a model on a dataset (Blender, LLFF or instant-ngp layout).
+    /// Train a model on a dataset (Blender, LLFF, instant-ngp or COLMAP layout; PNG or JPEG photos).
     Train(cmd::train::Args),
     /// Render a split and print PSNR, SSIM and cost as one JSON object.
     Eval(cmd::eval::Args),
-    /// Render a split's views or an orbit to PNG (and GIF for orbits).
+    /// Render a split's views, an orbit, the capture's trajectory or a camera path to PNG (and GIF for paths).
     Render(cmd::render::Args),
     /// Write the model with 32-, 16- or 8-bit weights.
     Export(cmd::export::Args),
@@ -43,7 +43,7 @@ enum Command {
     Tradeoff(cmd::tradeoff::Args),
     /// Describe a model file.
     Info(cmd::info::Args),
-    /// Generate the built-in scene as Blender and LLFF datasets.
+    /// Generate the built-in scene as Blender, LLFF and COLMAP datasets (and a 360° capture with a background).
     Scene(cmd::scene::Args),
     /// The whole path on the built-in scene in a few minutes.
     Demo(cmd::demo::Args),

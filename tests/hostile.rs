@@ -152,6 +152,13 @@ fn a_run_folder_is_never_overwritten_or_shared() {
     let o = run_args(&["--resume", "--preset", "grid"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && e.contains("differ from the checkpoint") && e.contains("n_fine"), "{e}");
+    // --resume on other data: refused, naming --data
+    let other = blender_scene(&d.join("other"), 16, 4);
+    let mut a = train("3", &["--resume"]);
+    a[2] = s(&other).to_string();
+    let o = nerf(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("--data") && e.contains("differ from the checkpoint"), "{e}");
     // while a run holds the folder, another is refused
     let a = train("100000", &["--force"]);
     let mut first = Command::new(BIN).args(&a).stderr(Stdio::null()).spawn().unwrap();

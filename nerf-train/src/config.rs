@@ -6,6 +6,9 @@ use nerf_infer::features::{geometric_resolutions, FeatureGrid, MAX_FEATURES, MAX
 use nerf_infer::format::{Encoding, Samples, Topology};
 use serde::{Deserialize, Serialize};
 
+/// Most rays per batch (and per chunk) a configuration may ask for.
+pub const MAX_BATCH_RAYS: usize = 1 << 20;
+
 /// Everything that defines a training run except the data.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -263,6 +266,16 @@ impl TrainConfig {
         }
         if self.batch_rays == 0 || self.chunk_rays == 0 {
             return Err("batch_rays and chunk_rays must be positive".into());
+        }
+        if self.batch_rays > MAX_BATCH_RAYS || self.chunk_rays > MAX_BATCH_RAYS {
+            // activations kept for the backward pass: rays × samples × width × depth, f32, forward and gradient
+            let samples = (self.n_coarse + self.n_fine) as f64;
+            let gb = self.batch_rays as f64 * samples * self.width as f64 * self.depth as f64 * 8.0 / 1e9;
+            return Err(format!(
+                "batch_rays {} and chunk_rays {} must be at most {MAX_BATCH_RAYS} (this batch would hold about \
+                 {gb:.0} GB of activations)",
+                self.batch_rays, self.chunk_rays
+            ));
         }
         if self.grid_res > nerf_infer::occupancy::MAX_GRID_RES {
             return Err("grid_res must be at most 256".into());

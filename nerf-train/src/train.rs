@@ -67,6 +67,10 @@ pub struct Trainer {
     pub skipped: u64,
     /// Occupancy grid (runs with `grid_res > 0`).
     pub grid: Option<DensityGrid>,
+    /// What the run trains on, as the command names it (the dataset's
+    /// absolute path and the loading flags), so `--resume` can refuse other
+    /// data; empty when the caller does not say.
+    pub data: String,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
@@ -196,6 +200,7 @@ impl Trainer {
             seed,
             skipped: 0,
             grid,
+            data: String::new(),
             pool: GradPool::default(),
         }
     }

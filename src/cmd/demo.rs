@@ -14,7 +14,7 @@ pub struct Args {
     #[arg(long, default_value = "nerf-demo")]
     out: PathBuf,
     /// Minutes of training.
-    #[arg(long, default_value_t = 2.0, value_parser = num_in(0.01f64, 10_000.0))]
+    #[arg(long, default_value_t = 2.0, value_name = "0.01..=10000.0", value_parser = num_in(0.01f64, 10_000.0))]
     minutes: f64,
 }
 

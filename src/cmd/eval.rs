@@ -26,27 +26,27 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
+    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale factor (default: the one the model was trained at).
-    #[arg(long, value_parser = num_in(1u32, 64))]
+    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
     /// Worker threads (0: all cores); µs per ray is per core either way.
-    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
+    #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
     threads: usize,
     /// Write each render and its ground truth as PNG into this directory.
     #[arg(long)]
     save: Option<PathBuf>,
     /// Coarse samples per ray (default: the model's).
-    #[arg(long, value_parser = num_in(2usize, nerf_infer::format::MAX_COARSE))]
+    #[arg(long, value_name = "2..=256", value_parser = num_in(2usize, nerf_infer::format::MAX_COARSE))]
     coarse: Option<usize>,
     /// Fine samples per ray (default: the model's).
-    #[arg(long, value_parser = num_in(0usize, nerf_infer::format::MAX_FINE))]
+    #[arg(long, value_name = "0..=256", value_parser = num_in(0usize, nerf_infer::format::MAX_FINE))]
     fine: Option<usize>,
     /// Early ray termination threshold on transmittance (0: off).
-    #[arg(long, default_value_t = 0.0, value_parser = num_in(0.0f32, 0.5))]
+    #[arg(long, default_value_t = 0.0, value_name = "0.0..=0.5", value_parser = num_in(0.0f32, 0.5))]
     early_stop: f32,
     /// Also render with this model (e.g. the f32 original of a quantised
     /// model) and report `psnr_vs_reference`, the mean PSNR between the two.

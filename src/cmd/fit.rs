@@ -28,19 +28,19 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// Downscale images by this integer factor.
-    #[arg(long, default_value_t = 1, value_parser = num_in(1u32, 64))]
+    #[arg(long, default_value_t = 1, value_name = "1..=64", value_parser = num_in(1u32, 64))]
     downscale: u32,
     /// PSNR (dB) the fixed-point render must reach on the validation views.
-    #[arg(long, value_parser = num_in(1.0f64, 99.0))]
+    #[arg(long, value_name = "1.0..=99.0", value_parser = num_in(1.0f64, 99.0))]
     target_psnr: f64,
     /// Training minutes per candidate.
-    #[arg(long, default_value_t = 10.0, value_parser = num_in(0.001f64, 100_000.0))]
+    #[arg(long, default_value_t = 10.0, value_name = "0.001..=100000.0", value_parser = num_in(0.001f64, 100_000.0))]
     minutes: f64,
     /// Weight bits of the fixed-point model that is scored and timed.
     #[arg(long, default_value = "8", value_parser = ["8", "16"])]
     bits: String,
     /// Early ray termination (transmittance threshold) of the scored render.
-    #[arg(long, default_value_t = 1e-3, value_parser = num_in(0.0f32, 0.5))]
+    #[arg(long, default_value_t = 1e-3, value_name = "0.0..=0.5", value_parser = num_in(0.0f32, 0.5))]
     early_stop: f32,
     /// Run directory: one sub-directory per candidate, fit.csv, fit.md and
     /// the chosen model.nerf (f32) and model_fixed.nerf.
@@ -50,7 +50,7 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads for training (0: all cores); timing uses one.
-    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
+    #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
     threads: usize,
 }
 

@@ -30,32 +30,32 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
+    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale factor (default: the model's training downscale).
-    #[arg(long, value_parser = num_in(1u32, 64))]
+    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
     /// Render N views on an orbit around the scene (a small circle in front for forward-facing scenes).
-    #[arg(long, value_parser = num_in(1usize, 10_000))]
+    #[arg(long, value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
     orbit: Option<usize>,
     /// Render N views along the capture's own camera trajectory (its views in name order, smoothed), with the
     /// field of view of its first camera.
-    #[arg(long, requires = "data", value_parser = num_in(1usize, 10_000))]
+    #[arg(long, requires = "data", value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
     trajectory: Option<usize>,
     /// Render the cameras of a nerfstudio camera_path.json (its rendered camera list; poses in the model's frame,
     /// as the camera_path.json that --orbit and --trajectory write).
     #[arg(long)]
     camera_path: Option<PathBuf>,
     /// Image width in pixels of --orbit (square), --trajectory and --camera-path frames.
-    #[arg(long, default_value_t = 100, value_parser = num_in(1u32, 4096))]
+    #[arg(long, default_value_t = 100, value_name = "1..=4096", value_parser = num_in(1u32, 4096))]
     size: u32,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
+    #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
     threads: usize,
 }
 

@@ -13,10 +13,10 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Image side in pixels.
-    #[arg(long, default_value_t = 64, value_parser = num_in(8u32, 2048))]
+    #[arg(long, default_value_t = 64, value_name = "8..=2048", value_parser = num_in(8u32, 2048))]
     size: u32,
     /// Training views.
-    #[arg(long, default_value_t = 48, value_parser = num_in(1usize, 1000))]
+    #[arg(long, default_value_t = 48, value_name = "1..=1000", value_parser = num_in(1usize, 1000))]
     train: usize,
 }
 

@@ -33,18 +33,18 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
+    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale factor (default: the model's training downscale).
-    #[arg(long, value_parser = num_in(1u32, 64))]
+    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
     /// Views rendered per point (the first N of the split).
-    #[arg(long, default_value_t = 2, value_parser = num_in(1usize, 10_000))]
+    #[arg(long, default_value_t = 2, value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
     views: usize,
     /// Timed repetitions per point; the median is reported.
-    #[arg(long, default_value_t = 3, value_parser = num_in(1usize, 100))]
+    #[arg(long, default_value_t = 3, value_name = "1..=100", value_parser = num_in(1usize, 100))]
     repeats: usize,
     /// Output directory for tradeoff.csv and tradeoff.png.
     #[arg(long)]

@@ -28,12 +28,12 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
     /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_parser = num_in(1usize, 100_000))]
+    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
     llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale images by this integer factor (area averaging).
-    #[arg(long, value_parser = num_in(1u32, 64))]
+    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
     downscale: Option<u32>,
     /// Named configuration: `fast` (default), `grid` (occupancy grid, one network), `features` (`grid` with a
     /// learned feature grid and a 2x64 network) or `paper`.
@@ -43,10 +43,10 @@ pub struct Args {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Train until this many steps in total.
-    #[arg(long, value_parser = num_in(1u64, 1_000_000_000))]
+    #[arg(long, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
     iters: Option<u64>,
     /// Train until this many minutes of training in total.
-    #[arg(long, value_parser = num_in(0.001f64, 100_000.0))]
+    #[arg(long, value_name = "0.001..=100000.0", value_parser = num_in(0.001f64, 100_000.0))]
     minutes: Option<f64>,
     /// Run directory: model.nerf, train.jsonl, checkpoint.bin.
     #[arg(long)]
@@ -61,19 +61,19 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (0: all cores).
-    #[arg(long, default_value_t = 0, value_parser = num_in(0usize, 1024))]
+    #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
     threads: usize,
     /// Seconds of training between checkpoints (0: after every step).
-    #[arg(long, default_value_t = 60.0, value_parser = num_in(0.0f64, 1e6))]
+    #[arg(long, default_value_t = 60.0, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
     checkpoint_secs: f64,
     /// Seconds of training between validation renders (0: after every step).
-    #[arg(long, default_value_t = 120.0, value_parser = num_in(0.0f64, 1e6))]
+    #[arg(long, default_value_t = 120.0, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
     val_secs: f64,
     /// Validation views rendered each time (0: no periodic validation).
-    #[arg(long, default_value_t = 2, value_parser = num_in(0usize, 10_000))]
+    #[arg(long, default_value_t = 2, value_name = "0..=10000", value_parser = num_in(0usize, 10_000))]
     val_views: usize,
     /// Steps between lines of train.jsonl.
-    #[arg(long, default_value_t = 10, value_parser = num_in(1u64, 1_000_000_000))]
+    #[arg(long, default_value_t = 10, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
     log_every: u64,
     /// Neurons never active on the calibration rays that model.nerf drops.
     #[arg(long, value_enum, default_value = "tiles")]
@@ -170,6 +170,14 @@ fn catch_interrupts() {
 /// `--resume` continues the checkpoint's run: a `--downscale`, `--preset`
 /// or `--config` that says otherwise is refused, naming what differs.
 fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
+    let data = data_source(a);
+    if tr.data != data {
+        return Err(format!(
+            "--data and its loading flags ({data}) differ from the checkpoint's ({}): resume with the run's data, \
+             or start over with --force",
+            tr.data
+        ));
+    }
     if let Some(d) = a.downscale.filter(|&d| d != tr.downscale) {
         return Err(format!("--downscale {d} differs from the checkpoint's {}: resume without it", tr.downscale));
     }
@@ -193,6 +201,13 @@ fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
         }
     }
     Ok(())
+}
+
+/// The dataset a run trains on, as stored in its checkpoint: the absolute
+/// path and the flags that change which views and rays are loaded.
+fn data_source(a: &Args) -> String {
+    let path = a.data.canonicalize().unwrap_or_else(|_| a.data.clone());
+    format!("{} --llffhold {} {:?}", path.display(), a.llffhold, a.capture)
 }
 
 /// Runs `nerf train`.
@@ -229,7 +244,9 @@ fn train(a: Args) -> CmdResult {
         let cfg = new_cfg.ok_or("a configuration for a new run")?;
         let downscale = a.downscale.unwrap_or(1);
         let data = load(downscale)?;
-        (Trainer::new(cfg, data.scene, downscale, a.seed), data)
+        let mut tr = Trainer::new(cfg, data.scene, downscale, a.seed);
+        tr.data = data_source(&a);
+        (tr, data)
     };
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     let val = load_val(&a, tr.downscale);
