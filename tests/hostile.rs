@@ -69,6 +69,10 @@ fn numbers_out_of_range_are_refused_naming_the_flag_and_range() {
         assert!(e.contains(flag) && e.contains("expected a number from"), "nerf {args:?}: {e}");
     }
     assert!(!out.exists(), "nothing written");
+    // in range one by one, too much together: the GIF's memory is checked before rendering
+    let e = fails(&["render", &m, "--orbit", "10000", "--size", "4096", "--out", s(&out)]);
+    assert!(e.contains("GB in memory") && e.contains("--size"), "{e}");
+    assert!(!out.exists(), "nothing written");
 }
 
 #[test]

@@ -91,7 +91,6 @@ pub fn run(a: Args) -> CmdResult {
     if let Some(d) = &a.data {
         super::refuse_inside(&a.out, "--out", d)?;
     }
-    create_dir(&a.out)?;
     let ds = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
     let path: Option<Vec<Camera>> = match (&a.data, a.orbit, a.trajectory, &a.camera_path) {
         (_, Some(n), _, _) => {
@@ -112,9 +111,6 @@ pub fn run(a: Args) -> CmdResult {
     };
     let cams: Vec<(String, Box<dyn PixelRays>)> = match (&a.data, a.split, &path) {
         (_, _, Some(path)) => {
-            // the path as nerfstudio's camera_path.json, to edit and render again with --camera-path
-            let json = to_camera_path(path, 12.5);
-            super::write_atomic(&a.out.join("camera_path.json"), json.to_string().as_bytes())?;
             let stem = if a.orbit.is_some() { "orbit" } else { "frame" };
             path.iter()
                 .enumerate()
@@ -136,7 +132,25 @@ pub fn run(a: Args) -> CmdResult {
     let step = far / 65535.0;
     let units = if model.scene.ndc.is_some() { "NDC t (forward-facing scene)" } else { "scene units (camera-space z)" };
     let meta = serde_json::json!({ "depth_png_step": step, "depth_units": units, "near": near, "far": far });
+    // a path's frames are kept for its GIF (RGBA, 4 bytes a pixel): checked before any is rendered
+    let gif_bytes = path.as_ref().map_or(0, |p| p.iter().map(|c| 4 * c.width as u64 * c.height as u64).sum::<u64>());
+    if gif_bytes > MAX_GIF_BYTES {
+        return Err(format!(
+            "the GIF of {} frames at --size {} would need {:.1} GB in memory (at most {} GB): fewer frames or a smaller \
+             --size",
+            cams.len(),
+            a.size,
+            gif_bytes as f64 / 1e9,
+            MAX_GIF_BYTES / 1_000_000_000
+        ));
+    }
+    create_dir(&a.out)?;
     super::write_atomic(&a.out.join("depth.json"), meta.to_string().as_bytes())?;
+    if let Some(path) = &path {
+        // the path as nerfstudio's camera_path.json, to edit and render again with --camera-path
+        let json = to_camera_path(path, 12.5);
+        super::write_atomic(&a.out.join("camera_path.json"), json.to_string().as_bytes())?;
+    }
     let pb = super::progress(cams.len() as u64, "{bar:30} {pos}/{len} views ({eta})");
     let mut frames = Vec::new();
     for (name, cam) in &cams {
@@ -144,30 +158,40 @@ pub fn run(a: Args) -> CmdResult {
             .map_err(|e| format!("{}: {e}", a.model.display()))?;
         save_png_rgb(&a.out.join(format!("{name}.png")), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
         save_depth_opacity(&a.out, name, &r, near, far, step)?;
-        frames.push(r);
+        if path.is_some() {
+            frames.push(gif_frame(&r));
+        }
         pb.inc(1);
     }
     pb.finish_and_clear();
     if path.is_some() {
         let gif = if a.orbit.is_some() { "orbit.gif" } else { "path.gif" };
-        write_gif(&a.out.join(gif), &frames)?;
+        write_gif(&a.out.join(gif), frames)?;
     }
     eprintln!("wrote {} views to {}", cams.len(), a.out.display());
     Ok(())
 }
 
-fn write_gif(path: &Path, frames: &[Rendered]) -> Result<(), String> {
+/// Most memory the frames of one GIF may take (4 GB).
+const MAX_GIF_BYTES: u64 = 4_000_000_000;
+
+/// A render as an opaque 8-bit RGBA frame.
+fn gif_frame(r: &Rendered) -> image::RgbaImage {
+    let mut img = image::RgbaImage::new(r.width, r.height);
+    for (p, c) in img.pixels_mut().zip(&r.rgb) {
+        let q = c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+        p.0 = [q[0], q[1], q[2], 255];
+    }
+    img
+}
+
+fn write_gif(path: &Path, frames: Vec<image::RgbaImage>) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: cannot write GIF: {e}", path.display());
     let mut bytes = Vec::new();
     {
         let mut enc = image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10);
         enc.set_repeat(image::codecs::gif::Repeat::Infinite).map_err(|e| err(&e))?;
-        for r in frames {
-            let mut img = image::RgbaImage::new(r.width, r.height);
-            for (p, c) in img.pixels_mut().zip(&r.rgb) {
-                let q = c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
-                p.0 = [q[0], q[1], q[2], 255];
-            }
+        for img in frames {
             let frame = image::Frame::from_parts(img, 0, 0, image::Delay::from_numer_denom_ms(80, 1));
             enc.encode_frame(frame).map_err(|e| err(&e))?;
         }
