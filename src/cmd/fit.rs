@@ -77,7 +77,7 @@ pub fn macs(cfg: &TrainConfig) -> usize {
 
 /// What one feature-grid level costs per sample in the int8 kernel, in
 /// multiply-accumulates of its layers: on the `features` preset's lego
-/// model (AVX2, 8 levels per register, session 10) `perf` put the lookups
+/// model (AVX2, 8 levels per register, run C) `perf` put the lookups
 /// at 11.5 % of the render's time and the layers (15 488 MAC/sample) at
 /// 47.6 %: 3 740 MAC-equivalents for 8 levels (callgrind: 61 instructions
 /// per level, 0.26 per MAC; the gathers cost more than their count).
