@@ -84,8 +84,15 @@ fn colmap_refuses_unsupported_camera_models_by_name_and_counts_unregistered_imag
     let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
     assert!(e.contains("FOV") && e.contains("not supported") && e.contains("camera 2"), "{e}");
     assert!(!e.contains('\n'));
-    // an image file the model registers but the folder lacks is named
     std::fs::write(&cams, text).unwrap();
+    // a photo turned on its side (12×16 where its camera is 16×12) is refused by name
+    let img_1 = d.join("images/img_001.jpg");
+    let good_1 = std::fs::read(&img_1).unwrap();
+    write_jpeg(&img_1, &image::RgbImage::new(12, 16), None);
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("img_001.jpg") && e.contains("16x12") && e.contains("shape"), "{e}");
+    std::fs::write(&img_1, good_1).unwrap();
+    // an image file the model registers but the folder lacks is named
     std::fs::remove_file(d.join("images/img_003.jpg")).unwrap();
     let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
     assert!(e.contains("img_003.jpg") && e.contains("not found"), "{e}");

@@ -101,6 +101,19 @@ pub fn build(
         let (w, h, rgb) = load_rgb(&v.image, opts.downscale, false)?;
         let k = &v.intrinsics;
         let (sx, sy) = (k.size[0] / w as f64, k.size[1] / h as f64);
+        // the image's shape must be the camera's (the downscale crops at most n − 1 pixels a side); a photo
+        // turned by its EXIF orientation, or another photo, is not what the poses were computed on
+        let n = opts.downscale as f64;
+        if (sx / sy - 1.0).abs() > 0.01 + n / k.size[0].min(k.size[1]) {
+            return Err(DataError::new(
+                &v.image,
+                format!(
+                    "image is {w}x{h} at downscale {n} (after its EXIF orientation) but its camera is {}x{}: not \
+                     the shape of the photo the poses were computed on",
+                    k.size[0], k.size[1]
+                ),
+            ));
+        }
         let c2w = match &frame {
             Frame::Fixed(_) => pose_rows(&v.pose),
             Frame::Fitted(f) => f.apply(&v.pose),
