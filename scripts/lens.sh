@@ -14,7 +14,8 @@ for name in lens no-distortion; do
   flags=()
   [ "$name" = no-distortion ] && flags=(--ignore-distortion)
   out="$work/fox-$name"
-  "$bin" train --data "$root/fox" --downscale 8 --iters "$steps" --seed "$seed" --out "$out" "${flags[@]}" >&2
+  # every step logged, so the last line holds the training time whatever STEPS is
+  "$bin" train --data "$root/fox" --downscale 8 --iters "$steps" --seed "$seed" --log-every 1 --out "$out" "${flags[@]}" >&2
   mins=$(tail -1 "$out/train.jsonl" | python3 -c 'import json,sys; print("%.1f" % (json.load(sys.stdin)["train_secs"] / 60))')
   "$bin" eval "$out/model.nerf" --data "$root/fox" --split val "${flags[@]}" > "$out/eval.json"
   record fox "$name (equal steps; seed $seed)" "$mins" "$steps" "$out/eval.json"
