@@ -3,7 +3,7 @@
 //! `holdout`-th image held out, images loaded and intrinsics scaled to
 //! the loaded size. Used by the COLMAP and instant-ngp loaders.
 
-use super::fit::{fit_scene, Pose, SceneKind};
+use super::fit::{fit_scene, pose_rows, Pose, SceneKind};
 use super::llff::{ndc_scene, ForwardFrame};
 use super::{image_io::load_rgb, DataError, Dataset, Lens, Split, View};
 use glam::DVec3;
@@ -136,16 +136,6 @@ pub fn build(
         Frame::Forward(_) => ndc_scene(&views[0].camera),
     };
     Ok(Dataset { scene, views, downscale: opts.downscale, notes: Vec::new() })
-}
-
-/// `pose` as a row-major 3×4 camera-to-world matrix.
-fn pose_rows(p: &Pose) -> [[f32; 4]; 3] {
-    let (r, t) = p;
-    [
-        [r.x_axis.x as f32, r.y_axis.x as f32, r.z_axis.x as f32, t.x as f32],
-        [r.x_axis.y as f32, r.y_axis.y as f32, r.z_axis.y as f32, t.y as f32],
-        [r.x_axis.z as f32, r.y_axis.z as f32, r.z_axis.z as f32, t.z as f32],
-    ]
 }
 
 /// The nearest scene depth of a forward-facing capture (capture units):

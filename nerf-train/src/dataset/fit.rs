@@ -38,18 +38,6 @@ pub enum SceneKind {
     Unbounded,
 }
 
-impl SceneKind {
-    /// The name used by `--scene`.
-    pub fn name(self) -> &'static str {
-        match self {
-            SceneKind::Auto => "auto",
-            SceneKind::Object => "object",
-            SceneKind::Forward => "forward",
-            SceneKind::Unbounded => "unbounded",
-        }
-    }
-}
-
 /// A camera-to-world pose in the OpenGL convention (columns: right, up,
 /// back) with its centre, world units.
 pub type Pose = (DMat3, DVec3);
@@ -74,14 +62,17 @@ pub struct Fitted {
 impl Fitted {
     /// `pose` in the fitted frame as a row-major 3×4 camera-to-world matrix.
     pub fn apply(&self, pose: &Pose) -> [[f32; 4]; 3] {
-        let r = self.rotation * pose.0;
-        let t = self.rotation * (pose.1 - self.centre) * self.scale;
-        [
-            [r.x_axis.x as f32, r.y_axis.x as f32, r.z_axis.x as f32, t.x as f32],
-            [r.x_axis.y as f32, r.y_axis.y as f32, r.z_axis.y as f32, t.y as f32],
-            [r.x_axis.z as f32, r.y_axis.z as f32, r.z_axis.z as f32, t.z as f32],
-        ]
+        pose_rows(&(self.rotation * pose.0, self.rotation * (pose.1 - self.centre) * self.scale))
     }
+}
+
+/// `pose` as a row-major 3×4 camera-to-world matrix `[R | t]`, f32.
+pub fn pose_rows((r, t): &Pose) -> [[f32; 4]; 3] {
+    [
+        [r.x_axis.x as f32, r.y_axis.x as f32, r.z_axis.x as f32, t.x as f32],
+        [r.x_axis.y as f32, r.y_axis.y as f32, r.z_axis.y as f32, t.y as f32],
+        [r.x_axis.z as f32, r.y_axis.z as f32, r.z_axis.z as f32, t.z as f32],
+    ]
 }
 
 /// How far the unit viewing directions `f` spread around their principal
@@ -205,8 +196,8 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
 mod tests {
     use super::*;
 
-    /// `n` cameras on a ring of radius `r` at height `h` around `c`, up `up`
-    /// (along +y before the tilt), looking at `c`.
+    /// `n` cameras on a ring of radius `r` around `c`, 0.3 r above it
+    /// (+y up), looking at `c`.
     fn ring(n: usize, r: f64, c: DVec3) -> Vec<Pose> {
         (0..n)
             .map(|i| {

@@ -130,12 +130,6 @@ impl ForwardFrame {
 
     /// `pose` in the normalised frame, row-major 3×4 camera-to-world.
     pub(super) fn apply(&self, pose: &(DMat3, DVec3)) -> [[f32; 4]; 3] {
-        let rm = self.inv * pose.0;
-        let tm = self.inv * (pose.1 * self.sc - self.centre);
-        [
-            [rm.x_axis.x as f32, rm.y_axis.x as f32, rm.z_axis.x as f32, tm.x as f32],
-            [rm.x_axis.y as f32, rm.y_axis.y as f32, rm.z_axis.y as f32, tm.y as f32],
-            [rm.x_axis.z as f32, rm.y_axis.z as f32, rm.z_axis.z as f32, tm.z as f32],
-        ]
+        super::fit::pose_rows(&(self.inv * pose.0, self.inv * (pose.1 * self.sc - self.centre)))
     }
 }
