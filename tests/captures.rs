@@ -291,3 +291,43 @@ fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
         assert!(nerf_infer::Ray::new(&llff.scene, o, d).is_some(), "({x},{y})");
     }
 }
+
+#[test]
+fn a_model_records_how_its_capture_was_split_and_eval_reuses_it() {
+    let root = tmp("split");
+    let scene = root.join("scene");
+    support::cli::ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "7"]);
+    let data = scene.join("colmap");
+    let run = root.join("run");
+    let train = ["--llffhold", "3", "--scene", "object", "--ignore-distortion"];
+    let mut args = vec!["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"];
+    args.extend(train);
+    support::cli::ok(&args);
+    let model = run.join("model.nerf");
+    let info: serde_json::Value = serde_json::from_str(&support::cli::ok(&["info", s(&model), "--json"])).unwrap();
+    assert_eq!(info["format_version"], 4);
+    let c = &info["capture"];
+    assert_eq!(
+        (c["holdout"].as_u64(), c["framing"].as_str(), c["lens"].as_bool()),
+        (Some(3), Some("Object"), Some(false))
+    );
+    // eval without the flags scores the views the model was trained without
+    let held_out = load(&data, Split::Val, LoadOptions { holdout: 3, lens: false, ..opts(Format::Auto) }).unwrap();
+    let default_split = load(&data, Split::Val, opts(Format::Auto)).unwrap();
+    assert_ne!(held_out.views.len(), default_split.views.len());
+    let report: serde_json::Value =
+        serde_json::from_str(&support::cli::ok(&["eval", s(&model), "--data", s(&data), "--split", "val"])).unwrap();
+    let names: Vec<&str> = report["views"].as_array().unwrap().iter().map(|v| v["name"].as_str().unwrap()).collect();
+    let expected: Vec<&str> = held_out.views.iter().map(|v| v.name.as_str()).collect();
+    assert_eq!(names, expected);
+    // another hold-out would score training views: refused, naming the model's
+    let o = nerf(&["eval", s(&model), "--data", s(&data), "--llffhold", "4"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("--llffhold 3"), "{e}");
+    // a capture with other views than the model's: evaluated, with a warning
+    let other = root.join("other");
+    support::cli::ok(&["scene", "--out", s(&other), "--size", "16", "--train", "9"]);
+    let o = nerf(&["eval", s(&model), "--data", s(&other.join("colmap"))]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && e.contains("warning") && e.contains("not the model's"), "{e}");
+}

@@ -78,11 +78,11 @@ fn bad_input_files_give_one_line_errors_naming_them() {
     let flip = d.join("flip.nerf");
     std::fs::write(&flip, &flipped).unwrap();
     fails_naming(&["export", s(&flip), "--bits", "8", "--out", s(&d.join("x.nerf"))], &["flip.nerf", "checksum"]);
-    let mut v4 = m.clone();
-    v4[4] = 4;
-    let newer = d.join("v4.nerf");
-    std::fs::write(&newer, &v4).unwrap();
-    fails_naming(&["info", s(&newer)], &["v4.nerf", "version 4", "versions 1 to 3"]);
+    let mut v5 = m.clone();
+    v5[4] = 5;
+    let newer = d.join("v5.nerf");
+    std::fs::write(&newer, &v5).unwrap();
+    fails_naming(&["info", s(&newer)], &["v5.nerf", "version 5", "versions 1 to 4"]);
     assert!(!d.join("x.nerf").exists());
 
     // corrupt PNG

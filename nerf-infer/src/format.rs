@@ -1,20 +1,22 @@
-//! The model file format (versions 1, 2 and 3). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 4). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–3)  |
+//! | 4      | 2    | format version, u16 little-endian (1–4)  |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
 //!
 //! Version 2 appends one field, the optional occupancy grid; version 3
-//! another, the optional learned feature grid ([`FeatureGrid`]). A model
-//! is written as the oldest version that holds it (no feature grid: 2; no
-//! occupancy grid and no pruned layer either: 1), byte for byte what
-//! earlier builds wrote, so older readers keep reading it.
+//! another, the optional learned feature grid ([`FeatureGrid`]); version 4
+//! the optional record of the training capture's split ([`Capture`]). A
+//! model is written as the oldest version that holds it (no capture record:
+//! 3; no feature grid either: 2; no occupancy grid and no pruned layer
+//! either: 1), byte for byte what earlier builds wrote, so older readers
+//! keep reading it.
 //!
 //! Tensors are borrowed from the blob ([`Model::from_bytes`] never copies or
 //! allocates), so a model can live in flash. Multi-byte tensor elements are
@@ -28,8 +30,10 @@ use serde::{Deserialize, Serialize};
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
-/// The newest format version this build reads and writes (it reads 1 and 2 too).
-pub const FORMAT_VERSION: u16 = 3;
+/// The newest format version this build reads and writes (it reads 1 to 3 too).
+pub const FORMAT_VERSION: u16 = 4;
+/// The version of models with a feature grid but no capture record.
+pub const FORMAT_VERSION_NO_CAPTURE: u16 = 3;
 /// The version of models with an occupancy grid or pruned layers but no
 /// feature grid.
 pub const FORMAT_VERSION_NO_FEATURES: u16 = 2;
@@ -197,6 +201,43 @@ pub struct Meta {
     pub iterations: u32,
 }
 
+/// How the scene's frame was chosen when the capture was loaded for training.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Framing {
+    /// Given by the capture's own files (bounds or an `aabb` in them).
+    Files,
+    /// Fitted: a box around what the cameras look at.
+    Object,
+    /// Forward-facing: NDC rays.
+    Forward,
+    /// Fitted: a box holding the cameras and their surroundings.
+    Unbounded,
+}
+
+/// How the training capture was split and framed (format version 4), so
+/// that evaluation and rendering load the capture as training did and
+/// score only views the model never saw.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Capture {
+    /// Every `holdout`-th view in capture order (0, N, 2N, …) was held out
+    /// of training (1..=100 000; LLFF, COLMAP, instant-ngp).
+    pub holdout: u32,
+    /// Views in the whole capture, training and held out.
+    pub views: u32,
+    /// CRC-32 ([`crc32`]) of the held-out views' names (image file stems),
+    /// each followed by `\n`, in capture order.
+    pub held_out_crc: u32,
+    /// How the scene's frame was chosen.
+    pub framing: Framing,
+    /// Rays followed the photos' lens distortion (false: treated as pinholes).
+    pub lens: bool,
+}
+
+impl Capture {
+    /// Largest valid [`Capture::holdout`].
+    pub const MAX_HOLDOUT: u32 = 100_000;
+}
+
 /// One dense layer `y = W·x + b`. Activation follows from its position.
 ///
 /// * `weights`: `in_dim · out_dim` elements, input-major (`[in][out]`:
@@ -307,49 +348,52 @@ pub struct Model<'a> {
     /// the trunk's input (`encoding.grid_dim` of them).
     #[serde(borrow)]
     pub features: Option<FeatureGrid<'a>>,
+    /// How the training capture was split and framed (format version 4;
+    /// `None` for datasets with their own split files, such as Blender's).
+    pub capture: Option<Capture>,
 }
 
-/// The version-2 payload: [`Model`] without its last field.
-#[derive(Deserialize)]
-struct ModelV2<'a> {
-    scene: Scene,
-    encoding: Encoding,
-    topology: Topology,
-    samples: Samples,
-    meta: Meta,
-    #[serde(borrow)]
-    coarse: Network<'a>,
-    #[serde(borrow)]
-    fine: Option<Network<'a>>,
-    #[serde(borrow)]
-    grid: Option<Occupancy<'a>>,
+/// An older version's payload read as the newest: the payload, then one
+/// `0` byte (postcard's `None`) for each field appended since. Tensors are
+/// borrowed from the payload; the padding only ever holds `None` tags.
+struct Padded<'a> {
+    rest: &'a [u8],
+    absent: usize,
 }
 
-impl<'a> From<ModelV2<'a>> for Model<'a> {
-    fn from(m: ModelV2<'a>) -> Self {
-        let ModelV2 { scene, encoding, topology, samples, meta, coarse, fine, grid } = m;
-        Model { scene, encoding, topology, samples, meta, coarse, fine, grid, features: None }
+impl<'a> postcard::de_flavors::Flavor<'a> for Padded<'a> {
+    type Remainder = ();
+    type Source = &'a [u8];
+
+    fn pop(&mut self) -> postcard::Result<u8> {
+        if let Some((&b, rest)) = self.rest.split_first() {
+            self.rest = rest;
+            Ok(b)
+        } else if self.absent > 0 {
+            self.absent -= 1;
+            Ok(0)
+        } else {
+            Err(postcard::Error::DeserializeUnexpectedEnd)
+        }
     }
-}
 
-/// The version-1 payload: [`Model`] without its last two fields.
-#[derive(Deserialize)]
-struct ModelV1<'a> {
-    scene: Scene,
-    encoding: Encoding,
-    topology: Topology,
-    samples: Samples,
-    meta: Meta,
-    #[serde(borrow)]
-    coarse: Network<'a>,
-    #[serde(borrow)]
-    fine: Option<Network<'a>>,
-}
+    fn try_take_n(&mut self, ct: usize) -> postcard::Result<&'a [u8]> {
+        if ct > self.rest.len() {
+            return Err(postcard::Error::DeserializeUnexpectedEnd);
+        }
+        let (taken, rest) = self.rest.split_at(ct);
+        self.rest = rest;
+        Ok(taken)
+    }
 
-impl<'a> From<ModelV1<'a>> for Model<'a> {
-    fn from(m: ModelV1<'a>) -> Self {
-        let ModelV1 { scene, encoding, topology, samples, meta, coarse, fine } = m;
-        Model { scene, encoding, topology, samples, meta, coarse, fine, grid: None, features: None }
+    /// The payload must be exactly its version's encoding: no bytes left,
+    /// every appended field read as absent.
+    fn finalize(self) -> postcard::Result<()> {
+        if self.rest.is_empty() && self.absent == 0 {
+            Ok(())
+        } else {
+            Err(postcard::Error::DeserializeBadEncoding)
+        }
     }
 }
 
@@ -357,13 +401,10 @@ impl<'a> Model<'a> {
     /// Decodes and validates a model from `bytes` without copying or allocating.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self> {
         let (version, payload) = check_header(bytes)?;
-        let mut model: Model<'a> = match version {
-            FORMAT_VERSION_NO_GRID => postcard::from_bytes::<ModelV1<'a>>(payload).map_err(|_| Error::Decode)?.into(),
-            FORMAT_VERSION_NO_FEATURES => {
-                postcard::from_bytes::<ModelV2<'a>>(payload).map_err(|_| Error::Decode)?.into()
-            }
-            _ => postcard::from_bytes(payload).map_err(|_| Error::Decode)?,
-        };
+        let absent = (FORMAT_VERSION - version) as usize;
+        let mut de = postcard::Deserializer::from_flavor(Padded { rest: payload, absent });
+        let mut model = Model::deserialize(&mut de).map_err(|_| Error::Decode)?;
+        de.finalize().map_err(|_| Error::Decode)?;
         model.encoding.grid_dim = model.features.as_ref().map_or(0, |f| f.dim() as u8);
         model.validate()?;
         if version == FORMAT_VERSION_NO_GRID && model.is_pruned() {
@@ -404,11 +445,14 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 3 with a feature
-    /// grid, 2 with an occupancy grid or pruned layers, else 1.
+    /// The format version this model is written as: 4 with a capture
+    /// record, 3 with a feature grid, 2 with an occupancy grid or pruned
+    /// layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.features.is_some() {
+        if self.capture.is_some() {
             FORMAT_VERSION
+        } else if self.features.is_some() {
+            FORMAT_VERSION_NO_CAPTURE
         } else if self.grid.is_some() || self.is_pruned() {
             FORMAT_VERSION_NO_FEATURES
         } else {
@@ -499,6 +543,9 @@ impl<'a> Model<'a> {
         }
         if self.encoding.grid_dim as usize != self.features.as_ref().map_or(0, |f| f.dim()) {
             return Err(Error::InvalidEncoding("grid_dim does not match the feature grid"));
+        }
+        if self.capture.is_some_and(|c| c.holdout == 0 || c.holdout > Capture::MAX_HOLDOUT || c.views == 0) {
+            return Err(Error::InvalidScene("capture record: holdout outside 1..=100000 or no views"));
         }
         self.validate_network(&self.coarse)?;
         if let Some(f) = &self.fine {
@@ -720,6 +767,24 @@ mod tests {
         h[..4].copy_from_slice(&MAGIC);
         h[4] = 9;
         assert_eq!(Model::from_bytes(&h).unwrap_err(), Error::UnsupportedVersion(9));
+    }
+
+    /// A capture record makes a version-4 file that decodes to the same
+    /// model; without one the file is the version it was before, and an
+    /// invalid record is refused.
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn capture_record_is_version_4() {
+        let golden = include_bytes!("../tests/data/golden.nerf");
+        let mut m = Model::from_bytes(golden).unwrap();
+        assert_eq!(to_bytes(&m).unwrap(), golden);
+        let c = Capture { holdout: 8, views: 71, held_out_crc: 0xdead_beef, framing: Framing::Unbounded, lens: true };
+        m.capture = Some(c);
+        let bytes = to_bytes(&m).unwrap();
+        assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 4);
+        assert_eq!(Model::from_bytes(&bytes).unwrap(), m);
+        m.capture = Some(Capture { holdout: 0, ..c });
+        assert!(matches!(Model::from_bytes(&encode(&m).unwrap()), Err(Error::InvalidScene(_))));
     }
 
     /// Without the `feature-grid` feature a model with a feature grid is

@@ -75,6 +75,8 @@ pub struct OwnedModel {
     /// Learned feature grid (format version 3): its shape (`table` empty)
     /// and the table bytes (f32 LE, or i16 LE in quantised models).
     pub features: Option<(FeatureGrid<'static>, Vec<u8>)>,
+    /// How the training capture was split and framed (format version 4).
+    pub capture: Option<format::Capture>,
 }
 
 /// `shape` with `table` as its table.
@@ -139,6 +141,7 @@ impl OwnedModel {
             fine: self.fine.as_ref().map(|f| f.view()),
             grid: self.grid.as_ref().map(|(res, bits)| format::Occupancy { res: *res, bits }),
             features: self.features.as_ref().map(|(f, t)| with_table(f, t)),
+            capture: self.capture,
         };
         format::to_bytes(&m)
     }
@@ -155,6 +158,7 @@ impl OwnedModel {
             fine: m.fine.as_ref().map(OwnedNetwork::from_view),
             grid: m.grid.map(|g| (g.res, g.bits.to_vec())),
             features: m.features.as_ref().map(|f| (with_table(f, &[]), f.table.to_vec())),
+            capture: m.capture,
         }
     }
 }
@@ -223,6 +227,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
             .features
             .as_ref()
             .map(|f| (f.clone(), f32_bytes(tr.params[mlp.table..mlp.n_params].iter().copied()))),
+        capture: None,
     }
 }
 

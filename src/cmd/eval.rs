@@ -25,9 +25,6 @@ pub struct Args {
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
-    /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
-    llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale factor (default: the one the model was trained at).
@@ -73,7 +70,8 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let downscale = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
-    let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold, a.capture)?;
+    let capture = a.capture.for_model(&model, &a.model)?;
+    let data = load_split(&a.data, a.split.into(), a.format, downscale, capture)?;
     super::same_frame(&data, &model, &a.model)?;
     let mut opts = RenderOptions::from_model(&model);
     opts.coarse = a.coarse.unwrap_or(opts.coarse);

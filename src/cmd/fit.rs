@@ -326,10 +326,10 @@ pub fn run(a: Args) -> CmdResult {
         return Err(format!("{}: holds the results of a fit (fit.csv); choose another --out", a.out.display()));
     }
     let capture = super::CaptureArgs::default();
-    let data = super::load_split(&a.data, Split::Train, a.format, a.downscale, 8, capture)?;
+    let data = super::load_split(&a.data, Split::Train, a.format, a.downscale, capture)?;
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     drop(data);
-    super::load_split(&a.data, Split::Val, a.format, a.downscale, 8, capture)
+    super::load_split(&a.data, Split::Val, a.format, a.downscale, capture)
         .map_err(|e| format!("{e} (nerf fit scores candidates on the validation views)"))?;
     create_dir(&a.out)?;
     let mut rows = Vec::new();

@@ -50,6 +50,10 @@ pub fn run(a: Args) -> CmdResult {
                       "view_dependent": m.topology.view_dependent, "view_width": m.topology.view_width },
         "samples": { "coarse": m.samples.coarse, "fine": m.samples.fine },
         "trained": { "downscale": m.meta.train_downscale, "iterations": m.meta.iterations },
+        "capture": m.capture.map(|c| serde_json::json!({
+            "holdout": c.holdout, "views": c.views, "held_out_crc": c.held_out_crc,
+            "framing": format!("{:?}", c.framing), "lens": c.lens,
+        })),
         "coarse": net(&m.coarse),
         "fine": m.fine.as_ref().map(net),
     });
@@ -122,6 +126,15 @@ pub fn run(a: Args) -> CmdResult {
         );
     }
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);
+    if let Some(c) = m.capture {
+        println!(
+            "  capture: {} views, every {}-th held out (eval and render reuse it), scene {:?}, lens {}",
+            c.views,
+            c.holdout,
+            c.framing,
+            if c.lens { "applied" } else { "ignored" }
+        );
+    }
     println!("  parameters: {} per network", info["coarse"]["parameters"]);
     println!("  pruning: {}", pruning(&m));
     Ok(())

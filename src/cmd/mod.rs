@@ -11,6 +11,7 @@ pub mod scene;
 pub mod tradeoff;
 pub mod train;
 
+use nerf_infer::format::Framing;
 use nerf_train::dataset::{self, Dataset, Format, LoadOptions, SceneKind, Split};
 use std::path::{Path, PathBuf};
 
@@ -84,18 +85,68 @@ impl From<SplitArg> for Split {
     }
 }
 
-/// How a real capture (COLMAP, instant-ngp) becomes a scene: the flags
-/// every command that loads a dataset shares.
+/// How a real capture (LLFF, COLMAP, instant-ngp) becomes a scene: the
+/// flags every command that loads a dataset shares. A model trained on
+/// such a capture records them; `eval`, `render` and `tradeoff` take the
+/// model's where a flag is not given.
 #[derive(clap::Args, Clone, Copy, Debug, Default)]
 pub struct CaptureArgs {
+    /// Hold-out of LLFF, COLMAP and instant-ngp captures: every N-th image is a test/val view [default: 8; with a
+    /// model: the one it was trained with].
+    #[arg(long, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
+    llffhold: Option<usize>,
     /// Scene treatment of COLMAP / instant-ngp captures: `auto` (from the cameras and points), `object` (a box
     /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (a box holding the cameras and
-    /// their surroundings).
-    #[arg(long, value_enum, default_value = "auto")]
-    scene: SceneArg,
-    /// Treat every photo as an ideal pinhole: ignore the lens distortion the capture gives.
+    /// their surroundings) [default: auto; with a model: the one it was trained with].
+    #[arg(long, value_enum)]
+    scene: Option<SceneArg>,
+    /// Treat every photo as an ideal pinhole: ignore the lens distortion the capture gives (with a model trained
+    /// so: implied).
     #[arg(long)]
     ignore_distortion: bool,
+}
+
+/// The hold-out `--llffhold` defaults to.
+const DEFAULT_HOLDOUT: usize = 8;
+
+impl CaptureArgs {
+    /// The flags as a run's checkpoint records them (`--resume` compares them).
+    pub fn describe(&self) -> String {
+        format!(
+            "--llffhold {} CaptureArgs {{ scene: {:?}, ignore_distortion: {} }}",
+            self.llffhold.unwrap_or(DEFAULT_HOLDOUT),
+            self.scene.unwrap_or_default(),
+            self.ignore_distortion
+        )
+    }
+
+    /// These flags completed from what `model` (read from `path`) records of
+    /// its training capture: the hold-out, the scene treatment and the lens
+    /// where not given. A `--llffhold` other than the model's is refused: the
+    /// held-out views would include views it was trained on.
+    pub fn for_model(self, model: &nerf_infer::Model<'_>, path: &Path) -> Result<Self, String> {
+        let Some(c) = model.capture else { return Ok(self) };
+        if let Some(h) = self.llffhold.filter(|&h| h != c.holdout as usize) {
+            return Err(format!(
+                "{}: the model was trained without every {}-th view (--llffhold {}); --llffhold {h} would score views \
+                 it was trained on: leave --llffhold out",
+                path.display(),
+                c.holdout,
+                c.holdout
+            ));
+        }
+        let scene = match c.framing {
+            Framing::Files => SceneArg::Auto,
+            Framing::Object => SceneArg::Object,
+            Framing::Forward => SceneArg::Forward,
+            Framing::Unbounded => SceneArg::Unbounded,
+        };
+        Ok(Self {
+            llffhold: Some(c.holdout as usize),
+            scene: self.scene.or(Some(scene)),
+            ignore_distortion: self.ignore_distortion || !c.lens,
+        })
+    }
 }
 
 /// `--scene` values.
@@ -124,16 +175,15 @@ impl From<SceneArg> for SceneKind {
 }
 
 /// Loads a split, mapping errors to one line and printing the loader's
-/// notes (skipped frames) as warnings; `holdout` is `--llffhold` (every
-/// `holdout`-th image is a test/val view).
+/// notes (skipped frames) as warnings.
 pub fn load_split(
     dir: &Path,
     split: Split,
     format: FormatArg,
     downscale: u32,
-    holdout: usize,
     capture: CaptureArgs,
 ) -> Result<Dataset, String> {
+    let holdout = capture.llffhold.unwrap_or(DEFAULT_HOLDOUT);
     if holdout == 0 {
         return Err("--llffhold must be at least 1".into());
     }
@@ -141,7 +191,7 @@ pub fn load_split(
         format: format.into(),
         downscale,
         holdout,
-        scene: capture.scene.into(),
+        scene: capture.scene.unwrap_or_default().into(),
         lens: !capture.ignore_distortion,
     };
     let data = dataset::load(dir, split, opts).map_err(|e| e.to_string())?;
@@ -153,8 +203,23 @@ pub fn load_split(
 
 /// Refuses views loaded in another frame than the model's: a capture
 /// loaded forward-facing (NDC) for a model trained looking inward, or the
-/// other way round (`--scene` differs from the training run's).
+/// other way round (`--scene` differs from the training run's). Warns when
+/// the capture, split as the model's was, holds other views than the
+/// capture it was trained on (held-out scores may then include views it
+/// saw in training).
 pub fn same_frame(data: &Dataset, model: &nerf_infer::Model<'_>, model_path: &Path) -> CmdResult {
+    if let (Some(d), Some(m)) = (data.capture, model.capture) {
+        if d.holdout == m.holdout && (d.views, d.held_out_crc) != (m.views, m.held_out_crc) {
+            eprintln!(
+                "warning: {}: trained on a capture of {} views; this one has {}{}: its held-out views are not the \
+                 model's",
+                model_path.display(),
+                m.views,
+                d.views,
+                if d.views == m.views { " with other held-out images" } else { "" }
+            );
+        }
+    }
     let (d, m) = (data.scene.ndc.is_some(), model.scene.ndc.is_some());
     if d != m {
         let kind = |ndc: bool| if ndc { "forward-facing (NDC)" } else { "inward-looking" };

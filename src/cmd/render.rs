@@ -29,9 +29,6 @@ pub struct Args {
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
-    /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
-    llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale factor (default: the model's training downscale).
@@ -98,7 +95,8 @@ pub fn run(a: Args) -> CmdResult {
         }
         (Some(dir), _, Some(n), _) => {
             // every view: holdout 1 makes the whole capture the test split
-            let data = load_split(dir, Split::Test, a.format, ds, 1, a.capture)?;
+            let capture = CaptureArgs { llffhold: None, ..a.capture }.for_model(&model, &a.model)?;
+            let data = load_split(dir, Split::Test, a.format, ds, CaptureArgs { llffhold: Some(1), ..capture })?;
             super::same_frame(&data, &model, &a.model)?;
             let views = data.views;
             let mut views: Vec<_> = views.into_iter().map(|v| (v.name, v.camera)).collect();
@@ -118,7 +116,7 @@ pub fn run(a: Args) -> CmdResult {
                 .collect()
         }
         (Some(dir), Some(split), _) => {
-            let data = load_split(dir, split.into(), a.format, ds, a.llffhold, a.capture)?;
+            let data = load_split(dir, split.into(), a.format, ds, a.capture.for_model(&model, &a.model)?)?;
             super::same_frame(&data, &model, &a.model)?;
             data.views.into_iter().map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>)).collect()
         }

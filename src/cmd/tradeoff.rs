@@ -32,9 +32,6 @@ pub struct Args {
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
-    /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
-    llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale factor (default: the model's training downscale).
@@ -119,7 +116,8 @@ pub fn run(a: Args) -> CmdResult {
     let decoded = |bytes| Model::from_bytes(bytes).map_err(|e| e.to_string());
     let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
     let downscale = a.downscale.unwrap_or(mf.meta.train_downscale.max(1) as u32);
-    let data = load_split(&a.data, a.split.into(), a.format, downscale, a.llffhold, a.capture)?;
+    let capture = a.capture.for_model(&mf, &a.model)?;
+    let data = load_split(&a.data, a.split.into(), a.format, downscale, capture)?;
     super::same_frame(&data, &mf, &a.model)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
     create_dir(&a.out)?;

@@ -10,7 +10,7 @@ use nerf_infer::{Model, RenderOptions};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::{Dataset, Split};
 use nerf_train::eval::score_view;
-use nerf_train::export::{trainer_model, Prune};
+use nerf_train::export::{trainer_model, OwnedModel, Prune};
 use nerf_train::rng::Rng;
 use nerf_train::train::Trainer;
 use std::path::{Path, PathBuf};
@@ -27,9 +27,6 @@ pub struct Args {
     /// Dataset layout.
     #[arg(long, value_enum, default_value = "auto")]
     format: FormatArg,
-    /// LLFF / instant-ngp hold-out: every N-th image is a test/val view.
-    #[arg(long, default_value_t = 8, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
-    llffhold: usize,
     #[command(flatten)]
     capture: CaptureArgs,
     /// Downscale images by this integer factor (area averaging).
@@ -133,7 +130,7 @@ fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
     if a.val_views == 0 {
         return None;
     }
-    load_split(&a.data, Split::Val, a.format, downscale, a.llffhold, a.capture).ok()
+    load_split(&a.data, Split::Val, a.format, downscale, a.capture).ok()
 }
 
 /// Mean PSNR of the first `n` validation views rendered by the kernel's f32 path.
@@ -148,9 +145,12 @@ fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::S
     Ok(sum / views.len() as f64)
 }
 
-fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Prune) -> Result<(), String> {
+/// Writes the checkpoint and the model; `data` is the training split (the
+/// model records how its capture was split).
+fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Prune, data: &Dataset) -> CmdResult {
     write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes())?;
-    let bytes = trainer_model(tr, calib, prune).to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
+    let model = OwnedModel { capture: data.capture, ..trainer_model(tr, calib, prune) };
+    let bytes = model.to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
     write_atomic(&out.join("model.nerf"), &bytes)
 }
 
@@ -207,7 +207,7 @@ fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
 /// path and the flags that change which views and rays are loaded.
 fn data_source(a: &Args) -> String {
     let path = a.data.canonicalize().unwrap_or_else(|_| a.data.clone());
-    format!("{} --llffhold {} {:?}", path.display(), a.llffhold, a.capture)
+    format!("{} {}", path.display(), a.capture.describe())
 }
 
 /// Runs `nerf train`.
@@ -229,7 +229,7 @@ fn train(a: Args) -> CmdResult {
             a.out.display()
         ));
     }
-    let load = |downscale| load_split(&a.data, Split::Train, a.format, downscale, a.llffhold, a.capture);
+    let load = |downscale| load_split(&a.data, Split::Train, a.format, downscale, a.capture);
     let (mut tr, data) = if a.resume && ckpt.is_file() {
         let b = std::fs::read(&ckpt).map_err(|e| format!("{}: cannot read: {e}", ckpt.display()))?;
         let tr = Trainer::from_bytes(&b).ok_or_else(|| {
@@ -327,7 +327,7 @@ fn train(a: Args) -> CmdResult {
         });
         if INTERRUPTS.load(Ordering::SeqCst) > 0 {
             pb.finish_and_clear();
-            save(&tr, &a.out, &calib, a.prune.into())?;
+            save(&tr, &a.out, &calib, a.prune.into(), &data)?;
             return Err(format!(
                 "interrupted at step {}: checkpoint saved to {}; continue with --resume",
                 tr.step,
@@ -335,12 +335,12 @@ fn train(a: Args) -> CmdResult {
             ));
         }
         if tr.elapsed - last_ckpt >= a.checkpoint_secs {
-            save(&tr, &a.out, &calib, a.prune.into())?;
+            save(&tr, &a.out, &calib, a.prune.into(), &data)?;
             last_ckpt = tr.elapsed;
         }
     }
     pb.finish_and_clear();
-    save(&tr, &a.out, &calib, a.prune.into())?;
+    save(&tr, &a.out, &calib, a.prune.into(), &data)?;
     let val_psnr = match &val {
         Some(v) => Some(validate(&tr, v, a.val_views, &calib[..256])?),
         None => None,

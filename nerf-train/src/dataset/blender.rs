@@ -153,7 +153,7 @@ fn load_frames(
             return Err(DataError::new(path, "neither camera_angle_x nor fl_x given"));
         }
         .map_err(|_| DataError::new(path, format!("{what}: invalid intrinsics")))?;
-        let name = img.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let name = super::stem(&img);
         views.push(View { name, camera, rgb, lens: Lens::Pinhole });
     }
     Ok(views)
@@ -166,7 +166,7 @@ pub fn load_blender(dir: &Path, split: Split, downscale: u32) -> Result<Dataset,
     let scene = scene_from(&path, &t, SceneDefaults { near: 2.0, far: 6.0, half: 1.5, white: true })?;
     let frames: Vec<&Frame> = t.frames.iter().collect();
     let views = load_frames(&path, dir, &t, &frames, downscale, scene.white_background)?;
-    Ok(Dataset { scene, views, downscale, notes: Vec::new() })
+    Ok(Dataset { scene, views, downscale, notes: Vec::new(), capture: None })
 }
 
 /// Loads an instant-ngp / nerfstudio capture: `transforms_{split}.json` if

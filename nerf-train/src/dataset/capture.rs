@@ -5,9 +5,10 @@
 
 use super::fit::{fit_scene, pose_rows, Pose, SceneKind};
 use super::llff::{ndc_scene, ForwardFrame};
-use super::{image_io::load_rgb, DataError, Dataset, Lens, Split, View};
+use super::{capture_record, image_io::load_rgb, stem, DataError, Dataset, Lens, Split, View};
 use glam::DVec3;
 use nerf_infer::camera::Camera;
+use nerf_infer::format::Framing;
 use nerf_infer::format::Scene;
 use std::path::{Path, PathBuf};
 
@@ -123,19 +124,31 @@ pub fn build(
         let [cx, cy] = [k.centre[0] / sx, k.centre[1] / sy];
         let camera = Camera::new(w, h, fx as f32, fy as f32, cx as f32, cy as f32, c2w)
             .map_err(|_| DataError::new(&v.image, "invalid camera (intrinsics or pose)"))?;
-        let name = v.image.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
         let lens = if opts.lens { v.lens } else { Lens::Pinhole };
-        views.push(View { name, camera, rgb, lens });
+        views.push(View { name: stem(&v.image), camera, rgb, lens });
     }
     if views.is_empty() {
         return Err(DataError::new(path, format!("no images in the {} split", opts.split.name())));
     }
+    let capture = match opts.select {
+        Selection::Holdout(n) => {
+            let framing = match &frame {
+                Frame::Fixed(_) => Framing::Files,
+                Frame::Forward(_) => Framing::Forward,
+                Frame::Fitted(f) if f.kind == SceneKind::Unbounded => Framing::Unbounded,
+                Frame::Fitted(_) => Framing::Object,
+            };
+            let names: Vec<String> = all.iter().map(|v| stem(&v.image)).collect();
+            Some(capture_record(n, names.iter().map(String::as_str), framing, opts.lens))
+        }
+        Selection::From(_) => None,
+    };
     let scene = match frame {
         Frame::Fixed(s) => s,
         Frame::Fitted(f) => f.scene,
         Frame::Forward(_) => ndc_scene(&views[0].camera),
     };
-    Ok(Dataset { scene, views, downscale: opts.downscale, notes: Vec::new() })
+    Ok(Dataset { scene, views, downscale: opts.downscale, notes: Vec::new(), capture })
 }
 
 /// The nearest scene depth of a forward-facing capture (capture units):

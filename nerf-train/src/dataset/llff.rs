@@ -7,10 +7,10 @@
 //! NDC (near plane 1), so `t ∈ [0, 1]` and the bounds are `[−1, 1]³`;
 //! every `holdout`-th image is a test/val view.
 
-use super::{image_io::load_rgb, npy::read_npy_f64, DataError, Dataset, Lens, Split, View};
+use super::{capture_record, image_io::load_rgb, npy::read_npy_f64, stem, DataError, Dataset, Lens, Split, View};
 use glam::{DMat3, DVec3};
 use nerf_infer::camera::Camera;
-use nerf_infer::format::{CameraConvention, Ndc, Scene};
+use nerf_infer::format::{CameraConvention, Framing, Ndc, Scene};
 use std::path::Path;
 
 fn pose_matrix(p: &[f64]) -> (DMat3, DVec3) {
@@ -81,14 +81,15 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
         let fy = (focal_full * h as f64 / h_full) as f32;
         let camera = Camera::new(w, h, f, fy, w as f32 / 2.0, h as f32 / 2.0, frame.apply(&poses[i]))
             .map_err(|_| DataError::new(&npy, format!("pose {i}: invalid camera")))?;
-        let name = file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        views.push(View { name, camera, rgb, lens: Lens::Pinhole });
+        views.push(View { name: stem(file), camera, rgb, lens: Lens::Pinhole });
     }
     if views.is_empty() {
         return Err(DataError::new(dir, format!("no images in the {} split", split.name())));
     }
     let scene = ndc_scene(&views[0].camera);
-    Ok(Dataset { scene, views, downscale, notes: Vec::new() })
+    let names: Vec<String> = files.iter().map(|f| stem(f)).collect();
+    let capture = Some(capture_record(holdout, names.iter().map(String::as_str), Framing::Forward, true));
+    Ok(Dataset { scene, views, downscale, notes: Vec::new(), capture })
 }
 
 /// The NDC scene of a forward-facing capture whose first view is `v0`:

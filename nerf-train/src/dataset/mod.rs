@@ -22,7 +22,7 @@ pub use llff::load_llff;
 pub use npy::{parse_npy_f64, read_npy_f64, write_npy_f64};
 
 use nerf_infer::camera::Camera;
-use nerf_infer::format::Scene;
+use nerf_infer::format::{Capture, Framing, Scene};
 use std::path::{Path, PathBuf};
 
 /// A loading error: the file and what is wrong with it.
@@ -124,6 +124,39 @@ pub struct Dataset {
     /// What the loader passed over, for the user (one line each): frames
     /// whose images are missing, images the capture did not register.
     pub notes: Vec<String>,
+    /// How a capture split by hold-out (LLFF, COLMAP, instant-ngp without
+    /// split files) was split and framed; `None` for datasets with split files.
+    pub capture: Option<Capture>,
+}
+
+/// The file stem of `path` (a view's name), lossily as UTF-8.
+pub fn stem(path: &Path) -> String {
+    path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// The record of a capture split by hold-out: every `holdout`-th of the
+/// views named `names` (capture order) is held out.
+pub fn capture_record<'a>(
+    holdout: usize,
+    names: impl ExactSizeIterator<Item = &'a str>,
+    framing: Framing,
+    lens: bool,
+) -> Capture {
+    let views = names.len() as u32;
+    let mut held_out = Vec::new();
+    for (i, n) in names.enumerate() {
+        if i.is_multiple_of(holdout.max(1)) {
+            held_out.extend_from_slice(n.as_bytes());
+            held_out.push(b'\n');
+        }
+    }
+    Capture {
+        holdout: holdout.clamp(1, Capture::MAX_HOLDOUT as usize) as u32,
+        views,
+        held_out_crc: nerf_infer::format::crc32(&held_out),
+        framing,
+        lens,
+    }
 }
 
 impl Dataset {
