@@ -5,13 +5,44 @@
 //! Pipeline, one module per stage: [`camera`] (pixel → ray) →
 //! [`sampling`] (where along the ray) → [`encoding`] (γ, and the learned [`features`]) → [`network`]
 //! (the MLP) → [`composite`] (the quadrature) → [`render`] (one ray, both
-//! passes) → [`tile`] (a rectangle of pixels). [`occupancy`] skips empty space; [`format`] decodes models;
+//! passes) → [`tile`] (a rectangle of pixels). [`occupancy`] skips empty space; [`format`](mod@format) decodes models;
 //! [`fixed`] holds the Q formats and integer primitives.
 //!
 //! Memory: nothing is allocated. Working memory is a scratch value the
 //! caller owns ([`ScratchF32`], [`ScratchFixed`]), sized by the constants in
-//! [`format`] (`MAX_WIDTH = 256`, `MAX_COARSE = MAX_FINE = 256`) and a block
+//! [`format`](mod@format) (`MAX_WIDTH = 256`, `MAX_COARSE = MAX_FINE = 256`) and a block
 //! size `B` (samples evaluated together).
+//!
+//! # Numeric formats
+//!
+//! [`F32Renderer`] renders f32 models in f32. [`FixedRenderer`] renders int16
+//! and int8 models with integers only after a per-ray setup: positions and
+//! `t` in Q16 (±32768 world units), encoding features in Q15, colours and
+//! opacity in Q15 (`[0, 32768]`, [`FixedPixel`]), transmittance and weights
+//! in Q30, layer activations at per-layer scales fixed at export. Every shift
+//! rounds half up and every narrowing saturates; the table and the rounding
+//! rules are in [`fixed`]. The two paths agree within bounds the workspace
+//! tests hold (on lego, int16 within 0.01 dB of f32).
+//!
+//! # Stack
+//!
+//! The scratch is the bulk of what a render needs: about 14 KiB for
+//! `ScratchFixed<1>`, 47 KiB for `ScratchFixed<8>`, 25 KiB for
+//! `ScratchF32<8>`; keep it in a `static` or on a stack that holds it. The
+//! Cortex-M firmware of the workspace (`examples/cortex-m`, `ScratchFixed<4>`)
+//! peaks at 37.8 KB of stack and 16 B of static RAM.
+//!
+//! # Cargo features
+//!
+//! - `feature-grid` (default): the learned feature grid's lookups (format
+//!   version 3 and 4 models with `features`). Without it such models are
+//!   refused at load with [`Error::Capacity`], and a Cortex-M3 build is about
+//!   7 KB of flash smaller.
+//! - `alloc`: the model writer (`format::to_bytes`).
+//! - `std`: `alloc`, and `std::error::Error` for [`Error`].
+//!
+//! [`glam`] (the `Vec3` of rays) and [`heapless`] (the bounded vectors of
+//! [`format`](mod@format)) appear in the API and are re-exported.
 //!
 //! # Embedding example
 //!
@@ -75,5 +106,7 @@ pub use camera::{Camera, Ray};
 pub use composite::{FixedPixel, Pixel};
 pub use error::{Error, Result};
 pub use format::{Model, Scheme};
+pub use glam::{self, Vec3};
+pub use heapless;
 pub use render::{F32Renderer, FixedRenderer, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
 pub use tile::{render_tile, Tile};

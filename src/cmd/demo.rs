@@ -11,7 +11,7 @@ use std::path::PathBuf;
 #[derive(clap::Args)]
 pub struct Args {
     /// Output directory.
-    #[arg(long, default_value = "nerf-demo")]
+    #[arg(long, default_value = "runs/demo")]
     out: PathBuf,
     /// Minutes of training.
     #[arg(long, default_value_t = 2.0, value_name = "0.01..=10000.0", value_parser = num_in(0.01f64, 10_000.0))]
