@@ -34,6 +34,7 @@ fn scene() -> Scene {
         white_background: true,
         convention: CameraConvention::OpenGl,
         ndc: None,
+        unbounded: None,
     }
 }
 

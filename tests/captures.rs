@@ -331,3 +331,29 @@ fn a_model_records_how_its_capture_was_split_and_eval_reuses_it() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success() && e.contains("warning") && e.contains("not the model's"), "{e}");
 }
+
+#[test]
+fn a_capture_all_around_trains_unbounded_and_both_paths_render_it() {
+    let root = tmp("unbounded");
+    let scene = root.join("scene");
+    support::cli::ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
+    let data = scene.join("room");
+    let run = root.join("run");
+    support::cli::ok(&["train", "--data", s(&data), "--iters", "3", "--out", s(&run), "--val-views", "0"]);
+    let model = run.join("model.nerf");
+    let info: serde_json::Value = serde_json::from_str(&support::cli::ok(&["info", s(&model), "--json"])).unwrap();
+    assert_eq!(info["format_version"], 5);
+    let lin = info["scene"]["unbounded"]["linear_until"].as_f64().expect("an unbounded scene");
+    let far = info["scene"]["far"].as_f64().unwrap();
+    assert!(lin > 1.0 && far >= 100.0 * lin, "linear until {lin}, far {far}");
+    let int8 = run.join("int8.nerf");
+    support::cli::ok(&["export", s(&model), "--bits", "8", "--out", s(&int8)]);
+    for m in [&model, &int8] {
+        let out = root.join(format!("orbit-{}", m.file_stem().unwrap().to_string_lossy()));
+        support::cli::ok(&["render", s(m), "--orbit", "2", "--size", "12", "--out", s(&out)]);
+        assert!(out.join("orbit.gif").is_file());
+        let report: serde_json::Value =
+            serde_json::from_str(&support::cli::ok(&["eval", s(m), "--data", s(&data), "--split", "val"])).unwrap();
+        assert!(report["psnr"].as_f64().unwrap().is_finite());
+    }
+}

@@ -78,11 +78,13 @@ fn bad_input_files_give_one_line_errors_naming_them() {
     let flip = d.join("flip.nerf");
     std::fs::write(&flip, &flipped).unwrap();
     fails_naming(&["export", s(&flip), "--bits", "8", "--out", s(&d.join("x.nerf"))], &["flip.nerf", "checksum"]);
-    let mut v5 = m.clone();
-    v5[4] = 5;
-    let newer = d.join("v5.nerf");
-    std::fs::write(&newer, &v5).unwrap();
-    fails_naming(&["info", s(&newer)], &["v5.nerf", "version 5", "versions 1 to 4"]);
+    // a version newer than this build's is refused, naming the versions it reads
+    let (newest, mut newer_bytes) = (nerf_infer::format::FORMAT_VERSION, m.clone());
+    newer_bytes[4..6].copy_from_slice(&(newest + 1).to_le_bytes());
+    let newer = d.join("newer.nerf");
+    std::fs::write(&newer, &newer_bytes).unwrap();
+    let (version, range) = (format!("version {}", newest + 1), format!("versions 1 to {newest}"));
+    fails_naming(&["info", s(&newer)], &["newer.nerf", &version, &range]);
     assert!(!d.join("x.nerf").exists());
 
     // corrupt PNG

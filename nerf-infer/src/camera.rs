@@ -6,6 +6,8 @@
 
 use crate::error::{Error, Result};
 use crate::format::Scene;
+use crate::sampling::stratified_f32;
+use crate::unbounded;
 use glam::{Mat3, Vec3};
 
 /// A pinhole camera: intrinsics in pixels and a camera-to-world pose.
@@ -88,13 +90,17 @@ pub struct Ray {
     pub near: f32,
     /// Far bound of `t`: the scene's far plane or the bounds' exit.
     pub far: f32,
+    /// Unbounded scenes: [`Unbounded::linear_until`] (positions are
+    /// contracted and samples spaced as [`crate::unbounded`] says); `None` otherwise.
+    pub linear_until: Option<f32>,
 }
 
 impl Ray {
     /// Prepares a world-space ray (`origin`, `dir` with `d.z = −1` in
     /// camera space) for `scene`, mapping to NDC first for forward-facing
     /// scenes, and clips `[near, far]` to the part of the ray inside the
-    /// scene bounds (nothing is sampled outside them). Returns `None` if
+    /// scene bounds (nothing is sampled outside them; in an unbounded scene
+    /// the ray keeps the scene's near..far). Returns `None` if
     /// the ray is not finite or degenerate (zero direction, or an NDC ray
     /// parallel to the image plane), or misses the bounds within
     /// `[near, far]`: such a ray shows the background at depth `far`.
@@ -119,16 +125,37 @@ impl Ray {
         let t1 = (Vec3::ONE - norm_origin) * inv;
         let enter = t0.min(t1).max_element();
         let exit = t0.max(t1).min_element();
-        let (near, far) = (enter.max(scene.near), exit.min(scene.far));
-        let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far };
+        let linear_until = scene.unbounded.map(|u| u.linear_until);
+        let (near, far) = match linear_until {
+            Some(_) => (scene.near, scene.far),
+            None => (enter.max(scene.near), exit.min(scene.far)),
+        };
+        let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far, linear_until };
         let ok = r.norm_origin.is_finite() && r.norm_dir.is_finite() && r.dir_len.is_finite();
         (ok && near < far).then_some(r)
     }
 
-    /// Normalised position at parameter `t`.
+    /// Normalised position at parameter `t` (contracted in an unbounded scene).
     #[inline(always)]
     pub fn at(&self, t: f32) -> Vec3 {
-        self.norm_origin + t * self.norm_dir
+        let p = self.norm_origin + t * self.norm_dir;
+        if self.linear_until.is_some() {
+            unbounded::contract_f32(p)
+        } else {
+            p
+        }
+    }
+
+    /// The `out.len()` stratified samples of the ray's `near..far` (see
+    /// [`crate::sampling::stratified_f32`]), spaced as the scene says.
+    pub fn stratified(&self, jitter: Option<u32>, out: &mut [f32]) {
+        match self.linear_until {
+            None => stratified_f32(self.near, self.far, jitter, out),
+            Some(lin) => {
+                stratified_f32(unbounded::s_of_t(self.near, lin), unbounded::s_of_t(self.far, lin), jitter, out);
+                out.iter_mut().for_each(|s| *s = unbounded::t_of_s(*s, lin));
+            }
+        }
     }
 }
 

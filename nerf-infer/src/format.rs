@@ -1,21 +1,22 @@
-//! The model file format (versions 1 to 4). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 5). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–4)  |
+//! | 4      | 2    | format version, u16 little-endian (1–5)  |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
 //!
 //! Version 2 appends one field, the optional occupancy grid; version 3
 //! another, the optional learned feature grid ([`FeatureGrid`]); version 4
-//! the optional record of the training capture's split ([`Capture`]). A
-//! model is written as the oldest version that holds it (no capture record:
-//! 3; no feature grid either: 2; no occupancy grid and no pruned layer
-//! either: 1), byte for byte what earlier builds wrote, so older readers
+//! the optional record of the training capture's split ([`Capture`]);
+//! version 5 unbounded space ([`Unbounded`]). A model is written as the
+//! oldest version that holds it (not unbounded: 4; no capture record
+//! either: 3; no feature grid either: 2; no occupancy grid and no pruned
+//! layer either: 1), byte for byte what earlier builds wrote, so older readers
 //! keep reading it.
 //!
 //! Tensors are borrowed from the blob ([`Model::from_bytes`] never copies or
@@ -30,8 +31,10 @@ use serde::{Deserialize, Serialize};
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
-/// The newest format version this build reads and writes (it reads 1 to 3 too).
-pub const FORMAT_VERSION: u16 = 4;
+/// The newest format version this build reads and writes (it reads 1 to 4 too).
+pub const FORMAT_VERSION: u16 = 5;
+/// The version of models with a capture record but no unbounded space.
+pub const FORMAT_VERSION_NO_UNBOUNDED: u16 = 4;
 /// The version of models with a feature grid but no capture record.
 pub const FORMAT_VERSION_NO_CAPTURE: u16 = 3;
 /// The version of models with an occupancy grid or pruned layers but no
@@ -120,6 +123,26 @@ pub struct Scene {
     pub convention: CameraConvention,
     /// Rays are mapped to NDC before sampling (forward-facing scenes).
     pub ndc: Option<Ndc>,
+    /// Space beyond the bounds is contracted into a shell around them
+    /// (format version 5). Not stored here: set from [`Model::unbounded`]
+    /// when a model is decoded.
+    #[serde(skip)]
+    pub unbounded: Option<Unbounded>,
+}
+
+/// Unbounded space (mip-NeRF 360's contraction, with the max norm): a
+/// normalised position `u` (bounds ↦ `[−1, 1]³`) with `m = ‖u‖∞` enters the
+/// grid and the network as `u/2` when `m ≤ 1` and as `u/m · (1 − 1/(2m))`
+/// beyond, so all of space fits `[−1, 1]³` and the bounds fill its inner
+/// half. Rays are not clipped to the bounds; samples are spaced evenly in
+/// `t` up to [`Unbounded::linear_until`] and evenly in `1/t` beyond it, up
+/// to the scene's `far`.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct Unbounded {
+    /// Ray parameter `T` (units of `t`, > 0, below `far`) where the sample
+    /// spacing turns from even in `t` to even in `1/t`: a sample at `s ∈
+    /// [0, 1)` sits at `t = 2Ts` below `s = 1/2` and at `T/(2(1 − s))` above.
+    pub linear_until: f32,
 }
 
 /// Positional encoding parameters (NeRF eq. 4): per coordinate p,
@@ -351,6 +374,8 @@ pub struct Model<'a> {
     /// How the training capture was split and framed (format version 4;
     /// `None` for datasets with their own split files, such as Blender's).
     pub capture: Option<Capture>,
+    /// Unbounded space (format version 5), the same as `scene.unbounded`.
+    pub unbounded: Option<Unbounded>,
 }
 
 /// An older version's payload read as the newest: the payload, then one
@@ -406,6 +431,7 @@ impl<'a> Model<'a> {
         let mut model = Model::deserialize(&mut de).map_err(|_| Error::Decode)?;
         de.finalize().map_err(|_| Error::Decode)?;
         model.encoding.grid_dim = model.features.as_ref().map_or(0, |f| f.dim() as u8);
+        model.scene.unbounded = model.unbounded;
         model.validate()?;
         if version == FORMAT_VERSION_NO_GRID && model.is_pruned() {
             return Err(Error::InvalidTopology("pruned layers need format version 2"));
@@ -445,12 +471,14 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 4 with a capture
-    /// record, 3 with a feature grid, 2 with an occupancy grid or pruned
-    /// layers, else 1.
+    /// The format version this model is written as: 5 with unbounded
+    /// space, 4 with a capture record, 3 with a feature grid, 2 with an
+    /// occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.capture.is_some() {
+        if self.unbounded.is_some() {
             FORMAT_VERSION
+        } else if self.capture.is_some() {
+            FORMAT_VERSION_NO_UNBOUNDED
         } else if self.features.is_some() {
             FORMAT_VERSION_NO_CAPTURE
         } else if self.grid.is_some() || self.is_pruned() {
@@ -494,6 +522,14 @@ impl<'a> Model<'a> {
         }
         if s.far > 30000.0 {
             return Err(Error::InvalidScene("far exceeds the fixed-point range (30000)"));
+        }
+        if s.unbounded != self.unbounded {
+            return Err(Error::InvalidScene("scene.unbounded differs from the model's unbounded field"));
+        }
+        if let Some(u) = s.unbounded {
+            if s.ndc.is_some() || !(u.linear_until.is_finite() && u.linear_until > 0.0 && u.linear_until < s.far) {
+                return Err(Error::InvalidScene("unbounded space needs 0 < linear_until < far and no NDC"));
+            }
         }
         if let Some(n) = s.ndc {
             let finite = n.focal.is_finite() && n.width.is_finite() && n.height.is_finite();

@@ -6,7 +6,8 @@
 //! [`sampling`] (where along the ray) → [`encoding`] (γ, and the learned [`features`]) → [`network`]
 //! (the MLP) → [`composite`] (the quadrature) → [`render`] (one ray, both
 //! passes) → [`tile`] (a rectangle of pixels). [`occupancy`] skips empty space; [`format`](mod@format) decodes models;
-//! [`fixed`] holds the Q formats and integer primitives.
+//! [`fixed`] holds the Q formats and integer primitives; [`unbounded`] the
+//! contraction and sample spacing of scenes without bounds.
 //!
 //! Memory: nothing is allocated. Working memory is a scratch value the
 //! caller owns ([`ScratchF32`], [`ScratchFixed`]), sized by the constants in
@@ -99,6 +100,7 @@ pub mod occupancy;
 pub mod render;
 pub mod sampling;
 pub mod tile;
+pub mod unbounded;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
 mod vnni;
 

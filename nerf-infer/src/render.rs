@@ -17,9 +17,9 @@ use crate::format::{Model, Network, Scheme, MAX_COARSE, MAX_FINE};
 use crate::network::{check_i8_headroom, BlockF32, BlockFixed, IntWeight, W16, W8};
 use crate::occupancy::{clip_to_box, occupied_box, CoarseOccupancy};
 use crate::sampling::{
-    jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_f32, stratified_fixed,
-    stratified_fixed_from,
+    jitter_q16, merge_sorted, ray_key, sample_pdf_f32, sample_pdf_fixed, stratified_fixed, stratified_fixed_from,
 };
+use crate::unbounded::{contract_q24, s_of_t_q30, t_of_s_q16};
 use glam::Vec3;
 
 /// Render-time knobs; [`RenderOptions::from_model`] gives the model's defaults.
@@ -64,7 +64,15 @@ impl RenderOptions {
 type OccBox = Option<Option<([f32; 3], [f32; 3])>>;
 
 fn occ_box(model: &Model<'_>) -> OccBox {
-    model.grid.as_ref().map(occupied_box)
+    // in an unbounded scene the grid is in contracted space: no box in `t`
+    model.grid.as_ref().filter(|_| model.scene.unbounded.is_none()).map(occupied_box)
+}
+
+/// The coarse occupancy level, for models where runs of samples can be
+/// ruled out by the cells at their ends: not in an unbounded scene, whose
+/// contracted rays are curves.
+fn coarse_level(model: &Model<'_>) -> Option<CoarseOccupancy> {
+    model.grid.as_ref().filter(|_| model.scene.unbounded.is_none()).map(CoarseOccupancy::new)
 }
 
 /// The range of `t` worth sampling on `ray`: all of it without a grid, the
@@ -147,7 +155,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
             return Err(Error::WrongNumericPath);
         }
         opts.validate(model)?;
-        Ok(Self { model, opts, occ_box: occ_box(model), coarse: model.grid.as_ref().map(CoarseOccupancy::new) })
+        Ok(Self { model, opts, occ_box: occ_box(model), coarse: coarse_level(model) })
     }
 
     /// The options in use.
@@ -161,8 +169,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
     /// either way; only the time differs.
     pub fn with_coarse_skipping(mut self, on: bool) -> Self {
         // on: keep the level `new` built (or build it again after an off)
-        self.coarse =
-            if on { self.coarse.or_else(|| self.model.grid.as_ref().map(CoarseOccupancy::new)) } else { None };
+        self.coarse = if on { self.coarse.or_else(|| coarse_level(self.model)) } else { None };
         self
     }
 
@@ -299,7 +306,7 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         let nc = self.opts.coarse;
         let ScratchF32 { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
         let t_c = &mut t_coarse[..nc];
-        stratified_f32(ray.near, ray.far, key, t_c);
+        ray.stratified(key, t_c);
         let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
         let Some(fine_net) = fine else {
             return self.pass(&m.coarse, &ray, t_c, span, true, block, None, evaluations);
@@ -346,9 +353,10 @@ struct FixedRay {
     origin: [i32; 3], // Q24 normalised
     dir: [i32; 3],    // Q24 normalised per unit t
     viewdir: [i32; 3],
-    dir_len: i32, // Q16
-    near: i32,    // Q16
-    far: i32,     // Q16
+    dir_len: i32,              // Q16
+    near: i32,                 // Q16
+    far: i32,                  // Q16
+    linear_until: Option<i32>, // Q16: unbounded scene (contracted positions, spaced samples)
 }
 
 impl FixedRay {
@@ -361,16 +369,31 @@ impl FixedRay {
             dir_len: to_fixed(r.dir_len, POS_FRAC),
             near: to_fixed(r.near, POS_FRAC),
             far: to_fixed(r.far, POS_FRAC),
+            linear_until: r.linear_until.map(|t| to_fixed(t, POS_FRAC).max(1)),
         }
     }
 
-    /// Q24 position at Q16 parameter `t` (saturating).
+    /// Q24 position at Q16 parameter `t` (saturating; contracted in an unbounded scene).
     #[inline(always)]
     fn at(&self, t: i32) -> [i32; 3] {
-        core::array::from_fn(|c| {
-            let step = shr_round_i64(t as i64 * self.dir[c] as i64, POS_FRAC);
-            sat_i32(self.origin[c] as i64 + step)
-        })
+        let u =
+            core::array::from_fn(|c| self.origin[c] as i64 + shr_round_i64(t as i64 * self.dir[c] as i64, POS_FRAC));
+        match self.linear_until {
+            None => u.map(sat_i32),
+            Some(_) => contract_q24(u),
+        }
+    }
+
+    /// The `out.len()` stratified samples of `near..far` (Q16), spaced as
+    /// the scene says (see [`Ray::stratified`]).
+    fn stratified(&self, key: Option<u32>, out: &mut [i32]) {
+        match self.linear_until {
+            None => stratified_fixed(self.near, self.far, key, out),
+            Some(lin) => {
+                stratified_fixed(s_of_t_q30(self.near, lin), s_of_t_q30(self.far, lin), key, out);
+                out.iter_mut().for_each(|s| *s = t_of_s_q16(*s, lin));
+            }
+        }
     }
 }
 
@@ -440,7 +463,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             early_stop_q30: (opts.early_stop as f64 * T_ONE as f64) as u32,
             far: to_fixed(model.scene.far, POS_FRAC),
             occ_box: occ_box(model),
-            coarse: model.grid.as_ref().map(CoarseOccupancy::new),
+            coarse: coarse_level(model),
         })
     }
 
@@ -455,8 +478,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
     /// either way; only the time differs.
     pub fn with_coarse_skipping(mut self, on: bool) -> Self {
         // on: keep the level `new` built (or build it again after an off)
-        self.coarse =
-            if on { self.coarse.or_else(|| self.model.grid.as_ref().map(CoarseOccupancy::new)) } else { None };
+        self.coarse = if on { self.coarse.or_else(|| coarse_level(self.model)) } else { None };
         self
     }
 
@@ -592,11 +614,16 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
         let Some(fine_net) = fine else {
             // one pass: only the samples around the span are generated
-            let t = stratified_fixed_around(&fr, nc, key, span, t_coarse);
+            let t = if fr.linear_until.is_some() {
+                fr.stratified(key, &mut t_coarse[..nc]);
+                &t_coarse[..nc]
+            } else {
+                stratified_fixed_around(&fr, nc, key, span, t_coarse)
+            };
             return self.pass::<W, B>(&m.coarse, &fr, t, span, true, block, None, evaluations);
         };
         let t_c = &mut t_coarse[..nc];
-        stratified_fixed(fr.near, fr.far, key, t_c);
+        fr.stratified(key, t_c);
         self.pass::<W, B>(&m.coarse, &fr, t_c, span, false, block, Some(&mut w_coarse[..nc]), evaluations);
         let nf = self.opts.fine;
         sample_pdf_fixed(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key), cdf, &mut t_fine[..nf]);
@@ -659,7 +686,15 @@ mod tests {
             let key = (h(4) % 2 == 0).then(|| h(5));
             let a = near - (1 << 16) + (h(6) % (10 << 16)) as i32;
             let span = (a, a + (h(7) % (4 << 16)) as i32);
-            let ray = FixedRay { origin: [0; 3], dir: [0; 3], viewdir: [0; 3], dir_len: 1 << 16, near, far };
+            let ray = FixedRay {
+                origin: [0; 3],
+                dir: [0; 3],
+                viewdir: [0; 3],
+                dir_len: 1 << 16,
+                near,
+                far,
+                linear_until: None,
+            };
             stratified_fixed(near, far, key, &mut full[..n]);
             let part = stratified_fixed_around(&ray, n, key, span, &mut out);
             let len = part.len();

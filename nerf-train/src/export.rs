@@ -142,6 +142,7 @@ impl OwnedModel {
             grid: self.grid.as_ref().map(|(res, bits)| format::Occupancy { res: *res, bits }),
             features: self.features.as_ref().map(|(f, t)| with_table(f, t)),
             capture: self.capture,
+            unbounded: self.scene.unbounded,
         };
         format::to_bytes(&m)
     }
@@ -582,7 +583,9 @@ pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::S
 /// A camera on a path around the scene, `turn` (fraction of the path)
 /// along it. Scenes seen from all around (Blender, fitted captures, whose
 /// up is +z): at 30° elevation on a circle around the bounds' centre at
-/// the middle of the near..far range, looking at the centre, field of view
+/// the middle of the near..far range (unbounded scenes, whose bounds hold
+/// the cameras: at 0.45 of the bounds' smaller horizontal extent), looking
+/// at the centre, field of view
 /// 0.69 rad as lego's. Forward-facing (NDC) scenes: a small circle in the
 /// image plane of the capture's average pose, looking down −z with the
 /// capture's field of view (LLFF's spiral without the depth motion).
@@ -598,7 +601,11 @@ pub fn orbit_camera(scene: &Scene, turn: f32, width: u32, height: u32) -> nerf_i
     let lo = glam::Vec3::from(scene.bounds_min);
     let hi = glam::Vec3::from(scene.bounds_max);
     let centre = 0.5 * (lo + hi);
-    let radius = 0.5 * (scene.near + scene.far);
+    // an unbounded scene's bounds hold the capture's cameras: orbit inside them
+    let radius = match scene.unbounded {
+        Some(_) => 0.45 * (hi - lo).x.min((hi - lo).y),
+        None => 0.5 * (scene.near + scene.far),
+    };
     let el = 30f32.to_radians();
     let eye = centre + radius * glam::Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
     let mut m = crate::dataset::synthetic::look_at(eye - centre);

@@ -20,7 +20,7 @@ use crate::rng::Rng;
 use crate::volume::{composite, composite_back, push_deltas, LAST_DELTA};
 use nerf_infer::camera::Ray;
 use nerf_infer::format::Scene;
-use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32, stratified_f32};
+use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -368,7 +368,7 @@ impl Trainer {
         ws.offs.push(0);
         for (i, (ray, _)) in rays.iter().enumerate() {
             let t = &mut ws.t_c[i * nc..(i + 1) * nc];
-            stratified_f32(ray.near, ray.far, Some(key(i)), t);
+            ray.stratified(Some(key(i)), t);
             match grid {
                 None => {
                     ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));

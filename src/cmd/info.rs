@@ -44,7 +44,8 @@ pub fn run(a: Args) -> CmdResult {
         })),
         "scheme": format!("{:?}", m.scheme()),
         "scene": { "bounds_min": m.scene.bounds_min, "bounds_max": m.scene.bounds_max, "near": m.scene.near, "far": m.scene.far,
-                   "white_background": m.scene.white_background, "ndc": m.scene.ndc.is_some() },
+                   "white_background": m.scene.white_background, "ndc": m.scene.ndc.is_some(),
+                   "unbounded": m.scene.unbounded.map(|u| serde_json::json!({ "linear_until": u.linear_until })) },
         "encoding": { "pos_freqs": m.encoding.pos_freqs, "dir_freqs": m.encoding.dir_freqs, "include_input": m.encoding.include_input, "raw_frac_bits": m.encoding.raw_frac_bits },
         "topology": { "depth": m.topology.depth, "width": m.topology.width, "skips": (1..16).filter(|&i| m.topology.is_skip(i)).collect::<Vec<_>>(),
                       "view_dependent": m.topology.view_dependent, "view_width": m.topology.view_width },
@@ -97,7 +98,14 @@ pub fn run(a: Args) -> CmdResult {
         m.scene.near,
         m.scene.far,
         if m.scene.white_background { "white" } else { "black" },
-        if m.scene.ndc.is_some() { ", NDC rays" } else { "" }
+        match (m.scene.ndc, m.scene.unbounded) {
+            (Some(_), _) => ", NDC rays".to_string(),
+            (_, Some(u)) => format!(
+                ", unbounded (space beyond the bounds contracted; samples even in t up to {}, then in 1/t)",
+                u.linear_until
+            ),
+            _ => String::new(),
+        }
     );
     match m.grid {
         Some(g) => {

@@ -18,6 +18,7 @@ pub fn unit_scene() -> Scene {
         white_background: true,
         convention: CameraConvention::OpenGl,
         ndc: None,
+        unbounded: None,
     }
 }
 

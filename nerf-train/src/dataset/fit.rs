@@ -12,17 +12,25 @@
 //!   below 0.1: viewing directions within about 18° RMS of a common one)
 //!   is forward-facing and keeps LLFF's NDC treatment; any other looks
 //!   inward (an arc of 90° already spreads 0.2).
-//! - An inward capture is modelled `unbounded` unless told otherwise: a box
-//!   holding the cameras and the 5th–95th percentile of all sparse points,
-//!   so that the table, floor and walls a photo shows have a place in it
-//!   (on `../shared/data/bird` this gives 27.4 dB where the object box
-//!   alone gives 7.3: everything outside the box is black). The `object`
+//! - An inward capture is modelled `unbounded` unless told otherwise: the
+//!   bounds hold the cameras and the 5th–95th percentile of all sparse
+//!   points, so that the table, floor and walls a photo shows have a place
+//!   in them at full resolution, and space beyond is contracted around them
+//!   ([`nerf_infer::unbounded`]): rays run out to 1000 times the farthest
+//!   a camera sees inside the bounds, so the distant things the outer
+//!   percentiles leave out have a place too. (With the object box alone,
+//!   everything outside it is black: `../shared/data/bird` scores 7.3 dB
+//!   that way.) The `object`
 //!   box is the 2nd–98th percentile extent of the sparse points inside the
 //!   camera ring (or ±0.5 without points): for captures of an object on a
 //!   black background.
 
 use glam::{DMat3, DVec3};
-use nerf_infer::format::{CameraConvention, Scene};
+use nerf_infer::format::{CameraConvention, Scene, Unbounded};
+
+/// Farthest `far` of an unbounded scene (fitted units: the median camera
+/// is 1 from the centre), well inside the fixed-point path's 30 000.
+const UNBOUNDED_FAR: f64 = 10_000.0;
 
 /// How to model the space a capture shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,8 +41,9 @@ pub enum SceneKind {
     Object,
     /// Forward-facing: rays in NDC (LLFF).
     Forward,
-    /// Seen from all around, with its surroundings: a box holding the
-    /// cameras and the bulk of the sparse points (the default for inward captures).
+    /// Seen from all around, with its surroundings: bounds holding the
+    /// cameras and the bulk of the sparse points, and the rest of space
+    /// contracted around them (the default for inward captures).
     Unbounded,
 }
 
@@ -140,7 +149,6 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
     let scale = if radius > 1e-9 && radius.is_finite() { 1.0 / radius } else { 1.0 };
     let to_fit = |p: DVec3| rotation * (p - centre) * scale;
     let inner: Vec<DVec3> = points.iter().map(|&p| to_fit(p)).filter(|p| p.is_finite() && p.length() < 1.0).collect();
-    let all: Vec<DVec3> = points.iter().map(|&p| to_fit(p)).filter(|p| p.is_finite()).collect();
     let kind = match kind {
         SceneKind::Auto if forward => SceneKind::Forward,
         SceneKind::Auto => SceneKind::Unbounded,
@@ -158,8 +166,10 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
     };
     let (mut lo, mut hi) = if inner.len() >= 20 { extent(&inner, 0.02, 0.98) } else { ([-0.5; 3], [0.5; 3]) };
     if kind == SceneKind::Unbounded {
+        // the bounds hold the cameras and the bulk of the sparse points; the rest of space is contracted
         let cams: Vec<DVec3> = poses.iter().map(|p| to_fit(p.1)).collect();
         let (clo, chi) = extent(&cams, 0.0, 1.0);
+        let all: Vec<DVec3> = points.iter().map(|&p| to_fit(p)).filter(|p| p.is_finite()).collect();
         let (plo, phi) = if all.len() >= 20 { extent(&all, 0.05, 0.95) } else { (clo, chi) };
         for a in 0..3 {
             lo[a] = lo[a].min(clo[a]).min(plo[a]);
@@ -180,14 +190,17 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
         .flat_map(|p| corners.clone().map(move |c| (c - to_fit(p.1)).length()))
         .fold(0.0f64, f64::max)
         .max(0.1);
+    // unbounded: samples evenly spaced up to that distance, then evenly in 1/t out to 1000 times it
+    let unbounded = (kind == SceneKind::Unbounded).then_some(Unbounded { linear_until: far as f32 });
     let scene = Scene {
         bounds_min: lo.map(|v| v as f32),
         bounds_max: hi.map(|v| v as f32),
         near: 0.01,
-        far: far as f32,
+        far: if unbounded.is_some() { (1000.0 * far).min(UNBOUNDED_FAR) as f32 } else { far as f32 },
         white_background: false,
         convention: CameraConvention::OpenGl,
         ndc: None,
+        unbounded,
     };
     Fitted { kind, rotation, centre, scale, scene }
 }
