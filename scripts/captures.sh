@@ -5,15 +5,18 @@
 # docs/captures.csv: date, commit, CPU, capture, treatment, minutes, steps,
 # PSNR, SSIM.
 #
-#   scripts/captures.sh [DATA_ROOT] [MINUTES]
+#   scripts/captures.sh [DATA_ROOT] [MINUTES] [ONLY]
 #
 # DATA_ROOT holds bird/ (COLMAP) and fox/ (instant-ngp); default ../shared/data.
+# ONLY, a grep pattern on "CAPTURE TREATMENT" (e.g. 'bird auto'), selects runs.
 set -euo pipefail
 root=${1:-../shared/data}
 minutes=${2:-5}
+only=${3:-.}
 . "$(dirname "$0")/lib.sh"
 run() { # capture treatment flags...
   local cap=$1 name=$2; shift 2
+  echo "$cap $name" | grep -q -- "$only" || return 0
   local out="$work/$cap-$name"
   echo "== $cap $name: $*" >&2
   "$bin" train --data "$root/$cap" --downscale 8 --minutes "$minutes" --out "$out" "$@" >&2
