@@ -28,3 +28,5 @@ run bird object --scene object
 run fox auto
 run fox object --scene object
 run fox no-distortion --ignore-distortion
+run bird features --preset features
+run fox features --preset features
