@@ -20,7 +20,12 @@ run() { # capture treatment flags...
   local out="$work/$cap-$name"
   echo "== $cap $name: $*" >&2
   "$bin" train --data "$root/$cap" --downscale 8 --minutes "$minutes" --out "$out" "$@" >&2
-  "$bin" eval "$out/model.nerf" --data "$root/$cap" --split val "$@" > "$out/eval.json"
+  # eval takes the loading flags; --preset is for training only
+  local eval_flags=() skip=0 f
+  for f in "$@"; do
+    if [ "$skip" = 1 ]; then skip=0; elif [ "$f" = --preset ]; then skip=1; else eval_flags+=("$f"); fi
+  done
+  "$bin" eval "$out/model.nerf" --data "$root/$cap" --split val "${eval_flags[@]}" > "$out/eval.json"
   record "$cap" "$name" "$minutes" "$(steps "$out")" "$out/eval.json"
 }
 run bird auto
