@@ -19,6 +19,8 @@ fn scene_train_resume_eval_export_info_render() {
         "train",
         "--data",
         s(&data),
+        "--preset",
+        "fast",
         "--config",
         s(&cfg),
         "--iters",

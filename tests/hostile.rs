@@ -153,7 +153,7 @@ fn a_run_folder_is_never_overwritten_or_shared() {
     let o = run_args(&["--resume", "--downscale", "2"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && e.contains("--downscale 2 differs"), "{e}");
-    let o = run_args(&["--resume", "--preset", "grid"]);
+    let o = run_args(&["--resume", "--preset", "fast"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && e.contains("differ from the checkpoint") && e.contains("n_fine"), "{e}");
     // --resume on other data: refused, naming --data

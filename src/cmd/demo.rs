@@ -1,6 +1,7 @@
-//! `nerf demo`: generate the built-in scene, train, export, render in f32
-//! and fixed point, print the PSNRs and write the images — the commands a
-//! user would type, run through the same parser.
+//! `nerf demo`: generate the built-in scene, train with the default
+//! configuration, export, render in f32 and fixed point, print the PSNRs,
+//! write the images, an orbit GIF of the int8 model and the speed/accuracy
+//! plot — the commands a user would type, run through the same parser.
 
 use super::{num_in, CmdResult};
 use crate::Cli;
@@ -10,7 +11,7 @@ use std::path::PathBuf;
 /// Arguments of `nerf demo`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Output directory.
+    /// Output directory (a demo run there before is replaced).
     #[arg(long, default_value = "runs/demo")]
     out: PathBuf,
     /// Minutes of training.
@@ -29,16 +30,17 @@ pub fn run(a: Args) -> CmdResult {
     let scene = format!("{out}/scene");
     let data = format!("{scene}/blender");
     let run_dir = format!("{out}/run");
-    eprintln!("1/4 generating the built-in scene in {scene}");
+    eprintln!("1/6 generating the built-in scene in {scene}");
     run_cli(&["scene", "--out", &scene])?;
-    eprintln!("2/4 training for {} minutes into {run_dir}", a.minutes);
-    run_cli(&["train", "--data", &data, "--out", &run_dir, "--minutes", &a.minutes.to_string(), "--val-views", "0"])?;
-    eprintln!("3/4 exporting int16 and int8 models");
+    eprintln!("2/6 training for {} minutes into {run_dir}", a.minutes);
+    let minutes = a.minutes.to_string();
+    run_cli(&["train", "--data", &data, "--out", &run_dir, "--minutes", &minutes, "--val-views", "0", "--force"])?;
+    eprintln!("3/6 exporting int16 and int8 models");
     let model = format!("{run_dir}/model.nerf");
     for bits in ["16", "8"] {
         run_cli(&["export", &model, "--bits", bits, "--out", &format!("{run_dir}/model_int{bits}.nerf")])?;
     }
-    eprintln!("4/4 rendering the test views");
+    eprintln!("4/6 rendering the test views");
     let mut rows = Vec::new();
     for (name, file) in [("f32", "model.nerf"), ("int16", "model_int16.nerf"), ("int8", "model_int8.nerf")] {
         let save = format!("{out}/renders/{name}");
@@ -68,6 +70,12 @@ pub fn run(a: Args) -> CmdResult {
             r["model_bytes"]
         );
     }
+    eprintln!("5/6 rendering an orbit of the int8 model");
+    let int8 = format!("{run_dir}/model_int8.nerf");
+    run_cli(&["render", &int8, "--orbit", "24", "--size", "96", "--out", &format!("{out}/orbit")])?;
+    eprintln!("6/6 sweeping bits, samples and early termination (speed against accuracy)");
+    run_cli(&["tradeoff", &model, "--data", &data, "--views", "1", "--out", &format!("{out}/tradeoff")])?;
     out!("images: {out}/renders/{{f32,int16,int8}}/ (render beside *_gt.png ground truth)");
+    out!("orbit:  {out}/orbit/orbit.gif; speed against accuracy: {out}/tradeoff/tradeoff.png");
     Ok(())
 }
