@@ -90,7 +90,7 @@ pub struct Ray {
     pub near: f32,
     /// Far bound of `t`: the scene's far plane or the bounds' exit.
     pub far: f32,
-    /// Unbounded scenes: [`Unbounded::linear_until`] (positions are
+    /// Unbounded scenes: [`crate::format::Unbounded::linear_until`] (positions are
     /// contracted and samples spaced as [`crate::unbounded`] says); `None` otherwise.
     pub linear_until: Option<f32>,
 }
