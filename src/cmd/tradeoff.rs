@@ -183,12 +183,13 @@ pub fn run(a: Args) -> CmdResult {
     }
     write_atomic(&a.out.join("tradeoff.csv"), csv.as_bytes())?;
     let title = format!(
-        "{}: psnr vs cost ({} {} views)",
+        "{}: PSNR against cost ({} views, {}×{})",
         a.model.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
         views.len(),
-        data.views[0].camera.width
+        data.views[0].camera.width,
+        data.views[0].camera.height
     );
-    scatter(&a.out.join("tradeoff.png"), &title, "us per ray (one core)", "psnr db", &points)?;
+    scatter(&a.out.join("tradeoff.png"), &title, "µs per ray (one core)", "PSNR (dB)", &points)?;
     eprintln!("wrote {} and {}", a.out.join("tradeoff.csv").display(), a.out.join("tradeoff.png").display());
     Ok(())
 }
