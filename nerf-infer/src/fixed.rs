@@ -135,11 +135,6 @@ impl Requant {
             && (Self::MIN_SHIFT..=Self::MAX_SHIFT).contains(&self.shift)
     }
 
-    /// The real factor this requantisation applies (for diagnostics).
-    pub fn factor(&self) -> f64 {
-        self.multiplier as f64 * libm::ldexp(1.0, -(31 + self.shift))
-    }
-
     /// Applies the factor to a 64-bit accumulator, rounding half up, with
     /// the result saturated to `i64`. An accumulator that fits `i32` (every
     /// int8 layer's) takes an exact 64-bit path, bit-identical to the
@@ -218,12 +213,6 @@ pub fn sin_turns_q15_slice(phases: &[u32], out: &mut [i16]) {
     for (o, &ph) in out[done..].iter_mut().zip(&phases[done..]) {
         *o = sin_turns_q15(ph);
     }
-}
-
-/// Cosine of a phase in turns · 2³², in Q15: `sin(phase + quarter turn)`.
-#[inline]
-pub fn cos_turns_q15(phase: u32) -> i16 {
-    sin_turns_q15(phase.wrapping_add(1 << 30))
 }
 
 /// `exp(−x)` for `x ≥ 0` in Q26, returned in Q30 (`2³⁰` = 1).
@@ -340,8 +329,9 @@ mod tests {
             let want = libm::sin(x) * 32768.0;
             let got = sin_turns_q15(phase) as f64;
             assert!((got - want.clamp(-32767.0, 32767.0)).abs() <= 1.0, "phase {phase}: {got} vs {want}");
+            // the encoding's cosine is the sine a quarter turn on
             let wantc = (libm::cos(x) * 32768.0).clamp(-32767.0, 32767.0);
-            assert!((cos_turns_q15(phase) as f64 - wantc).abs() <= 1.0);
+            assert!((sin_turns_q15(phase.wrapping_add(1 << 30)) as f64 - wantc).abs() <= 1.0);
         }
     }
 
@@ -383,7 +373,9 @@ mod tests {
         for &f in &[1.0, 0.5, 3.7e-5, 1234.5, 1e-9, 0.999_999_9] {
             let r = Requant::from_f64(f).unwrap();
             assert!(r.is_valid());
-            assert!((r.factor() - f).abs() <= f * 1e-9, "{f} vs {}", r.factor());
+            // the real factor the constants apply
+            let factor = r.multiplier as f64 * libm::ldexp(1.0, -(31 + r.shift));
+            assert!((factor - f).abs() <= f * 1e-9, "{f} vs {factor}");
         }
         assert_eq!(Requant::from_f64(1e20), None);
         assert_eq!(Requant::from_f64(1e-12), None);

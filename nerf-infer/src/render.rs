@@ -158,11 +158,6 @@ impl<'m, 'a> F32Renderer<'m, 'a> {
         Ok(Self { model, opts, occ_box: occ_box(model), coarse: coarse_level(model) })
     }
 
-    /// The options in use.
-    pub fn options(&self) -> &RenderOptions {
-        &self.opts
-    }
-
     /// With `false`, the march tests every sample's grid cell instead of
     /// first ruling out runs of samples with the coarse level
     /// ([`CoarseOccupancy`], on by default). The pixels are the same
@@ -465,11 +460,6 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
             occ_box: occ_box(model),
             coarse: coarse_level(model),
         })
-    }
-
-    /// The options in use.
-    pub fn options(&self) -> &RenderOptions {
-        &self.opts
     }
 
     /// With `false`, the march tests every sample's grid cell instead of
