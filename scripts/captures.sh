@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Trains on real captures with no flags but --data, --out, --downscale and
-# --minutes (plus the treatment compared), then scores the held-out views
+# Trains on real captures with no flags but --data, --out, --downscale,
+# --minutes and --preset (plus the treatment compared), then scores the held-out views
 # (every 8th image) with `nerf eval`. Appends one CSV row per run to
 # docs/captures.csv: date, commit, CPU, capture, treatment, minutes, steps,
 # PSNR, SSIM.
@@ -28,10 +28,11 @@ run() { # capture treatment flags...
   "$bin" eval "$out/model.nerf" --data "$root/$cap" --split val "${eval_flags[@]}" > "$out/eval.json"
   record "$cap" "$name" "$minutes" "$(steps "$out")" "$out/eval.json"
 }
-run bird auto
-run bird object --scene object
-run fox auto
-run fox object --scene object
-run fox no-distortion --ignore-distortion
+# the treatments compared on the fast preset, then the default (features)
+run bird auto --preset fast
+run bird object --scene object --preset fast
+run fox auto --preset fast
+run fox object --scene object --preset fast
+run fox no-distortion --ignore-distortion --preset fast
 run bird features --preset features
 run fox features --preset features

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The built-in scene as a 360° COLMAP capture with and without its coloured
-# room: trains each for MINUTES with default flags (the room capture gets the
-# default unbounded box; the one on black the object box, `--scene object`)
+# room: trains each for MINUTES with the fast preset (the room capture gets the
+# default unbounded treatment; the one on black the object box, `--scene object`)
 # and scores the held-out views. Appends rows to docs/captures.csv.
 #
 #   scripts/scene360.sh [MINUTES]
@@ -13,7 +13,7 @@ for pair in "colmap object --scene object" "room auto"; do
   set -- $pair
   cap=$1 name=$2; shift 2
   out="$work/$cap-$name"
-  "$bin" train --data "$work/scene/$cap" --minutes "$minutes" --out "$out" "$@" >&2
+  "$bin" train --data "$work/scene/$cap" --minutes "$minutes" --out "$out" --preset fast "$@" >&2
   "$bin" eval "$out/model.nerf" --data "$work/scene/$cap" --split val "$@" > "$out/eval.json"
   record "scene-$cap" "$name" "$minutes" "$(steps "$out")" "$out/eval.json"
 done

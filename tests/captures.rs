@@ -8,7 +8,7 @@ mod support;
 
 use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, load_rgb, Format, Lens, LoadOptions, SceneKind, Split};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use support::cli::{nerf, s, tmp};
 
 fn spec() -> SceneSpec {
@@ -246,15 +246,30 @@ fn training_on_a_capture_whose_rays_miss_the_scene_fails_at_once() {
     assert!(!out.join("model.nerf").exists() && !out.join("checkpoint.bin").exists());
 }
 
+/// Writes the built-in scene (16 px, `views` training views) into
+/// `root/scene` and trains `iters` steps on its capture `capture` (`colmap`,
+/// `room`, …) with `flags` into `root/run`; returns the capture's folder
+/// and the model.
+fn trained_capture(root: &Path, views: &str, capture: &str, iters: &str, flags: &[&str]) -> (PathBuf, PathBuf) {
+    let scene = root.join("scene");
+    support::cli::ok(&["scene", "--out", s(&scene), "--size", "16", "--train", views]);
+    let (data, run) = (scene.join(capture), root.join("run"));
+    let mut args = vec!["train", "--data", s(&data), "--iters", iters, "--out", s(&run), "--val-views", "0"];
+    args.extend_from_slice(flags);
+    support::cli::ok(&args);
+    (data, run.join("model.nerf"))
+}
+
+/// The JSON a `nerf` command prints.
+fn json(args: &[&str]) -> serde_json::Value {
+    serde_json::from_str(&support::cli::ok(args)).unwrap()
+}
+
 #[test]
 fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
     let root = tmp("paths");
+    let (data, model) = trained_capture(&root, "6", "colmap", "2", &[]);
     let scene = root.join("scene");
-    support::cli::ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
-    let data = scene.join("colmap");
-    let run = root.join("run");
-    support::cli::ok(&["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"]);
-    let model = run.join("model.nerf");
     let a = root.join("a");
     support::cli::ok(&["render", s(&model), "--data", s(&data), "--trajectory", "3", "--size", "20", "--out", s(&a)]);
     for f in ["frame_000.png", "frame_002_depth.png", "frame_001_depth_preview.png", "frame_000_opacity.png"] {
@@ -295,16 +310,9 @@ fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
 #[test]
 fn a_model_records_how_its_capture_was_split_and_eval_reuses_it() {
     let root = tmp("split");
-    let scene = root.join("scene");
-    support::cli::ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "7"]);
-    let data = scene.join("colmap");
-    let run = root.join("run");
-    let train = ["--llffhold", "3", "--scene", "object", "--ignore-distortion"];
-    let mut args = vec!["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"];
-    args.extend(train);
-    support::cli::ok(&args);
-    let model = run.join("model.nerf");
-    let info: serde_json::Value = serde_json::from_str(&support::cli::ok(&["info", s(&model), "--json"])).unwrap();
+    let flags = ["--llffhold", "3", "--scene", "object", "--ignore-distortion"];
+    let (data, model) = trained_capture(&root, "7", "colmap", "2", &flags);
+    let info = json(&["info", s(&model), "--json"]);
     assert_eq!(info["format_version"], 4);
     let c = &info["capture"];
     assert_eq!(
@@ -315,8 +323,7 @@ fn a_model_records_how_its_capture_was_split_and_eval_reuses_it() {
     let held_out = load(&data, Split::Val, LoadOptions { holdout: 3, lens: false, ..opts(Format::Auto) }).unwrap();
     let default_split = load(&data, Split::Val, opts(Format::Auto)).unwrap();
     assert_ne!(held_out.views.len(), default_split.views.len());
-    let report: serde_json::Value =
-        serde_json::from_str(&support::cli::ok(&["eval", s(&model), "--data", s(&data), "--split", "val"])).unwrap();
+    let report = json(&["eval", s(&model), "--data", s(&data), "--split", "val"]);
     let names: Vec<&str> = report["views"].as_array().unwrap().iter().map(|v| v["name"].as_str().unwrap()).collect();
     let expected: Vec<&str> = held_out.views.iter().map(|v| v.name.as_str()).collect();
     assert_eq!(names, expected);
@@ -335,13 +342,9 @@ fn a_model_records_how_its_capture_was_split_and_eval_reuses_it() {
 #[test]
 fn a_capture_all_around_trains_unbounded_and_both_paths_render_it() {
     let root = tmp("unbounded");
-    let scene = root.join("scene");
-    support::cli::ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
-    let data = scene.join("room");
-    let run = root.join("run");
-    support::cli::ok(&["train", "--data", s(&data), "--iters", "3", "--out", s(&run), "--val-views", "0"]);
-    let model = run.join("model.nerf");
-    let info: serde_json::Value = serde_json::from_str(&support::cli::ok(&["info", s(&model), "--json"])).unwrap();
+    let (data, model) = trained_capture(&root, "6", "room", "3", &[]);
+    let run = model.parent().unwrap().to_path_buf();
+    let info = json(&["info", s(&model), "--json"]);
     assert_eq!(info["format_version"], 5);
     let lin = info["scene"]["unbounded"]["linear_until"].as_f64().expect("an unbounded scene");
     let far = info["scene"]["far"].as_f64().unwrap();
@@ -352,8 +355,7 @@ fn a_capture_all_around_trains_unbounded_and_both_paths_render_it() {
         let out = root.join(format!("orbit-{}", m.file_stem().unwrap().to_string_lossy()));
         support::cli::ok(&["render", s(m), "--orbit", "2", "--size", "12", "--out", s(&out)]);
         assert!(out.join("orbit.gif").is_file());
-        let report: serde_json::Value =
-            serde_json::from_str(&support::cli::ok(&["eval", s(m), "--data", s(&data), "--split", "val"])).unwrap();
+        let report = json(&["eval", s(m), "--data", s(&data), "--split", "val"]);
         assert!(report["psnr"].as_f64().unwrap().is_finite());
     }
 }

@@ -119,16 +119,16 @@ impl Ray {
         let inv_half = 2.0 / (hi - lo);
         let norm_origin = (o - centre) * inv_half;
         let norm_dir = d * inv_half;
-        // Slab test against [−1, 1]³ in normalised coordinates.
-        let inv = Vec3::ONE / norm_dir;
-        let t0 = (Vec3::NEG_ONE - norm_origin) * inv;
-        let t1 = (Vec3::ONE - norm_origin) * inv;
-        let enter = t0.min(t1).max_element();
-        let exit = t0.max(t1).min_element();
         let linear_until = scene.unbounded.map(|u| u.linear_until);
         let (near, far) = match linear_until {
             Some(_) => (scene.near, scene.far),
-            None => (enter.max(scene.near), exit.min(scene.far)),
+            None => {
+                // Slab test against [−1, 1]³ in normalised coordinates.
+                let inv = Vec3::ONE / norm_dir;
+                let t0 = (Vec3::NEG_ONE - norm_origin) * inv;
+                let t1 = (Vec3::ONE - norm_origin) * inv;
+                (t0.min(t1).max_element().max(scene.near), t0.max(t1).min_element().min(scene.far))
+            }
         };
         let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far, linear_until };
         let ok = r.norm_origin.is_finite() && r.norm_dir.is_finite() && r.dir_len.is_finite();

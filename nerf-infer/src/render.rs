@@ -406,8 +406,9 @@ fn stratified_fixed_around<'o>(
     out: &'o mut [i32],
 ) -> &'o [i32] {
     let (near, len) = (ray.near as i64, (ray.far as i64 - ray.near as i64).max(0));
-    if n < 3 || len == 0 {
-        stratified_fixed(ray.near, ray.far, key, &mut out[..n]);
+    // an unbounded scene's samples are not evenly spaced in `t` (and its span is the whole ray)
+    if n < 3 || len == 0 || ray.linear_until.is_some() {
+        ray.stratified(key, &mut out[..n]);
         return &out[..n];
     }
     // unjittered index of a Q16 parameter, rounded down; jitter moves a
@@ -604,12 +605,7 @@ impl<'m, 'a> FixedRenderer<'m, 'a> {
         let fine = if self.opts.fine > 0 { m.fine.as_ref() } else { None };
         let Some(fine_net) = fine else {
             // one pass: only the samples around the span are generated
-            let t = if fr.linear_until.is_some() {
-                fr.stratified(key, &mut t_coarse[..nc]);
-                &t_coarse[..nc]
-            } else {
-                stratified_fixed_around(&fr, nc, key, span, t_coarse)
-            };
+            let t = stratified_fixed_around(&fr, nc, key, span, t_coarse);
             return self.pass::<W, B>(&m.coarse, &fr, t, span, true, block, None, evaluations);
         };
         let t_c = &mut t_coarse[..nc];

@@ -96,8 +96,9 @@ pub struct CaptureArgs {
     #[arg(long, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
     llffhold: Option<usize>,
     /// Scene treatment of COLMAP / instant-ngp captures: `auto` (from the cameras and points), `object` (a box
-    /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (a box holding the cameras and
-    /// their surroundings) [default: auto; with a model: the one it was trained with].
+    /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (bounds holding the cameras and
+    /// their surroundings, space beyond them contracted) [default: auto; with a model: the one it was trained
+    /// with].
     #[arg(long, value_enum)]
     scene: Option<SceneArg>,
     /// Treat every photo as an ideal pinhole: ignore the lens distortion the capture gives (with a model trained

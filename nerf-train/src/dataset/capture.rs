@@ -139,7 +139,7 @@ pub fn build(
                 Frame::Fitted(_) => Framing::Object,
             };
             let names: Vec<String> = all.iter().map(|v| stem(&v.image)).collect();
-            Some(capture_record(n, names.iter().map(String::as_str), framing, opts.lens))
+            Some(capture_record(n, &names, framing, opts.lens))
         }
         Selection::From(_) => None,
     };

@@ -88,7 +88,7 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
     }
     let scene = ndc_scene(&views[0].camera);
     let names: Vec<String> = files.iter().map(|f| stem(f)).collect();
-    let capture = Some(capture_record(holdout, names.iter().map(String::as_str), Framing::Forward, true));
+    let capture = Some(capture_record(holdout, &names, Framing::Forward, true));
     Ok(Dataset { scene, views, downscale, notes: Vec::new(), capture })
 }
 

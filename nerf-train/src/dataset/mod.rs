@@ -136,15 +136,10 @@ pub fn stem(path: &Path) -> String {
 
 /// The record of a capture split by hold-out: every `holdout`-th of the
 /// views named `names` (capture order) is held out.
-pub fn capture_record<'a>(
-    holdout: usize,
-    names: impl ExactSizeIterator<Item = &'a str>,
-    framing: Framing,
-    lens: bool,
-) -> Capture {
+pub fn capture_record(holdout: usize, names: &[String], framing: Framing, lens: bool) -> Capture {
     let views = names.len() as u32;
     let mut held_out = Vec::new();
-    for (i, n) in names.enumerate() {
+    for (i, n) in names.iter().enumerate() {
         if i.is_multiple_of(holdout.max(1)) {
             held_out.extend_from_slice(n.as_bytes());
             held_out.push(b'\n');
