@@ -110,5 +110,8 @@ pub use error::{Error, Result};
 pub use format::{Model, Scheme};
 pub use glam::{self, Vec3};
 pub use heapless;
-pub use render::{F32Renderer, FixedRenderer, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
+pub use render::{
+    F32Renderer, Fixed, FixedRenderer, NumericPath, RayRenderer, RenderOptions, Renderer, Scratch, ScratchF32,
+    ScratchFixed, F32,
+};
 pub use tile::{render_tile, Tile};

@@ -229,9 +229,10 @@ impl<const B: usize> BlockF32<B> {
         }
     }
 
-    /// Evaluates `net` at the normalised positions `pos` (≤ `B` of them),
-    /// filling `sigma` and, if `need_rgb`, `rgb`.
-    pub fn eval(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[f32; 3]], need_rgb: bool) {
+    /// The trunk and density head at the normalised positions `pos`
+    /// (≤ `B`): fills `sigma` and keeps the trunk's output for
+    /// [`BlockF32::eval_colour`].
+    pub fn eval_density(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[f32; 3]]) {
         let n = pos.len();
         let t = &model.topology;
         let e = &model.encoding;
@@ -266,7 +267,8 @@ impl<const B: usize> BlockF32<B> {
             relu_f32(width(i), n, dst);
             in_h = !in_h;
         }
-        let (trunk, spare) = if in_h { (&mut self.h, &mut self.g) } else { (&mut self.g, &mut self.h) };
+        debug_assert_eq!(in_h, trunk_in_h(t.depth));
+        let trunk = if in_h { &self.h } else { &self.g };
         let ls = &layers[sigma_layer(t)];
         let w = width(sigma_layer(t) - 1);
         for s in 0..n {
@@ -276,23 +278,33 @@ impl<const B: usize> BlockF32<B> {
             }
             self.sigma[s] = acc;
         }
-        if !need_rgb {
-            return;
-        }
+    }
+
+    /// The colour branch for samples `rows` (ascending, each < the count
+    /// given to the last [`BlockF32::eval_density`]): `rgb[j]` is the
+    /// colour of sample `rows[j]`. Samples whose weight is zero need none.
+    pub fn eval_colour(&mut self, model: &Model<'_>, net: &Network<'_>, rows: &[usize]) {
+        let n = rows.len();
+        let t = &model.topology;
+        let Self { h, g, view_bias, rgb, .. } = self;
+        let (trunk, spare) = if trunk_in_h(t.depth) { (h, g) } else { (g, h) };
+        let layers = &net.layers;
+        let si = sigma_layer(t);
+        let w = layers[si - 1].out_dim as usize;
+        gather_rows(trunk, rows, w);
         let (rgb_in, rgb_dim, lr) = if t.view_dependent {
-            let lf = &layers[sigma_layer(t) + 1];
+            let lf = &layers[si + 1];
             let fw = lf.out_dim as usize;
             init_f32(|c| read_f32(lf.bias, c), fw, n, spare);
             accumulate_f32(lf, 0, trunk, w, n, spare);
-            let lv = &layers[sigma_layer(t) + 2];
+            let lv = &layers[si + 2];
             let vw = lv.out_dim as usize;
-            let vb = &self.view_bias;
-            init_f32(|c| vb[c], vw, n, trunk);
+            init_f32(|c| view_bias[c], vw, n, trunk);
             accumulate_f32(lv, 0, spare, fw, n, trunk);
             relu_f32(vw, n, trunk);
-            (&*trunk, vw, &layers[sigma_layer(t) + 3])
+            (&*trunk, vw, &layers[si + 3])
         } else {
-            (&*trunk, w, &layers[sigma_layer(t) + 1])
+            (&*trunk, w, &layers[si + 1])
         };
         for s in 0..n {
             for c in 0..3 {
@@ -300,8 +312,19 @@ impl<const B: usize> BlockF32<B> {
                 for j in 0..rgb_dim {
                     acc += rgb_in[s][j] * read_f32(lr.weights, j * 3 + c);
                 }
-                self.rgb[s][c] = sigmoid_f32(acc);
+                rgb[s][c] = sigmoid_f32(acc);
             }
+        }
+    }
+}
+
+/// Moves the first `width` values of rows `rows` (ascending, `rows[j] ≥ j`)
+/// to the front of `buf`, row `rows[j]` to row `j` (a forward copy).
+fn gather_rows<X: Copy>(buf: &mut [[X; MAX_WIDTH]], rows: &[usize], width: usize) {
+    for (j, &k) in rows.iter().enumerate() {
+        if k != j {
+            let (to, from) = buf.split_at_mut(k);
+            to[j][..width].copy_from_slice(&from[0][..width]);
         }
     }
 }
@@ -639,16 +662,6 @@ impl<const B: usize> BlockFixed<B> {
         }
     }
 
-    /// Evaluates `net` at Q24 normalised positions `pos` (≤ `B`), filling
-    /// `sigma` (Q10) and, if `need_rgb`, `rgb` (Q15). Integer only.
-    pub fn eval<W: IntWeight>(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[[i32; 3]], need_rgb: bool) {
-        self.eval_density::<W>(model, net, pos);
-        if need_rgb {
-            let all: [usize; B] = core::array::from_fn(|k| k);
-            self.eval_colour::<W>(model, net, &all[..pos.len()]);
-        }
-    }
-
     /// The trunk and density head at Q24 normalised positions `pos` (≤ `B`):
     /// fills `sigma` (Q10) and keeps the trunk's output for
     /// [`BlockFixed::eval_colour`].
@@ -709,16 +722,9 @@ impl<const B: usize> BlockFixed<B> {
         let Self { h, g, acc64, acc32, view_acc, rgb, .. } = self;
         let acc = W::pick(acc64, acc32);
         let (trunk, spare) = if trunk_in_h(t.depth) { (h, g) } else { (g, h) };
-        // gather the chosen rows to the front (rows[j] ≥ j: a forward copy)
         let layers = &net.layers;
         let width = |k: usize| layers[k].out_dim as usize;
-        let tw = width(sigma_layer(t) - 1);
-        for (j, &k) in rows.iter().enumerate() {
-            if k != j {
-                let (to, from) = trunk.split_at_mut(k);
-                to[j][..tw].copy_from_slice(&from[0][..tw]);
-            }
-        }
+        gather_rows(trunk, rows, width(sigma_layer(t) - 1));
         let relu = relu_bounds(net);
         let linear = linear_bounds(net);
         let si = sigma_layer(t);

@@ -1,0 +1,146 @@
+//! The f32 reference path: every format is f32, world units for `t` and
+//! `δ`, normalised coordinates for positions, `[0, 1]` for weights and
+//! colours.
+
+use super::march::render;
+use super::path::{Kernel, NumericPath};
+use super::{Renderer, Scratch};
+use crate::camera::Ray;
+use crate::composite::{CompositorF32, Pixel};
+use crate::error::{Error, Result};
+use crate::format::{Model, Network, Scheme};
+use crate::network::BlockF32;
+use crate::occupancy::{CoarseOccupancy, Occupancy};
+use crate::sampling::sample_pdf_f32;
+
+/// The f32 path (renders [`Scheme::F32`] models).
+#[derive(Clone, Copy, Debug)]
+pub struct F32;
+
+impl NumericPath for F32 {
+    type T = f32;
+    type Pos = [f32; 3];
+    type W = f32;
+    type Delta = f32;
+    type Sigma = f32;
+    type Rgb = [f32; 3];
+    type Cdf = f32;
+    type Ray = Ray;
+    type Compositor = CompositorF32;
+    type Pixel = Pixel;
+    type Block<const B: usize> = BlockF32<B>;
+
+    fn check(model: &Model<'_>) -> Result<()> {
+        if model.scheme() != Scheme::F32 {
+            return Err(Error::WrongNumericPath);
+        }
+        Ok(())
+    }
+
+    fn early_stop(e: f32) -> f32 {
+        e
+    }
+
+    fn t(t: f32) -> f32 {
+        t
+    }
+
+    fn span(lo: f32, hi: f32) -> (f32, f32) {
+        (lo, hi)
+    }
+
+    fn ray(r: &Ray) -> Ray {
+        *r
+    }
+
+    #[inline(always)]
+    fn at(ray: &Ray, t: f32) -> [f32; 3] {
+        ray.at(t).to_array()
+    }
+
+    #[inline(always)]
+    fn cell(grid: &Occupancy<'_>, p: [f32; 3]) -> [usize; 3] {
+        grid.cell_f32(p)
+    }
+
+    #[inline(always)]
+    fn occupied(grid: &Occupancy<'_>, p: [f32; 3]) -> bool {
+        grid.at_f32(p)
+    }
+
+    fn run_len(coarse: &CoarseOccupancy, ray: &Ray, t: &[f32]) -> usize {
+        let n = t.len();
+        let spacing = if n > 1 { (t[n - 1] - t[0]) / (n - 1) as f32 } else { 0.0 };
+        coarse.run_len((spacing * ray.norm_dir.abs().max_element() * (1u32 << 24) as f32) as u64)
+    }
+
+    #[inline(always)]
+    fn delta(ray: &Ray, t: &[f32], i: usize) -> f32 {
+        if i + 1 < t.len() {
+            (t[i + 1] - t[i]) * ray.dir_len
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    fn samples(ray: &Ray, key: Option<u32>, out: &mut [f32]) {
+        ray.stratified(key, out);
+    }
+
+    fn samples_around<'o>(ray: &Ray, n: usize, key: Option<u32>, _span: (f32, f32), out: &'o mut [f32]) -> &'o [f32] {
+        ray.stratified(key, &mut out[..n]);
+        &out[..n]
+    }
+
+    fn sample_pdf(t: &[f32], w: &[f32], u_q16: impl Fn(usize) -> u32, cdf: &mut [f32], out: &mut [f32]) {
+        sample_pdf_f32(t, w, |j| u_q16(j) as f32 / 65536.0, cdf, out);
+    }
+
+    #[inline(always)]
+    fn transmittance(c: &CompositorF32) -> f32 {
+        c.transmittance
+    }
+
+    #[inline(always)]
+    fn add(c: &mut CompositorF32, sigma: f32, delta: f32, rgb: [f32; 3], t: f32) -> f32 {
+        c.add(sigma, delta, rgb, t)
+    }
+
+    fn finish(c: &CompositorF32, white_background: bool, far: f32) -> Pixel {
+        c.finish(white_background, far)
+    }
+
+    #[inline(always)]
+    fn sigma<const B: usize>(block: &BlockF32<B>, k: usize) -> f32 {
+        block.sigma[k]
+    }
+
+    #[inline(always)]
+    fn rgb<const B: usize>(block: &BlockF32<B>, j: usize) -> [f32; 3] {
+        block.rgb[j]
+    }
+
+    fn render<const B: usize>(
+        r: &Renderer<'_, '_, F32>,
+        ray: &Ray,
+        key: Option<u32>,
+        s: &mut Scratch<F32, B>,
+    ) -> Pixel {
+        render::<F32, F32, B>(r, ray, key, s)
+    }
+}
+
+/// The f32 network ([`BlockF32`]).
+impl Kernel<F32> for F32 {
+    fn prepare_ray<const B: usize>(block: &mut BlockF32<B>, model: &Model<'_>, net: &Network<'_>, ray: &Ray) {
+        block.prepare_ray(model, net, ray.viewdir.to_array());
+    }
+
+    fn eval_density<const B: usize>(block: &mut BlockF32<B>, model: &Model<'_>, net: &Network<'_>, pos: &[[f32; 3]]) {
+        block.eval_density(model, net, pos);
+    }
+
+    fn eval_colour<const B: usize>(block: &mut BlockF32<B>, model: &Model<'_>, net: &Network<'_>, rows: &[usize]) {
+        block.eval_colour(model, net, rows);
+    }
+}

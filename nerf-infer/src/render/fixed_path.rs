@@ -1,0 +1,304 @@
+//! The integer-only fixed-point path: after a per-ray setup that converts
+//! the ray once, no float operation per sample. `t` and `δ` in Q16,
+//! positions in Q24, density in Q10, colours in Q15, weights and
+//! transmittance in Q30 (the table is in [`crate::fixed`]). One path, two
+//! kernels: int16 weights ([`W16`]) and int8 weights ([`W8`]).
+
+use super::march::render;
+use super::path::{Kernel, NumericPath};
+use super::{Renderer, Scratch};
+use crate::camera::Ray;
+use crate::composite::{CompositorFixed, FixedPixel, DELTA_INF_Q16};
+use crate::encoding::NPOS_FRAC;
+use crate::error::{Error, Result};
+use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
+use crate::format::{Model, Network, Scheme};
+use crate::network::{check_i8_headroom, BlockFixed, IntWeight, W16, W8};
+use crate::occupancy::{CoarseOccupancy, Occupancy};
+use crate::sampling::{sample_pdf_fixed, stratified_fixed, stratified_fixed_from};
+use crate::unbounded::{contract_q24, s_of_t_q30, t_of_s_q16};
+use glam::Vec3;
+
+/// The fixed-point path (renders [`Scheme::I16`] and [`Scheme::I8`] models).
+#[derive(Clone, Copy, Debug)]
+pub struct Fixed;
+
+/// A ray in the fixed-point path's formats.
+#[derive(Clone, Copy, Debug)]
+pub struct FixedRay {
+    origin: [i32; 3], // Q24 normalised
+    dir: [i32; 3],    // Q24 normalised per unit t
+    viewdir: [i32; 3],
+    dir_len: i32,              // Q16
+    near: i32,                 // Q16
+    far: i32,                  // Q16
+    linear_until: Option<i32>, // Q16: unbounded scene (contracted positions, spaced samples)
+}
+
+impl FixedRay {
+    fn new(r: &Ray) -> Self {
+        let q24 = |v: Vec3| v.to_array().map(|x| to_fixed(x, NPOS_FRAC));
+        Self {
+            origin: q24(r.norm_origin),
+            dir: q24(r.norm_dir),
+            viewdir: q24(r.viewdir),
+            dir_len: to_fixed(r.dir_len, POS_FRAC),
+            near: to_fixed(r.near, POS_FRAC),
+            far: to_fixed(r.far, POS_FRAC),
+            linear_until: r.linear_until.map(|t| to_fixed(t, POS_FRAC).max(1)),
+        }
+    }
+
+    /// Q24 position at Q16 parameter `t` (saturating; contracted in an unbounded scene).
+    #[inline(always)]
+    fn at(&self, t: i32) -> [i32; 3] {
+        let u =
+            core::array::from_fn(|c| self.origin[c] as i64 + shr_round_i64(t as i64 * self.dir[c] as i64, POS_FRAC));
+        match self.linear_until {
+            None => u.map(sat_i32),
+            Some(_) => contract_q24(u),
+        }
+    }
+
+    /// The `out.len()` stratified samples of `near..far` (Q16), spaced as
+    /// the scene says (see [`Ray::stratified`]).
+    fn stratified(&self, key: Option<u32>, out: &mut [i32]) {
+        match self.linear_until {
+            None => stratified_fixed(self.near, self.far, key, out),
+            Some(lin) => {
+                stratified_fixed(s_of_t_q30(self.near, lin), s_of_t_q30(self.far, lin), key, out);
+                out.iter_mut().for_each(|s| *s = t_of_s_q16(*s, lin));
+            }
+        }
+    }
+}
+
+/// The `n` stratified samples of `ray` that a pass over `span` (Q16) can
+/// use, written to `out`: from the last one before `span.0` to the first one
+/// after `span.1` (or the end). The pass reads the same samples and deltas
+/// as over all `n` (the one after the span bounds the last delta, and the
+/// one before it confirms that no earlier sample is inside), so the pixel is
+/// bit-identical; only their generation is saved.
+fn stratified_fixed_around<'o>(
+    ray: &FixedRay,
+    n: usize,
+    key: Option<u32>,
+    span: (i32, i32),
+    out: &'o mut [i32],
+) -> &'o [i32] {
+    let (near, len) = (ray.near as i64, (ray.far as i64 - ray.near as i64).max(0));
+    // an unbounded scene's samples are not evenly spaced in `t` (and its span is the whole ray)
+    if n < 3 || len == 0 || ray.linear_until.is_some() {
+        ray.stratified(key, &mut out[..n]);
+        return &out[..n];
+    }
+    // unjittered index of a Q16 parameter, rounded down; jitter moves a
+    // sample by less than one stratum, so one more on each side is enough
+    let d = (n - 1) as i64;
+    let index = |t: i32| ((t as i64 - near).clamp(0, len) * d / len) as usize;
+    let first = index(span.0).saturating_sub(1);
+    let end = (index(span.1) + 3).min(n);
+    let part = &mut out[..end - first];
+    stratified_fixed_from(ray.near, ray.far, n, key, first, part);
+    let starts_before = first == 0 || part[0] < span.0;
+    let ends_after = end == n || part[part.len() - 1] > span.1;
+    if starts_before && ends_after {
+        return &out[..end - first];
+    }
+    // not reached for valid rays; kept so the result never depends on it
+    stratified_fixed(ray.near, ray.far, key, &mut out[..n]);
+    &out[..n]
+}
+
+impl NumericPath for Fixed {
+    type T = i32;
+    type Pos = [i32; 3];
+    type W = u32;
+    type Delta = i32;
+    type Sigma = i32;
+    type Rgb = [u16; 3];
+    type Cdf = u64;
+    type Ray = FixedRay;
+    type Compositor = CompositorFixed;
+    type Pixel = FixedPixel;
+    type Block<const B: usize> = BlockFixed<B>;
+
+    fn check(model: &Model<'_>) -> Result<()> {
+        if !model.scheme().is_fixed() {
+            return Err(Error::WrongNumericPath);
+        }
+        check_i8_headroom(&model.coarse)?;
+        if let Some(f) = &model.fine {
+            check_i8_headroom(f)?;
+        }
+        Ok(())
+    }
+
+    fn early_stop(e: f32) -> u32 {
+        (e as f64 * T_ONE as f64) as u32
+    }
+
+    fn t(t: f32) -> i32 {
+        to_fixed(t, POS_FRAC)
+    }
+
+    fn span(lo: f32, hi: f32) -> (i32, i32) {
+        // Q16, widened outward (saturating casts; the box margin covers rounding)
+        (libm::floorf(lo * 65536.0) as i32, libm::ceilf(hi * 65536.0) as i32)
+    }
+
+    fn ray(r: &Ray) -> FixedRay {
+        FixedRay::new(r)
+    }
+
+    #[inline(always)]
+    fn at(ray: &FixedRay, t: i32) -> [i32; 3] {
+        ray.at(t)
+    }
+
+    #[inline(always)]
+    fn cell(grid: &Occupancy<'_>, p: [i32; 3]) -> [usize; 3] {
+        grid.cell_fixed(p, NPOS_FRAC)
+    }
+
+    #[inline(always)]
+    fn occupied(grid: &Occupancy<'_>, p: [i32; 3]) -> bool {
+        grid.at_fixed(p, NPOS_FRAC)
+    }
+
+    fn run_len(coarse: &CoarseOccupancy, ray: &FixedRay, t: &[i32]) -> usize {
+        let n = t.len();
+        let spacing = if n > 1 { (t[n - 1] as i64 - t[0] as i64) / (n - 1) as i64 } else { 0 };
+        let fastest = ray.dir.iter().map(|d| d.unsigned_abs() as u64).max().unwrap_or(0);
+        coarse.run_len((spacing.max(0) as u64 * fastest) >> 16)
+    }
+
+    #[inline(always)]
+    fn delta(ray: &FixedRay, t: &[i32], i: usize) -> i32 {
+        if i + 1 < t.len() {
+            let dt = t[i + 1] as i64 - t[i] as i64;
+            shr_round_i64(dt * ray.dir_len as i64, POS_FRAC).clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
+        } else {
+            DELTA_INF_Q16
+        }
+    }
+
+    fn samples(ray: &FixedRay, key: Option<u32>, out: &mut [i32]) {
+        ray.stratified(key, out);
+    }
+
+    fn samples_around<'o>(
+        ray: &FixedRay,
+        n: usize,
+        key: Option<u32>,
+        span: (i32, i32),
+        out: &'o mut [i32],
+    ) -> &'o [i32] {
+        stratified_fixed_around(ray, n, key, span, out)
+    }
+
+    fn sample_pdf(t: &[i32], w: &[u32], u_q16: impl Fn(usize) -> u32, cdf: &mut [u64], out: &mut [i32]) {
+        sample_pdf_fixed(t, w, u_q16, cdf, out);
+    }
+
+    #[inline(always)]
+    fn transmittance(c: &CompositorFixed) -> u32 {
+        c.transmittance
+    }
+
+    #[inline(always)]
+    fn add(c: &mut CompositorFixed, sigma: i32, delta: i32, rgb: [u16; 3], t: i32) -> u32 {
+        c.add(sigma, delta, rgb, t)
+    }
+
+    fn finish(c: &CompositorFixed, white_background: bool, far: i32) -> FixedPixel {
+        c.finish(white_background, far)
+    }
+
+    #[inline(always)]
+    fn sigma<const B: usize>(block: &BlockFixed<B>, k: usize) -> i32 {
+        block.sigma[k]
+    }
+
+    #[inline(always)]
+    fn rgb<const B: usize>(block: &BlockFixed<B>, j: usize) -> [u16; 3] {
+        block.rgb[j]
+    }
+
+    fn render<const B: usize>(
+        r: &Renderer<'_, '_, Fixed>,
+        ray: &Ray,
+        key: Option<u32>,
+        s: &mut Scratch<Fixed, B>,
+    ) -> FixedPixel {
+        match r.model.scheme() {
+            Scheme::I16 => render::<Fixed, W16, B>(r, ray, key, s),
+            _ => render::<Fixed, W8, B>(r, ray, key, s),
+        }
+    }
+}
+
+/// The integer network ([`BlockFixed`]) with int16 or int8 weights.
+impl<W: IntWeight> Kernel<Fixed> for W {
+    fn prepare_ray<const B: usize>(block: &mut BlockFixed<B>, model: &Model<'_>, net: &Network<'_>, ray: &FixedRay) {
+        block.prepare_ray::<W>(model, net, ray.viewdir);
+    }
+
+    fn eval_density<const B: usize>(block: &mut BlockFixed<B>, model: &Model<'_>, net: &Network<'_>, pos: &[[i32; 3]]) {
+        block.eval_density::<W>(model, net, pos);
+    }
+
+    fn eval_colour<const B: usize>(block: &mut BlockFixed<B>, model: &Model<'_>, net: &Network<'_>, rows: &[usize]) {
+        block.eval_colour::<W>(model, net, rows);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::format::MAX_COARSE;
+    use crate::sampling::hash32;
+
+    /// What makes a pass over the samples around the span bit-identical to
+    /// one over all of them: they are a contiguous run of the full set that
+    /// holds every sample inside the span, begins before it (or at the
+    /// first sample) and ends after it (or at the last).
+    #[test]
+    fn the_samples_around_the_span_are_a_run_of_the_full_set_covering_it() {
+        let mut out = [0i32; MAX_COARSE];
+        let mut full = [0i32; MAX_COARSE];
+        let mut shortened = 0;
+        for case in 0..4000u32 {
+            let h = |k: u32| hash32(case.wrapping_mul(7919) ^ k);
+            let near = (h(1) % (8 << 16)) as i32;
+            let far = near + (h(2) % (8 << 16)) as i32;
+            let n = [2, 3, 5, 64, 192, MAX_COARSE][(h(3) % 6) as usize];
+            let key = (h(4) % 2 == 0).then(|| h(5));
+            let a = near - (1 << 16) + (h(6) % (10 << 16)) as i32;
+            let span = (a, a + (h(7) % (4 << 16)) as i32);
+            let ray = FixedRay {
+                origin: [0; 3],
+                dir: [0; 3],
+                viewdir: [0; 3],
+                dir_len: 1 << 16,
+                near,
+                far,
+                linear_until: None,
+            };
+            stratified_fixed(near, far, key, &mut full[..n]);
+            let part = stratified_fixed_around(&ray, n, key, span, &mut out);
+            let len = part.len();
+            let first = (0..=n - len).find(|&k| full[k..k + len] == *part);
+            let first = first.unwrap_or_else(|| panic!("case {case}: not a run of the full set"));
+            let end = first + len;
+            assert!(first == 0 || part[0] < span.0, "case {case}: starts inside the span");
+            assert!(end == n || part[len - 1] > span.1, "case {case}: ends inside the span");
+            let inside = |t: &i32| (span.0..=span.1).contains(t);
+            let all = full[..n].iter().filter(|t| inside(t)).count();
+            assert_eq!(part.iter().filter(|t| inside(t)).count(), all, "case {case}");
+            shortened += (len < n) as u32;
+        }
+        // and the point of it: most rays generate fewer samples
+        assert!(shortened > 2000, "{shortened} of 4000 shortened");
+    }
+}

@@ -1,0 +1,166 @@
+//! The march, written once for every numeric path: stratified samples,
+//! empty-space skipping, blocks of samples through the network, the
+//! quadrature front to back with early termination, and (with a fine
+//! network) a second pass over coarse + importance samples.
+
+use super::path::{Kernel, NumericPath};
+use super::{Renderer, Scratch};
+use crate::camera::Ray;
+use crate::format::Network;
+use crate::sampling::{jitter_q16, merge_sorted};
+
+/// Fine-pass CDF level of importance sample `j` of `n`, Q16 in `[0, 65536]`:
+/// evenly spaced without jitter (`j/(n−1)`), stratified with it.
+#[inline]
+fn fine_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
+    match key {
+        None if n <= 1 => 0,
+        None => ((j as u64 * 65536) / (n as u64 - 1)) as u32,
+        Some(k) => ((j as u64 * 65536 + jitter_q16(k ^ 0xA511_E9B3, j) as u64) / n as u64) as u32,
+    }
+}
+
+/// Renders `ray` (already known to meet the scene) with kernel `K`: the
+/// coarse pass, then the fine pass if the options ask for one.
+pub(super) fn render<P: NumericPath, K: Kernel<P>, const B: usize>(
+    r: &Renderer<'_, '_, P>,
+    ray: &Ray,
+    key: Option<u32>,
+    s: &mut Scratch<P, B>,
+) -> P::Pixel {
+    let m = r.model;
+    let Some((lo, hi)) = r.occupied_span(ray) else {
+        return r.background();
+    };
+    let span = P::span(lo, hi);
+    let pr = P::ray(ray);
+    let nc = r.opts.coarse;
+    let Scratch { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
+    let fine = if r.opts.fine > 0 { m.fine.as_ref() } else { None };
+    let Some(fine_net) = fine else {
+        // one pass: only the samples around the span are generated
+        let t = P::samples_around(&pr, nc, key, span, t_coarse);
+        return pass::<P, K, B>(r, &m.coarse, &pr, t, span, true, block, None, evaluations);
+    };
+    let t_c = &mut t_coarse[..nc];
+    P::samples(&pr, key, t_c);
+    pass::<P, K, B>(r, &m.coarse, &pr, t_c, span, false, block, Some(&mut w_coarse[..nc]), evaluations);
+    let nf = r.opts.fine;
+    P::sample_pdf(t_c, &w_coarse[..nc], |j| fine_u_q16(j, nf, key), cdf, &mut t_fine[..nf]);
+    let all = &mut t_all[..nc + nf];
+    merge_sorted(t_c, &t_fine[..nf], all);
+    pass::<P, K, B>(r, fine_net, &pr, all, span, true, block, None, evaluations)
+}
+
+/// One pass of `net` over the sorted samples `t` of `ray`: returns the
+/// composited pixel and writes each sample's weight to `weights` if given
+/// (0 for samples skipped as empty or after the ray stopped).
+#[allow(clippy::too_many_arguments)]
+fn pass<P: NumericPath, K: Kernel<P>, const B: usize>(
+    r: &Renderer<'_, '_, P>,
+    net: &Network<'_>,
+    ray: &P::Ray,
+    t: &[P::T],
+    span: (P::T, P::T),
+    need_rgb: bool,
+    block: &mut P::Block<B>,
+    mut weights: Option<&mut [P::W]>,
+    evaluations: &mut u64,
+) -> P::Pixel {
+    let m = r.model;
+    let zero = P::W::default();
+    // the view direction's part of the colour branch, folded in at the
+    // first sample that needs colour (many rays have none)
+    let mut prepared = false;
+    let mut comp = P::Compositor::default();
+    let (grid, coarse) = (m.grid.as_ref(), r.coarse.as_ref());
+    let n = t.len();
+    let run = coarse.map_or(0, |c| P::run_len(c, ray, t));
+    let (mut next, mut tested) = (0, 0);
+    while next < n {
+        if P::transmittance(&comp) < r.early_stop {
+            if let Some(w) = weights.as_deref_mut() {
+                w[next..n].fill(zero);
+            }
+            break;
+        }
+        // gather up to B samples in occupied cells (all of them without a grid)
+        let (mut idx, mut pos, mut len) = ([0usize; B], [P::Pos::default(); B], 0);
+        while next < n && len < B {
+            if t[next] > span.1 {
+                // past the occupied box: nothing more to evaluate
+                if let Some(w) = weights.as_deref_mut() {
+                    w[next..n].fill(zero);
+                }
+                next = n;
+                break;
+            }
+            if let (Some(g), Some(c), true) = (grid, coarse, next >= tested) {
+                // the next `run` samples, ruled out together if their
+                // coarse cells are all empty
+                let last = (next + run).min(n) - 1;
+                let cell = |i: usize| P::cell(g, P::at(ray, t[i]));
+                if c.box_is_empty(cell(next), cell(last)) {
+                    if let Some(w) = weights.as_deref_mut() {
+                        w[next..=last].fill(zero);
+                    }
+                    next = last + 1;
+                    continue;
+                }
+                tested = last + 1;
+            }
+            // branch-free compaction: occupancy is too irregular to predict
+            let p = P::at(ray, t[next]);
+            let occupied = (t[next] >= span.0) & grid.is_none_or(|g| P::occupied(g, p));
+            (idx[len], pos[len]) = (next, p);
+            len += occupied as usize;
+            if let Some(w) = weights.as_deref_mut().filter(|_| !occupied) {
+                w[next] = zero;
+            }
+            next += 1;
+        }
+        if len == 0 {
+            break;
+        }
+        K::eval_density(block, m, net, &pos[..len]);
+        *evaluations += len as u64;
+        // which samples are composited (the ray stops before the first one
+        // met with transmittance below the threshold) and which of those
+        // carry weight: only they need the colour branch
+        let mut delta = [P::Delta::default(); B];
+        let (mut probe, mut used, mut rows, mut n_rows) = (comp, 0, [0usize; B], 0);
+        while used < len && P::transmittance(&probe) >= r.early_stop {
+            delta[used] = P::delta(ray, t, idx[used]);
+            let w = P::add(&mut probe, P::sigma(block, used), delta[used], P::Rgb::default(), t[idx[used]]);
+            rows[n_rows] = used;
+            n_rows += (need_rgb && w > zero) as usize;
+            used += 1;
+        }
+        if n_rows > 0 {
+            if !prepared {
+                K::prepare_ray(block, m, net, ray);
+                prepared = true;
+            }
+            K::eval_colour(block, m, net, &rows[..n_rows]);
+        }
+        let mut j = 0;
+        for k in 0..used {
+            let rgb = if j < n_rows && rows[j] == k {
+                j += 1;
+                P::rgb(block, j - 1)
+            } else {
+                P::Rgb::default() // weight 0: the colour adds nothing
+            };
+            let w = P::add(&mut comp, P::sigma(block, k), delta[k], rgb, t[idx[k]]);
+            if let Some(ws) = weights.as_deref_mut() {
+                ws[idx[k]] = w;
+            }
+        }
+        if used < len {
+            if let Some(ws) = weights.as_deref_mut() {
+                idx[used..len].iter().for_each(|&i| ws[i] = zero);
+            }
+        }
+    }
+    P::finish(&comp, m.scene.white_background, r.far)
+}

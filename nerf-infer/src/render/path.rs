@@ -1,0 +1,121 @@
+//! The contract between the march and a numeric path.
+//!
+//! The march ([`super::march`]) is written once over [`NumericPath`]: the
+//! formats of a ray, its samples, their weights and the pixel, and the
+//! per-sample operations in them. The network evaluation is a second
+//! contract, [`Kernel`], so that one path can carry several kernels (the
+//! fixed-point path has int16 and int8 weights) and a new kernel (say int4
+//! weights, or a wasm SIMD one) plugs in without touching the march.
+
+use super::{Renderer, Scratch};
+use crate::camera::Ray;
+use crate::error::Result;
+use crate::format::{Model, Network};
+use crate::occupancy::{CoarseOccupancy, Occupancy};
+use core::fmt::Debug;
+
+/// A numeric path: the formats the march works in and its per-sample
+/// operations. Implemented by [`super::F32`] (f32 throughout) and
+/// [`super::Fixed`] (integers only after a per-ray setup).
+pub trait NumericPath: Sized + Copy + Debug {
+    /// Ray parameter `t` (f32 world units; Q16).
+    type T: Copy + Default + PartialOrd + Debug;
+    /// Normalised sample position, the network's input (f32; Q24).
+    type Pos: Copy + Default;
+    /// Compositing weight and transmittance (f32 in `[0, 1]`; Q30).
+    type W: Copy + Default + PartialOrd + Debug;
+    /// Interval length `δ` (f32 world units; Q16).
+    type Delta: Copy + Default;
+    /// Raw density head output (f32; Q10).
+    type Sigma: Copy;
+    /// Sample colour; its default is black, the colour of a sample of
+    /// weight 0 (f32 in `[0, 1]`; Q15).
+    type Rgb: Copy + Default;
+    /// Cumulative-distribution entry of importance sampling.
+    type Cdf: Copy + Default;
+    /// A ray in this path's formats.
+    type Ray;
+    /// Front-to-back accumulator of the quadrature.
+    type Compositor: Copy + Default;
+    /// The rendered pixel.
+    type Pixel: Copy + Default;
+    /// Network working memory for `B` samples.
+    type Block<const B: usize>: Clone + Default;
+
+    /// `Ok` if this path renders `model` (its scheme, and for the integer
+    /// path accumulators that cannot overflow).
+    fn check(model: &Model<'_>) -> Result<()>;
+    /// The early-termination threshold (`[0, 1)`) as a transmittance.
+    fn early_stop(e: f32) -> Self::W;
+    /// A world-space `t` (the scene's far plane) in this path's format.
+    fn t(t: f32) -> Self::T;
+    /// The span `[lo, hi]` of `t` worth sampling, widened outward.
+    fn span(lo: f32, hi: f32) -> (Self::T, Self::T);
+    /// The ray in this path's formats.
+    fn ray(r: &Ray) -> Self::Ray;
+    /// Normalised position at `t` (contracted in an unbounded scene).
+    fn at(ray: &Self::Ray, t: Self::T) -> Self::Pos;
+    /// The grid cell holding `p`.
+    fn cell(grid: &Occupancy<'_>, p: Self::Pos) -> [usize; 3];
+    /// Whether the grid cell holding `p` is occupied.
+    fn occupied(grid: &Occupancy<'_>, p: Self::Pos) -> bool;
+    /// How many samples of `t` the coarse occupancy level can rule out
+    /// together on `ray` (see [`CoarseOccupancy::run_len`]).
+    fn run_len(coarse: &CoarseOccupancy, ray: &Self::Ray, t: &[Self::T]) -> usize;
+    /// `δ` of sample `i` of `t`: to the next sample in world units, the
+    /// infinite interval for the last one.
+    fn delta(ray: &Self::Ray, t: &[Self::T], i: usize) -> Self::Delta;
+    /// The `out.len()` stratified samples of the ray, jittered by `key`.
+    fn samples(ray: &Self::Ray, key: Option<u32>, out: &mut [Self::T]);
+    /// Of the `n` stratified samples, the run that a pass over `span` needs
+    /// (all of them where the path does not shorten it): the pixel is the
+    /// same as over all `n`.
+    fn samples_around<'o>(
+        ray: &Self::Ray,
+        n: usize,
+        key: Option<u32>,
+        span: (Self::T, Self::T),
+        out: &'o mut [Self::T],
+    ) -> &'o [Self::T];
+    /// Importance samples of the weights `w` at `t`
+    /// ([`crate::sampling::sample_pdf_f32`] and its fixed-point twin);
+    /// `u_q16(j)` is sample `j`'s CDF level in Q16.
+    fn sample_pdf(
+        t: &[Self::T],
+        w: &[Self::W],
+        u_q16: impl Fn(usize) -> u32,
+        cdf: &mut [Self::Cdf],
+        out: &mut [Self::T],
+    );
+    /// Transmittance before the next sample.
+    fn transmittance(c: &Self::Compositor) -> Self::W;
+    /// Adds a sample at `t` and returns its weight.
+    fn add(c: &mut Self::Compositor, sigma: Self::Sigma, delta: Self::Delta, rgb: Self::Rgb, t: Self::T) -> Self::W;
+    /// Finishes the ray on the background; `far` is the depth of empty space.
+    fn finish(c: &Self::Compositor, white_background: bool, far: Self::T) -> Self::Pixel;
+    /// Density of sample `k` of the last [`Kernel::eval_density`].
+    fn sigma<const B: usize>(block: &Self::Block<B>, k: usize) -> Self::Sigma;
+    /// Colour `j` of the last [`Kernel::eval_colour`].
+    fn rgb<const B: usize>(block: &Self::Block<B>, j: usize) -> Self::Rgb;
+    /// Renders `ray` with the kernel that fits the renderer's model
+    /// ([`super::march::render`] instantiated for it).
+    fn render<const B: usize>(
+        r: &Renderer<'_, '_, Self>,
+        ray: &Ray,
+        key: Option<u32>,
+        s: &mut Scratch<Self, B>,
+    ) -> Self::Pixel;
+}
+
+/// The network evaluated in a path's formats, on a block of up to `B`
+/// samples of one ray.
+pub trait Kernel<P: NumericPath> {
+    /// Per-ray setup: folds the view direction into the view layer.
+    fn prepare_ray<const B: usize>(block: &mut P::Block<B>, model: &Model<'_>, net: &Network<'_>, ray: &P::Ray);
+    /// The trunk and density head at `pos` (≤ `B` positions).
+    fn eval_density<const B: usize>(block: &mut P::Block<B>, model: &Model<'_>, net: &Network<'_>, pos: &[P::Pos]);
+    /// The colour branch for samples `rows` of the last
+    /// [`Kernel::eval_density`] (ascending); colour `j` is that of
+    /// sample `rows[j]`.
+    fn eval_colour<const B: usize>(block: &mut P::Block<B>, model: &Model<'_>, net: &Network<'_>, rows: &[usize]);
+}
