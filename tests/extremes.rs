@@ -411,7 +411,7 @@ fn sampling_entry_points_take_nan_and_infinity() {
 fn the_remaining_entry_points_take_nan_and_infinity() {
     use nerf_infer::camera::{is_rotation, ndc_ray};
     use nerf_infer::fixed::Requant;
-    use nerf_infer::network::BlockF32;
+    use nerf_infer::network::{BlockF32, F32};
     for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
         assert_eq!(to_fixed(f32::NAN, 16), 0);
         assert!(Requant::from_f64(v as f64).is_none(), "{v}");
@@ -428,9 +428,9 @@ fn the_remaining_entry_points_take_nan_and_infinity() {
     let f = f32_model(&small_config(), unit_scene(), Weights::Random).to_bytes().unwrap();
     let m = Model::from_bytes(&f).unwrap();
     let mut b = Box::<BlockF32<2>>::default();
-    b.prepare_ray(&m, &m.coarse, [f32::NAN, 0.0, 1.0]);
-    b.eval_density(&m, &m.coarse, &[[f32::NAN, 0.0, 0.0], [f32::INFINITY, 1.0, -1.0]]);
-    b.eval_colour(&m, &m.coarse, &[0, 1]);
+    b.prepare_ray::<F32>(&m, &m.coarse, [f32::NAN, 0.0, 1.0]);
+    b.eval_density::<F32>(&m, &m.coarse, &[[f32::NAN, 0.0, 0.0], [f32::INFINITY, 1.0, -1.0]]);
+    b.eval_colour::<F32>(&m, &m.coarse, &[0, 1]);
     assert!(b.rgb.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "{:?}", b.rgb);
     assert!(b.sigma.iter().all(|&s| alpha_f32(s, 1.0) >= 0.0 && alpha_f32(s, 1.0) <= 1.0), "{:?}", b.sigma);
 }

@@ -8,7 +8,7 @@ mod support;
 use nerf_infer::composite::{CompositorF32, CompositorFixed, DELTA_INF_Q16};
 use nerf_infer::encoding::NPOS_FRAC;
 use nerf_infer::format::Scheme;
-use nerf_infer::network::{BlockF32, BlockFixed, W16, W8};
+use nerf_infer::network::{BlockF32, BlockFixed, F32, W16, W8};
 use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{orbit_camera, quantise, quantise_acts, random_model};
@@ -53,14 +53,18 @@ fn compare_mlp(cfg: &TrainConfig, scheme: Scheme, sigma_tol: f32, rgb_tol: f32) 
     let dir = [0.0f32, 0.6, -0.8];
     let dir_q = dir.map(|v| (v * (1 << NPOS_FRAC) as f32).round() as i32);
     let (nf, nq) = (mf.final_network(), mq.final_network());
-    bf.prepare_ray(&mf, nf, [dir_q[0] as f32 / 16777216.0, dir_q[1] as f32 / 16777216.0, dir_q[2] as f32 / 16777216.0]);
+    bf.prepare_ray::<F32>(
+        &mf,
+        nf,
+        [dir_q[0] as f32 / 16777216.0, dir_q[1] as f32 / 16777216.0, dir_q[2] as f32 / 16777216.0],
+    );
     let mut sig_max = 0.0f32;
     let mut errs = (0.0f32, 0.0f32);
     for chunk in positions(400, 5).chunks(8) {
         let pf: Vec<[f32; 3]> = chunk.iter().map(|p| p.map(|v| v as f32 / (1 << NPOS_FRAC) as f32)).collect();
         let all: Vec<usize> = (0..chunk.len()).collect();
-        bf.eval_density(&mf, nf, &pf);
-        bf.eval_colour(&mf, nf, &all);
+        bf.eval_density::<F32>(&mf, nf, &pf);
+        bf.eval_colour::<F32>(&mf, nf, &all);
         match scheme {
             Scheme::I16 => {
                 bq.prepare_ray::<W16>(&mq, nq, dir_q);

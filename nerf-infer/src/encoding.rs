@@ -13,12 +13,11 @@
 //! the fractional number of turns is kept, so large `k` loses nothing beyond
 //! the precision of `p` itself.
 
-use crate::fixed::{sat_i16, shr_round_i64, sin_turns_q15_slice};
-use crate::format::MAX_FREQS;
+use crate::arch::sin_turns_q15_slice;
+use crate::fixed::{sat_i16, shr_round_i64};
+use crate::limits::MAX_FREQS;
 
-/// Fractional bits of normalised positions in the fixed path (Q24 in i32,
-/// range ±128 normalised units).
-pub const NPOS_FRAC: u32 = 24;
+pub use crate::fixed::NPOS_FRAC;
 
 /// `sin(π·x)` and `cos(π·x)` for any finite f32 `x` with exact reduction.
 ///

@@ -55,8 +55,8 @@ impl fmt::Display for Error {
             Error::UnsupportedVersion(v) => write!(
                 f,
                 "model format version {v} is not supported (this build reads versions {} to {})",
-                crate::format::FORMAT_VERSION_NO_GRID,
-                crate::format::FORMAT_VERSION
+                crate::limits::FORMAT_VERSION_NO_GRID,
+                crate::limits::FORMAT_VERSION
             ),
             Error::ChecksumMismatch => write!(f, "model checksum mismatch (corrupted file)"),
             Error::Decode => write!(f, "model payload cannot be decoded"),

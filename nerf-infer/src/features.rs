@@ -16,19 +16,12 @@
 //! trilinear weights from the Q24 position with integers only, and its
 //! features come out as i16 with `frac_bits` fractional bits.
 
-use crate::encoding::NPOS_FRAC;
+use crate::fixed::NPOS_FRAC;
 use crate::fixed::{sat_i16, shr_round_i64};
-use crate::format::read_f32;
+use crate::tensor::read_f32;
 use serde::{Deserialize, Serialize};
 
-/// Most levels a grid may have.
-pub const MAX_LEVELS: usize = 16;
-/// Most values the grid adds to the trunk's input (`levels × width`).
-pub const MAX_FEATURES: usize = 32;
-/// Largest table per level: `2^MAX_LOG2_TABLE` entries.
-pub const MAX_LOG2_TABLE: u8 = 22;
-/// Finest lattice, cells per axis.
-pub const MAX_RES: u16 = 4096;
+pub use crate::limits::{MAX_FEATURES, MAX_LEVELS, MAX_LOG2_TABLE, MAX_RES};
 
 /// A decoded feature grid, borrowing its table from the model blob.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -236,20 +229,6 @@ impl FeatureGrid<'_> {
             base += self.entries(l);
         }
     }
-
-    /// [`FeatureGrid::encode_fixed`] at every position of `pos`, into
-    /// `out[s][at..at + dim()]` (bit for bit the same; with AVX2, width-2
-    /// grids take 8 levels per register).
-    pub fn encode_fixed_rows<const N: usize>(&self, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if self.width == 2 {
-            crate::avx2::features_w2(self, pos, out, at);
-            return;
-        }
-        for (p, o) in pos.iter().zip(out.iter_mut()) {
-            self.encode_fixed(*p, &mut o[at..at + self.dim()]);
-        }
-    }
 }
 
 /// A vertex's entry from its axis contributions: their sum (dense levels)
@@ -348,52 +327,6 @@ mod tests {
                 let h = |s: u32| (k.wrapping_mul(2_654_435_761) ^ s).wrapping_mul(0x9E37_79B9) as i32 >> 6;
                 g.encode_fixed([h(1), h(2), h(3)], &mut out);
                 assert!(out.iter().all(|&o| (o as i32 - v as i32).abs() <= 4), "{out:?} for a table of {v}");
-            }
-        }
-    }
-
-    #[test]
-    fn lookups_of_many_positions_match_one_at_a_time() {
-        // the AVX2 path (8 levels per register) against the scalar one, bit
-        // for bit: dense and hashed levels, one and two register groups,
-        // positions beyond the bounds, on the faces and at vertices
-        const T: usize = 16 * 1024 * 2;
-        let mut bytes = [0u8; 2 * T];
-        for (shape, (levels, min, max, log2)) in
-            [(3, 2, 9, 6), (8, 16, 256, 10), (16, 1, 4096, 10), (9, 4, 600, 8)].into_iter().enumerate()
-        {
-            for (b, v) in bytes.iter_mut().enumerate() {
-                let h = (b as u32 ^ (shape as u32) << 20).wrapping_mul(0x9E37_79B9);
-                *v = if shape == 2 { [0x00, 0x80, 0xFF, 0x7F][(h >> 30) as usize] } else { (h >> 24) as u8 };
-            }
-            let mut g = FeatureGrid {
-                width: 2,
-                log2_table: log2,
-                frac_bits: 9,
-                resolutions: geometric_resolutions(levels, min, max),
-                table: &[],
-            };
-            let n = 2 * g.values();
-            g.table = &bytes[..n];
-            assert!(g.is_valid(2));
-            let one = 1i32 << NPOS_FRAC;
-            let mut pos = [[0i32; 3]; 64];
-            for (k, p) in pos.iter_mut().enumerate() {
-                let h = |s: u32| (k as u32 ^ s << 8).wrapping_mul(2_654_435_761).rotate_left(s) as i32;
-                *p = match k % 4 {
-                    0 => [h(1), h(2), h(3)],
-                    1 => [h(4) >> 7, h(5) >> 7, h(6) >> 7],
-                    2 => [one, -one, (h(7) >> 7).clamp(-one, one) / 4096 * 4096],
-                    _ => [h(8) >> 8, one - 1, -one + 1],
-                };
-            }
-            let mut rows = [[0i16; 40]; 64];
-            g.encode_fixed_rows(&pos, &mut rows, 5);
-            for (p, row) in pos.iter().zip(&rows) {
-                let mut want = [0i16; MAX_FEATURES];
-                g.encode_fixed(*p, &mut want[..g.dim()]);
-                assert_eq!(&row[5..5 + g.dim()], &want[..g.dim()], "grid {shape} at {p:?}");
-                assert!(row[..5].iter().chain(&row[5 + g.dim()..]).all(|&v| v == 0), "grid {shape}: wrote outside");
             }
         }
     }

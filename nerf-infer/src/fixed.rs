@@ -20,6 +20,9 @@
 
 /// Fractional bits of positions, origins, directions and ray parameters `t`.
 pub const POS_FRAC: u32 = 16;
+/// Fractional bits of normalised positions in the fixed path (Q24 in i32,
+/// range ±128 normalised units).
+pub const NPOS_FRAC: u32 = 24;
 /// Fractional bits of the sin/cos encoding features (Q15).
 pub const ENC_FRAC: u32 = 15;
 /// Fractional bits of the density head output σ (Q10, in 1/world units).
@@ -201,20 +204,6 @@ pub fn sin_turns_q15(phase: u32) -> i16 {
     }
 }
 
-/// [`sin_turns_q15`] of every phase in `phases` into `out` (same length),
-/// bit for bit; with AVX2, 8 at a time.
-#[inline]
-pub fn sin_turns_q15_slice(phases: &[u32], out: &mut [i16]) {
-    debug_assert_eq!(phases.len(), out.len());
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    let done = crate::avx2::sin_turns_q15_x8(phases, out);
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-    let done = 0;
-    for (o, &ph) in out[done..].iter_mut().zip(&phases[done..]) {
-        *o = sin_turns_q15(ph);
-    }
-}
-
 /// `exp(−x)` for `x ≥ 0` in Q26, returned in Q30 (`2³⁰` = 1).
 ///
 /// Method: `exp(−x) = 2^(−y)` with `y = x·log₂e` in Q32, split into integer
@@ -383,27 +372,5 @@ mod tests {
         let r = Requant::from_f64(0.25).unwrap();
         assert_eq!(r.apply(6), 2); // 1.5 rounds half up
         assert_eq!(r.apply(-6), -1); // -1.5 rounds half up
-    }
-
-    #[test]
-    fn the_slice_sine_matches_the_scalar_one_bit_for_bit() {
-        extern crate std;
-        // quadrant and table-entry edges, then a sweep with all low bits busy
-        let mut phases: std::vec::Vec<u32> = std::vec::Vec::new();
-        for q in 0..4u32 {
-            for e in [0u32, 1, (1 << 22) - 1, 1 << 22, (1 << 30) - (1 << 22), (1 << 30) - 1] {
-                phases.push((q << 30).wrapping_add(e));
-            }
-        }
-        phases.push(u32::MAX);
-        phases.extend((0..200_003u32).map(|i| i.wrapping_mul(2_654_435_761) ^ (i << 7)));
-        let mut out = std::vec![0i16; phases.len()];
-        for len in [phases.len(), 7, 8, 9, 0] {
-            out.fill(0);
-            sin_turns_q15_slice(&phases[..len], &mut out[..len]);
-            for (k, (&p, &o)) in phases[..len].iter().zip(&out[..len]).enumerate() {
-                assert_eq!(o, sin_turns_q15(p), "phase {p:#x} (index {k} of {len})");
-            }
-        }
     }
 }

@@ -29,34 +29,11 @@ use crate::fixed::Requant;
 pub use crate::occupancy::Occupancy;
 use serde::{Deserialize, Serialize};
 
-/// The four bytes every model starts with.
-pub const MAGIC: [u8; 4] = *b"NERF";
-/// The newest format version this build reads and writes (it reads 1 to 4 too).
-pub const FORMAT_VERSION: u16 = 5;
-/// The version of models with a capture record but no unbounded space.
-pub const FORMAT_VERSION_NO_UNBOUNDED: u16 = 4;
-/// The version of models with a feature grid but no capture record.
-pub const FORMAT_VERSION_NO_CAPTURE: u16 = 3;
-/// The version of models with an occupancy grid or pruned layers but no
-/// feature grid.
-pub const FORMAT_VERSION_NO_FEATURES: u16 = 2;
-/// The version of models without an occupancy grid.
-pub const FORMAT_VERSION_NO_GRID: u16 = 1;
-/// Length of the fixed header before the postcard payload, in bytes.
-pub const HEADER_LEN: usize = 14;
-/// Most layers a network may have (trunk + heads).
-pub const MAX_LAYERS: usize = 24;
-/// Widest layer (inputs or outputs) the kernel's scratch buffers hold.
-pub const MAX_WIDTH: usize = 256;
-/// Longest layer input: `MAX_WIDTH` plus the largest encoding (16 freqs +
-/// raw + the feature grid's values).
-pub const MAX_INPUT: usize = MAX_WIDTH + 3 + 6 * MAX_FREQS + crate::features::MAX_FEATURES;
-/// Highest number of encoding frequencies `L` (per coordinate).
-pub const MAX_FREQS: usize = 16;
-/// Most coarse samples per ray.
-pub const MAX_COARSE: usize = 256;
-/// Most fine samples per ray (in addition to the coarse ones).
-pub const MAX_FINE: usize = 256;
+pub use crate::limits::{
+    FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_FEATURES, FORMAT_VERSION_NO_GRID,
+    FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
+};
+pub use crate::tensor::{read_f32, read_i32};
 
 /// Numeric scheme of a network's weights.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
@@ -303,20 +280,6 @@ impl Layer<'_> {
     pub fn requant(&self, c: usize) -> Requant {
         Requant { multiplier: read_i32(self.requant, 2 * c), shift: read_i32(self.requant, 2 * c + 1) }
     }
-}
-
-/// Reads element `i` of a little-endian f32 tensor.
-#[inline(always)]
-pub fn read_f32(bytes: &[u8], i: usize) -> f32 {
-    let b = &bytes[4 * i..4 * i + 4];
-    f32::from_le_bytes([b[0], b[1], b[2], b[3]])
-}
-
-/// Reads element `i` of a little-endian i32 tensor.
-#[inline(always)]
-pub fn read_i32(bytes: &[u8], i: usize) -> i32 {
-    let b = &bytes[4 * i..4 * i + 4];
-    i32::from_le_bytes([b[0], b[1], b[2], b[3]])
 }
 
 /// One MLP: the trunk, the density head and the colour head(s).

@@ -74,7 +74,7 @@
 //! ```
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
-// Unsafe code only in `vnni` and `avx2` (SIMD loads and stores of checked slices).
+// Unsafe code only in `arch` (SIMD loads and stores of checked slices).
 #![deny(unsafe_code)]
 // Numeric kernels index several arrays by the same sample/channel index;
 // iterator chains would hide that symmetry.
@@ -83,11 +83,7 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
-// The int8 layer kernel (used without AVX-512 VNNI), the encoding's sine and
-// the feature-grid lookups.
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-#[cfg_attr(all(target_feature = "avx512bw", target_feature = "avx512vnni"), allow(dead_code))]
-mod avx2;
+pub mod arch;
 pub mod camera;
 pub mod composite;
 pub mod encoding;
@@ -95,14 +91,15 @@ pub mod error;
 pub mod features;
 pub mod fixed;
 pub mod format;
+pub mod layer;
+pub mod limits;
 pub mod network;
 pub mod occupancy;
 pub mod render;
 pub mod sampling;
+pub mod tensor;
 pub mod tile;
 pub mod unbounded;
-#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-mod vnni;
 
 pub use camera::{Camera, Ray};
 pub use composite::{FixedPixel, Pixel};

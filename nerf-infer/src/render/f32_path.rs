@@ -3,32 +3,25 @@
 //! colours.
 
 use super::march::render;
-use super::path::{Kernel, NumericPath};
-use super::{Renderer, Scratch};
+use super::path::NumericPath;
+use super::renderer::{Dispatch, Renderer};
+use super::scratch::Scratch;
 use crate::camera::Ray;
 use crate::composite::{CompositorF32, Pixel};
 use crate::error::{Error, Result};
-use crate::format::{Model, Network, Scheme};
-use crate::network::BlockF32;
+use crate::format::{Model, Scheme};
+use crate::network::F32;
 use crate::occupancy::{CoarseOccupancy, Occupancy};
 use crate::sampling::sample_pdf_f32;
 
-/// The f32 path (renders [`Scheme::F32`] models).
-#[derive(Clone, Copy, Debug)]
-pub struct F32;
-
 impl NumericPath for F32 {
     type T = f32;
-    type Pos = [f32; 3];
     type W = f32;
     type Delta = f32;
-    type Sigma = f32;
-    type Rgb = [f32; 3];
     type Cdf = f32;
     type Ray = Ray;
     type Compositor = CompositorF32;
     type Pixel = Pixel;
-    type Block<const B: usize> = BlockF32<B>;
 
     fn check(model: &Model<'_>) -> Result<()> {
         if model.scheme() != Scheme::F32 {
@@ -110,16 +103,13 @@ impl NumericPath for F32 {
         c.finish(white_background, far)
     }
 
-    #[inline(always)]
-    fn sigma<const B: usize>(block: &BlockF32<B>, k: usize) -> f32 {
-        block.sigma[k]
+    fn viewdir(ray: &Ray) -> [f32; 3] {
+        ray.viewdir.to_array()
     }
+}
 
-    #[inline(always)]
-    fn rgb<const B: usize>(block: &BlockF32<B>, j: usize) -> [f32; 3] {
-        block.rgb[j]
-    }
-
+/// One kernel: f32 weights.
+impl Dispatch for F32 {
     fn render<const B: usize>(
         r: &Renderer<'_, '_, F32>,
         ray: &Ray,
@@ -127,20 +117,5 @@ impl NumericPath for F32 {
         s: &mut Scratch<F32, B>,
     ) -> Pixel {
         render::<F32, F32, B>(r, ray, key, s)
-    }
-}
-
-/// The f32 network ([`BlockF32`]).
-impl Kernel<F32> for F32 {
-    fn prepare_ray<const B: usize>(block: &mut BlockF32<B>, model: &Model<'_>, net: &Network<'_>, ray: &Ray) {
-        block.prepare_ray(model, net, ray.viewdir.to_array());
-    }
-
-    fn eval_density<const B: usize>(block: &mut BlockF32<B>, model: &Model<'_>, net: &Network<'_>, pos: &[[f32; 3]]) {
-        block.eval_density(model, net, pos);
-    }
-
-    fn eval_colour<const B: usize>(block: &mut BlockF32<B>, model: &Model<'_>, net: &Network<'_>, rows: &[usize]) {
-        block.eval_colour(model, net, rows);
     }
 }

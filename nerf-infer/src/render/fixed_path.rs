@@ -5,23 +5,20 @@
 //! kernels: int16 weights ([`W16`]) and int8 weights ([`W8`]).
 
 use super::march::render;
-use super::path::{Kernel, NumericPath};
-use super::{Renderer, Scratch};
+use super::path::NumericPath;
+use super::renderer::{Dispatch, Renderer};
+use super::scratch::Scratch;
 use crate::camera::Ray;
 use crate::composite::{CompositorFixed, FixedPixel, DELTA_INF_Q16};
 use crate::encoding::NPOS_FRAC;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
-use crate::format::{Model, Network, Scheme};
-use crate::network::{check_i8_headroom, BlockFixed, IntWeight, W16, W8};
+use crate::format::{Model, Scheme};
+use crate::network::{check_i8_headroom, Fixed, W16, W8};
 use crate::occupancy::{CoarseOccupancy, Occupancy};
 use crate::sampling::{sample_pdf_fixed, stratified_fixed, stratified_fixed_from};
 use crate::unbounded::{contract_q24, s_of_t_q30, t_of_s_q16};
 use glam::Vec3;
-
-/// The fixed-point path (renders [`Scheme::I16`] and [`Scheme::I8`] models).
-#[derive(Clone, Copy, Debug)]
-pub struct Fixed;
 
 /// A ray in the fixed-point path's formats.
 #[derive(Clone, Copy, Debug)]
@@ -112,16 +109,12 @@ fn stratified_fixed_around<'o>(
 
 impl NumericPath for Fixed {
     type T = i32;
-    type Pos = [i32; 3];
     type W = u32;
     type Delta = i32;
-    type Sigma = i32;
-    type Rgb = [u16; 3];
     type Cdf = u64;
     type Ray = FixedRay;
     type Compositor = CompositorFixed;
     type Pixel = FixedPixel;
-    type Block<const B: usize> = BlockFixed<B>;
 
     fn check(model: &Model<'_>) -> Result<()> {
         if !model.scheme().is_fixed() {
@@ -215,16 +208,13 @@ impl NumericPath for Fixed {
         c.finish(white_background, far)
     }
 
-    #[inline(always)]
-    fn sigma<const B: usize>(block: &BlockFixed<B>, k: usize) -> i32 {
-        block.sigma[k]
+    fn viewdir(ray: &FixedRay) -> [i32; 3] {
+        ray.viewdir
     }
+}
 
-    #[inline(always)]
-    fn rgb<const B: usize>(block: &BlockFixed<B>, j: usize) -> [u16; 3] {
-        block.rgb[j]
-    }
-
+/// int16 or int8 weights, as the model holds.
+impl Dispatch for Fixed {
     fn render<const B: usize>(
         r: &Renderer<'_, '_, Fixed>,
         ray: &Ray,
@@ -235,21 +225,6 @@ impl NumericPath for Fixed {
             Scheme::I16 => render::<Fixed, W16, B>(r, ray, key, s),
             _ => render::<Fixed, W8, B>(r, ray, key, s),
         }
-    }
-}
-
-/// The integer network ([`BlockFixed`]) with int16 or int8 weights.
-impl<W: IntWeight> Kernel<Fixed> for W {
-    fn prepare_ray<const B: usize>(block: &mut BlockFixed<B>, model: &Model<'_>, net: &Network<'_>, ray: &FixedRay) {
-        block.prepare_ray::<W>(model, net, ray.viewdir);
-    }
-
-    fn eval_density<const B: usize>(block: &mut BlockFixed<B>, model: &Model<'_>, net: &Network<'_>, pos: &[[i32; 3]]) {
-        block.eval_density::<W>(model, net, pos);
-    }
-
-    fn eval_colour<const B: usize>(block: &mut BlockFixed<B>, model: &Model<'_>, net: &Network<'_>, rows: &[usize]) {
-        block.eval_colour::<W>(model, net, rows);
     }
 }
 

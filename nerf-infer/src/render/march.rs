@@ -3,10 +3,12 @@
 //! quadrature front to back with early termination, and (with a fine
 //! network) a second pass over coarse + importance samples.
 
-use super::path::{Kernel, NumericPath};
-use super::{Renderer, Scratch};
+use super::path::NumericPath;
+use super::renderer::Renderer;
+use super::scratch::Scratch;
 use crate::camera::Ray;
 use crate::format::Network;
+use crate::network::{Block, LayerKernel};
 use crate::sampling::{jitter_q16, merge_sorted};
 
 /// Fine-pass CDF level of importance sample `j` of `n`, Q16 in `[0, 65536]`:
@@ -22,7 +24,7 @@ fn fine_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
 
 /// Renders `ray` (already known to meet the scene) with kernel `K`: the
 /// coarse pass, then the fine pass if the options ask for one.
-pub(super) fn render<P: NumericPath, K: Kernel<P>, const B: usize>(
+pub(super) fn render<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     r: &Renderer<'_, '_, P>,
     ray: &Ray,
     key: Option<u32>,
@@ -56,14 +58,14 @@ pub(super) fn render<P: NumericPath, K: Kernel<P>, const B: usize>(
 /// composited pixel and writes each sample's weight to `weights` if given
 /// (0 for samples skipped as empty or after the ray stopped).
 #[allow(clippy::too_many_arguments)]
-fn pass<P: NumericPath, K: Kernel<P>, const B: usize>(
+fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     r: &Renderer<'_, '_, P>,
     net: &Network<'_>,
     ray: &P::Ray,
     t: &[P::T],
     span: (P::T, P::T),
     need_rgb: bool,
-    block: &mut P::Block<B>,
+    block: &mut Block<P, B>,
     mut weights: Option<&mut [P::W]>,
     evaluations: &mut u64,
 ) -> P::Pixel {
@@ -122,7 +124,7 @@ fn pass<P: NumericPath, K: Kernel<P>, const B: usize>(
         if len == 0 {
             break;
         }
-        K::eval_density(block, m, net, &pos[..len]);
+        block.eval_density::<K>(m, net, &pos[..len]);
         *evaluations += len as u64;
         // which samples are composited (the ray stops before the first one
         // met with transmittance below the threshold) and which of those
@@ -131,27 +133,27 @@ fn pass<P: NumericPath, K: Kernel<P>, const B: usize>(
         let (mut probe, mut used, mut rows, mut n_rows) = (comp, 0, [0usize; B], 0);
         while used < len && P::transmittance(&probe) >= r.early_stop {
             delta[used] = P::delta(ray, t, idx[used]);
-            let w = P::add(&mut probe, P::sigma(block, used), delta[used], P::Rgb::default(), t[idx[used]]);
+            let w = P::add(&mut probe, block.sigma[used], delta[used], P::Rgb::default(), t[idx[used]]);
             rows[n_rows] = used;
             n_rows += (need_rgb && w > zero) as usize;
             used += 1;
         }
         if n_rows > 0 {
             if !prepared {
-                K::prepare_ray(block, m, net, ray);
+                block.prepare_ray::<K>(m, net, P::viewdir(ray));
                 prepared = true;
             }
-            K::eval_colour(block, m, net, &rows[..n_rows]);
+            block.eval_colour::<K>(m, net, &rows[..n_rows]);
         }
         let mut j = 0;
         for k in 0..used {
             let rgb = if j < n_rows && rows[j] == k {
                 j += 1;
-                P::rgb(block, j - 1)
+                block.rgb[j - 1]
             } else {
                 P::Rgb::default() // weight 0: the colour adds nothing
             };
-            let w = P::add(&mut comp, P::sigma(block, k), delta[k], rgb, t[idx[k]]);
+            let w = P::add(&mut comp, block.sigma[k], delta[k], rgb, t[idx[k]]);
             if let Some(ws) = weights.as_deref_mut() {
                 ws[idx[k]] = w;
             }

@@ -2,35 +2,29 @@
 //!
 //! The march ([`super::march`]) is written once over [`NumericPath`]: the
 //! formats of a ray, its samples, their weights and the pixel, and the
-//! per-sample operations in them. The network evaluation is a second
-//! contract, [`Kernel`], so that one path can carry several kernels (the
+//! per-sample operations in them. The network's numbers come from
+//! [`Numbers`], its layers from a [`LayerKernel`](crate::network::LayerKernel) the path picks per model
+//! ([`super::Dispatch`]), so that one path carries several kernels (the
 //! fixed-point path has int16 and int8 weights) and a new kernel (say int4
-//! weights, or a wasm SIMD one) plugs in without touching the march.
+//! weights) plugs in without touching the march.
 
-use super::{Renderer, Scratch};
 use crate::camera::Ray;
 use crate::error::Result;
-use crate::format::{Model, Network};
+use crate::format::Model;
+use crate::network::Numbers;
 use crate::occupancy::{CoarseOccupancy, Occupancy};
 use core::fmt::Debug;
 
 /// A numeric path: the formats the march works in and its per-sample
 /// operations. Implemented by [`super::F32`] (f32 throughout) and
 /// [`super::Fixed`] (integers only after a per-ray setup).
-pub trait NumericPath: Sized + Copy + Debug {
+pub trait NumericPath: Numbers + Debug {
     /// Ray parameter `t` (f32 world units; Q16).
     type T: Copy + Default + PartialOrd + Debug;
-    /// Normalised sample position, the network's input (f32; Q24).
-    type Pos: Copy + Default;
     /// Compositing weight and transmittance (f32 in `[0, 1]`; Q30).
     type W: Copy + Default + PartialOrd + Debug;
     /// Interval length `δ` (f32 world units; Q16).
     type Delta: Copy + Default;
-    /// Raw density head output (f32; Q10).
-    type Sigma: Copy;
-    /// Sample colour; its default is black, the colour of a sample of
-    /// weight 0 (f32 in `[0, 1]`; Q15).
-    type Rgb: Copy + Default;
     /// Cumulative-distribution entry of importance sampling.
     type Cdf: Copy + Default;
     /// A ray in this path's formats.
@@ -39,8 +33,6 @@ pub trait NumericPath: Sized + Copy + Debug {
     type Compositor: Copy + Default;
     /// The rendered pixel.
     type Pixel: Copy + Default;
-    /// Network working memory for `B` samples.
-    type Block<const B: usize>: Clone + Default;
 
     /// `Ok` if this path renders `model` (its scheme, and for the integer
     /// path accumulators that cannot overflow).
@@ -93,29 +85,6 @@ pub trait NumericPath: Sized + Copy + Debug {
     fn add(c: &mut Self::Compositor, sigma: Self::Sigma, delta: Self::Delta, rgb: Self::Rgb, t: Self::T) -> Self::W;
     /// Finishes the ray on the background; `far` is the depth of empty space.
     fn finish(c: &Self::Compositor, white_background: bool, far: Self::T) -> Self::Pixel;
-    /// Density of sample `k` of the last [`Kernel::eval_density`].
-    fn sigma<const B: usize>(block: &Self::Block<B>, k: usize) -> Self::Sigma;
-    /// Colour `j` of the last [`Kernel::eval_colour`].
-    fn rgb<const B: usize>(block: &Self::Block<B>, j: usize) -> Self::Rgb;
-    /// Renders `ray` with the kernel that fits the renderer's model
-    /// ([`super::march::render`] instantiated for it).
-    fn render<const B: usize>(
-        r: &Renderer<'_, '_, Self>,
-        ray: &Ray,
-        key: Option<u32>,
-        s: &mut Scratch<Self, B>,
-    ) -> Self::Pixel;
-}
-
-/// The network evaluated in a path's formats, on a block of up to `B`
-/// samples of one ray.
-pub trait Kernel<P: NumericPath> {
-    /// Per-ray setup: folds the view direction into the view layer.
-    fn prepare_ray<const B: usize>(block: &mut P::Block<B>, model: &Model<'_>, net: &Network<'_>, ray: &P::Ray);
-    /// The trunk and density head at `pos` (≤ `B` positions).
-    fn eval_density<const B: usize>(block: &mut P::Block<B>, model: &Model<'_>, net: &Network<'_>, pos: &[P::Pos]);
-    /// The colour branch for samples `rows` of the last
-    /// [`Kernel::eval_density`] (ascending); colour `j` is that of
-    /// sample `rows[j]`.
-    fn eval_colour<const B: usize>(block: &mut P::Block<B>, model: &Model<'_>, net: &Network<'_>, rows: &[usize]);
+    /// The unit view direction of `ray`, the view branch's input.
+    fn viewdir(ray: &Self::Ray) -> Self::Pos;
 }

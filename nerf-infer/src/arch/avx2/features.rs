@@ -1,0 +1,121 @@
+//! Feature-grid lookups of width-2 grids on AVX2, 8 levels per register.
+
+#![allow(unsafe_code)]
+
+use core::arch::x86_64::*;
+
+use crate::features::FeatureGrid;
+
+/// Per-lane constants of up to 8 levels of a width-2 feature grid (lanes
+/// past the last level look up entry 0 and are not written).
+struct LevelLanes {
+    /// Cells per axis.
+    res: [i32; 8],
+    /// Index contributions of the y and z vertex coordinates: the dense
+    /// strides `N+1, (N+1)²` or the hash primes.
+    mul_y: [i32; 8],
+    mul_z: [i32; 8],
+    /// All ones in dense lanes (entries add), 0 in hashed ones (entries XOR).
+    dense: [i32; 8],
+    /// The table mask of hashed lanes.
+    mask: [i32; 8],
+    /// First entry of the level in the table.
+    base: [i32; 8],
+}
+
+/// [`FeatureGrid::encode_fixed`] of a width-2 grid at every position of
+/// `pos`, into `out[s][at..at + g.dim()]`: 8 levels per register, the same
+/// integer steps in lanes (bit-identical), the 8 corners read with gathers.
+pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
+    // the gathers below read entry `base + e` of 4 bytes for e < entries(l)
+    assert!(g.width == 2 && g.table.len() >= 2 * g.values() && at + g.dim() <= N && pos.len() <= out.len());
+    let mut base = 0;
+    for l0 in (0..g.levels()).step_by(8) {
+        let k = (g.levels() - l0).min(8);
+        let mut c = LevelLanes { res: [1; 8], mul_y: [0; 8], mul_z: [0; 8], dense: [0; 8], mask: [0; 8], base: [0; 8] };
+        for j in 0..k {
+            let res = g.resolutions[l0 + j];
+            let (mul, dense) = g.lattice(res);
+            c.res[j] = res as i32;
+            (c.mul_y[j], c.mul_z[j]) = (mul[1] as i32, mul[2] as i32);
+            c.dense[j] = if dense { -1 } else { 0 };
+            c.mask[j] = ((1u32 << g.log2_table) - 1) as i32;
+            c.base[j] = base as i32;
+            base += g.entries(l0 + j);
+        }
+        for (p, o) in pos.iter().zip(out.iter_mut()) {
+            // SAFETY: this module is compiled only with AVX2 enabled; every
+            // lane's entry is below its level's count (hashed: masked;
+            // dense: < (N+1)³), so each read is inside the table (asserted).
+            unsafe { levels8(g.table, &c, *p, &mut o[at + 2 * l0..at + 2 * (l0 + k)]) };
+        }
+    }
+}
+
+// the shifts below are those of the Q24 position (u·N in Q25, fractions Q15)
+const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
+
+/// Up to 8 levels (`out.len() / 2`) of one position; see [`features_w2`].
+///
+/// # Safety
+/// AVX2, and `4·(base + entry + 1) ≤ table.len()` for every lane's entries.
+#[target_feature(enable = "avx2")]
+unsafe fn levels8(table: &[u8], c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
+    let one = |v: i32| _mm256_set1_epi32(v);
+    // SAFETY: each array is 8 i32 (32 bytes) long.
+    let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
+    let res = ld(&c.res);
+    let (res_odd, res_m1) = (_mm256_srli_epi64::<32>(res), _mm256_sub_epi32(res, one(1)));
+    let (mut cell, mut w) = ([_mm256_setzero_si256(); 3], [[_mm256_setzero_si256(); 2]; 3]);
+    for a in 0..3 {
+        // u·2²⁵ in [0, 2²⁵], x = u·N in Q25 (< 2³⁷) in u64 lanes, even and odd levels apart
+        let u = one(p[a].clamp(-(1 << 24), 1 << 24) + (1 << 24));
+        let (even, odd) = (_mm256_mul_epu32(u, res), _mm256_mul_epu32(u, res_odd));
+        let i = _mm256_blend_epi32::<0b1010_1010>(
+            _mm256_srli_epi64::<25>(even),
+            _mm256_slli_epi64::<32>(_mm256_srli_epi64::<25>(odd)),
+        );
+        let i = _mm256_min_epu32(i, res_m1);
+        // x − i·2²⁵ is in [0, 2²⁵], so its low 32 bits (wrapping) are exact
+        let x_lo = _mm256_blend_epi32::<0b1010_1010>(even, _mm256_slli_epi64::<32>(odd));
+        let rem = _mm256_sub_epi32(x_lo, _mm256_slli_epi32::<25>(i));
+        let f = _mm256_srli_epi32::<10>(_mm256_add_epi32(rem, one(1 << 9)));
+        cell[a] = i;
+        w[a] = [_mm256_sub_epi32(one(1 << 15), f), f];
+    }
+    // Q30 products of the x and y factors (≤ 2³⁰, exact)
+    let wxy: [__m256i; 4] = core::array::from_fn(|k| _mm256_mullo_epi32(w[0][k & 1], w[1][k >> 1]));
+    // per axis, the lower and upper vertex's index contribution
+    let up = |v: __m256i| _mm256_add_epi32(v, one(1));
+    let px = [cell[0], up(cell[0])]; // x multiplier 1 in either lattice (FeatureGrid::lattice)
+    let (my, mz) = (ld(&c.mul_y), ld(&c.mul_z));
+    let py = [_mm256_mullo_epi32(cell[1], my), _mm256_mullo_epi32(up(cell[1]), my)];
+    let pz = [_mm256_mullo_epi32(cell[2], mz), _mm256_mullo_epi32(up(cell[2]), mz)];
+    let (dense, mask, base) = (ld(&c.dense), ld(&c.mask), ld(&c.base));
+    let (mut acc0, mut acc1) = (_mm256_setzero_si256(), _mm256_setzero_si256());
+    for k in 0..8 {
+        let (wxy, wz) = (wxy[k & 3], w[2][k >> 2]);
+        // round(wxy·wz / 2³⁰) as in the scalar path, in i32: with
+        // wxy = hi·2¹⁵ + lo, ⌊(wxy·wz + 2²⁹)/2³⁰⌋ = ⌊(hi·wz + ⌊(lo·wz + 2²⁹)/2¹⁵⌋)/2¹⁵⌋
+        let (hi, lo) = (_mm256_srli_epi32::<15>(wxy), _mm256_and_si256(wxy, one(0x7FFF)));
+        let low = _mm256_srli_epi32::<15>(_mm256_add_epi32(_mm256_mullo_epi32(lo, wz), one(1 << 29)));
+        let wc = _mm256_srli_epi32::<15>(_mm256_add_epi32(_mm256_mullo_epi32(hi, wz), low));
+        let (x, y, z) = (px[k & 1], py[(k >> 1) & 1], pz[k >> 2]);
+        let sum = _mm256_add_epi32(_mm256_add_epi32(x, y), z);
+        let hash = _mm256_and_si256(_mm256_xor_si256(_mm256_xor_si256(x, y), z), mask);
+        let idx = _mm256_add_epi32(base, _mm256_blendv_epi8(hash, sum, dense));
+        // SAFETY: the caller's contract; each entry is 4 bytes (2 × i16 LE).
+        let v = unsafe { _mm256_i32gather_epi32::<4>(table.as_ptr().cast(), idx) };
+        let (v0, v1) = (_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(v)), _mm256_srai_epi32::<16>(v));
+        acc0 = _mm256_add_epi32(acc0, _mm256_mullo_epi32(wc, v0));
+        acc1 = _mm256_add_epi32(acc1, _mm256_mullo_epi32(wc, v1));
+    }
+    // round to the output step and saturate to i16, level-major pairs
+    let r = |a: __m256i| _mm256_srai_epi32::<15>(_mm256_add_epi32(a, one(1 << 14)));
+    let (r0, r1) = (r(acc0), r(acc1));
+    let packed = _mm256_packs_epi32(_mm256_unpacklo_epi32(r0, r1), _mm256_unpackhi_epi32(r0, r1));
+    let mut all = [0i16; 16];
+    // SAFETY: `all` is 16 i16 (32 bytes) long.
+    unsafe { _mm256_storeu_si256(all.as_mut_ptr().cast(), packed) };
+    out.copy_from_slice(&all[..out.len()]);
+}

@@ -1,0 +1,169 @@
+//! Architecture-specific kernels and the one place that picks them.
+//!
+//! Each kernel here implements a contract that a portable reference in the
+//! crate also implements, bit for bit:
+//!
+//! | contract | portable reference | x86-64 AVX2 | x86-64 AVX-512 VNNI |
+//! |---|---|---|---|
+//! | int8 dense layer (`acc += x·W`) | [`crate::layer::accumulate`] | `avx2::accumulate_i8` | `vnni::accumulate_i8` (32-wide tiles) |
+//! | requantisation of i32 accumulators | [`crate::layer::requant_rows`] | `avx2::requant_i32` | (portable) |
+//! | sine of phases, Q15 | [`crate::fixed::sin_turns_q15`] | `avx2::sin_turns_q15_x8` | (AVX2) |
+//! | width-2 feature-grid lookups | [`FeatureGrid::encode_fixed`] | `avx2::features_w2` | (AVX2) |
+//!
+//! The choice is made at compile time from the target features the build
+//! enables (`-C target-cpu=native`, or `x86-64-v3` for AVX2); without them
+//! every contract runs its portable reference, as on Cortex-M and wasm32.
+//! Portable code never calls into this module's submodules; the rest of the
+//! crate calls the functions and the [`IntKernel`] trait below. The tests at
+//! the end run every implementation built against its reference.
+//!
+//! To add an architecture: a folder beside `avx2/` with the kernels it
+//! speeds up, a `cfg` arm in the functions below, and a line in the tests'
+//! list.
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[cfg_attr(all(target_feature = "avx512bw", target_feature = "avx512vnni"), allow(dead_code))]
+mod avx2;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+mod vnni;
+
+use crate::features::FeatureGrid;
+use crate::fixed::sin_turns_q15;
+use crate::format::{Layer, MAX_WIDTH};
+use crate::layer::{accumulate, requant_rows, IntWeight, MacInt, W16, W8};
+
+/// Whether the AVX2 int8 kernels are built (and AVX-512 VNNI is not).
+const AVX2_ONLY: bool = cfg!(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+));
+
+/// The dense-layer kernels of an integer weight type, as built for this
+/// target.
+pub trait IntKernel: IntWeight + Sized {
+    /// Whether [`IntKernel::accumulate_wide`] also takes layers narrower
+    /// than the portable tile (the colour head) faster than scalar dot
+    /// products.
+    const WIDE_TAKES_NARROW: bool;
+    /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
+    /// samples and every output of a layer at least
+    /// [`crate::layer::TILE_C`] wide (or any width if
+    /// [`IntKernel::WIDE_TAKES_NARROW`]).
+    fn accumulate_wide<const N: usize>(
+        l: &Layer<'_>,
+        row0: usize,
+        input: &[[i16; N]],
+        in_dim: usize,
+        n: usize,
+        acc: &mut [[Self::Acc; MAX_WIDTH]],
+    );
+    /// `out[s][c] = clamp(requantised acc[s][c], lo, hi)` for the first `n`
+    /// samples and every output of `l`.
+    fn requant_rows(
+        l: &Layer<'_>,
+        n: usize,
+        acc: &[[Self::Acc; MAX_WIDTH]],
+        out: &mut [[i16; MAX_WIDTH]],
+        bounds: (i16, i16),
+    );
+}
+
+/// int16 weights: the portable kernels everywhere (i64 sums auto-vectorise).
+impl IntKernel for W16 {
+    const WIDE_TAKES_NARROW: bool = false;
+    #[inline]
+    fn accumulate_wide<const N: usize>(
+        l: &Layer<'_>,
+        row0: usize,
+        input: &[[i16; N]],
+        in_dim: usize,
+        n: usize,
+        acc: &mut [[i64; MAX_WIDTH]],
+    ) {
+        accumulate::<MacInt<W16>, N>(l.weights, l.out_dim as usize, 0, row0, input, in_dim, n, acc);
+    }
+    #[inline]
+    fn requant_rows(l: &Layer<'_>, n: usize, acc: &[[i64; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], b: (i16, i16)) {
+        requant_rows::<W16>(l, n, acc, out, b);
+    }
+}
+
+/// int8 weights: VNNI for whole 32-wide tiles (the portable loop for the
+/// rest), else AVX2 `vpmaddwd` 8 outputs at a time (a short last group
+/// padded), else portable.
+impl IntKernel for W8 {
+    const WIDE_TAKES_NARROW: bool = AVX2_ONLY;
+    #[inline]
+    fn accumulate_wide<const N: usize>(
+        l: &Layer<'_>,
+        row0: usize,
+        input: &[[i16; N]],
+        in_dim: usize,
+        n: usize,
+        acc: &mut [[i32; MAX_WIDTH]],
+    ) {
+        let od = l.out_dim as usize;
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+        {
+            vnni::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc);
+            let done = od - od % crate::layer::TILE_C;
+            accumulate::<MacInt<W8>, N>(l.weights, od, done, row0, input, in_dim, n, acc);
+        }
+        #[cfg(all(
+            target_arch = "x86_64",
+            target_feature = "avx2",
+            not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+        ))]
+        avx2::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc);
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+        accumulate::<MacInt<W8>, N>(l.weights, od, 0, row0, input, in_dim, n, acc);
+    }
+    #[inline]
+    fn requant_rows(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], b: (i16, i16)) {
+        #[cfg(all(
+            target_arch = "x86_64",
+            target_feature = "avx2",
+            not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+        ))]
+        avx2::requant_i32(l, n, acc, out, b);
+        #[cfg(not(all(
+            target_arch = "x86_64",
+            target_feature = "avx2",
+            not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+        )))]
+        requant_rows::<W8>(l, n, acc, out, b);
+    }
+}
+
+/// [`sin_turns_q15`] of every phase in `phases` into `out` (same length),
+/// bit for bit; with AVX2, 8 at a time.
+#[inline]
+pub fn sin_turns_q15_slice(phases: &[u32], out: &mut [i16]) {
+    debug_assert_eq!(phases.len(), out.len());
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    let done = avx2::sin_turns_q15_x8(phases, out);
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+    let done = 0;
+    for (o, &ph) in out[done..].iter_mut().zip(&phases[done..]) {
+        *o = sin_turns_q15(ph);
+    }
+}
+
+/// [`FeatureGrid::encode_fixed`] at every position of `pos`, into
+/// `out[s][at..at + g.dim()]` (bit for bit; with AVX2, width-2 grids take
+/// 8 levels per register).
+#[inline]
+pub fn feature_rows<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    if g.width == 2 {
+        avx2::features_w2(g, pos, out, at);
+        return;
+    }
+    for (p, o) in pos.iter().zip(out.iter_mut()) {
+        g.encode_fixed(*p, &mut o[at..at + g.dim()]);
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,350 @@
+//! Every kernel of this build against its portable reference, bit for bit:
+//! the kernel the crate picks (`selected_*`) and each architecture's own
+//! (`avx2_*`, `vnni_*`, where the build has them), on the same cases. One
+//! macro, one list: a new architecture adds its lines here.
+
+extern crate std;
+use std::vec::Vec;
+
+use super::*;
+use crate::features::geometric_resolutions;
+use crate::fixed::{Requant, NPOS_FRAC};
+use crate::layer::{accumulate, requant_rows, MacInt};
+
+/// `$test`: for every case of `$cases`, `$kernel(&case)` equals
+/// `$reference(&case)`.
+macro_rules! same_as_reference {
+    ($($(#[$cfg:meta])* $test:ident: $cases:expr, $kernel:expr, $reference:expr;)*) => {$(
+        $(#[$cfg])*
+        #[test]
+        fn $test() {
+            let cases = $cases;
+            assert!(!cases.is_empty());
+            for (k, case) in cases.iter().enumerate() {
+                assert!($kernel(case) == $reference(case), "case {k}");
+            }
+        }
+    )*};
+}
+
+/// xorshift32, for reproducible cases.
+fn rng(seed: u32) -> impl FnMut() -> u32 {
+    let mut h = seed;
+    move || {
+        h ^= h << 13;
+        h ^= h >> 17;
+        h ^= h << 5;
+        h
+    }
+}
+
+// ---- sine of phases
+
+/// Quadrant and table-entry edges, then a sweep with all low bits busy, in
+/// lengths around the 8-lane groups.
+fn sine_cases() -> Vec<Vec<u32>> {
+    let mut phases = Vec::new();
+    for q in 0..4u32 {
+        for e in [0u32, 1, (1 << 22) - 1, 1 << 22, (1 << 30) - (1 << 22), (1 << 30) - 1] {
+            phases.push((q << 30).wrapping_add(e));
+        }
+    }
+    phases.push(u32::MAX);
+    phases.extend((0..200_003u32).map(|i| i.wrapping_mul(2_654_435_761) ^ (i << 7)));
+    [phases.len(), 7, 8, 9, 0].iter().map(|&n| phases[..n].to_vec()).collect()
+}
+
+fn sine_reference(phases: &[u32]) -> Vec<i16> {
+    phases.iter().map(|&p| sin_turns_q15(p)).collect()
+}
+
+fn sine_selected(phases: &[u32]) -> Vec<i16> {
+    let mut out = std::vec![0; phases.len()];
+    sin_turns_q15_slice(phases, &mut out);
+    out
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+fn sine_avx2(phases: &[u32]) -> Vec<i16> {
+    let mut out = std::vec![0; phases.len()];
+    let done = avx2::sin_turns_q15_x8(phases, &mut out);
+    assert_eq!(done, phases.len() / 8 * 8);
+    (out[..done].iter().copied()).chain(phases[done..].iter().map(|&p| sin_turns_q15(p))).collect()
+}
+
+// ---- the int8 dense layer
+
+/// A layer's weights, its inputs and the rows it reads.
+struct LayerCase {
+    weights: Vec<u8>,
+    od: usize,
+    row0: usize,
+    in_dim: usize,
+    n: usize,
+    input: [[i16; MAX_WIDTH]; 8],
+}
+
+/// The shapes the format allows: odd and even inputs, narrow and wide
+/// outputs, short tiles; half the inputs zero (ReLU).
+fn layer_cases() -> Vec<LayerCase> {
+    let mut next = rng(0x9e37_79b9);
+    let mut cases = Vec::new();
+    for in_dim in [1usize, 2, 51, 64, 79, 255, 256] {
+        for od in [1usize, 3, 7, 32, 40, 45, 48, 64, 255, 256] {
+            for n in [1usize, 3, 5, 8] {
+                let row0 = (next() % 3) as usize;
+                let weights = (0..(row0 + in_dim) * od).map(|_| next() as u8).collect();
+                let mut input = [[0i16; MAX_WIDTH]; 8];
+                for x in input.iter_mut().flatten() {
+                    *x = if next().is_multiple_of(2) { 0 } else { (next() % 4096) as i16 - 2048 };
+                }
+                cases.push(LayerCase { weights, od, row0, in_dim, n, input });
+            }
+        }
+    }
+    cases
+}
+
+/// Runs `kernel` on a fresh accumulator (every row starting at a marker).
+fn layer_with(c: &LayerCase, kernel: impl Fn(&LayerCase, &mut [[i32; MAX_WIDTH]])) -> Vec<[i32; MAX_WIDTH]> {
+    let mut acc = std::vec![[0x1234_5678 >> 8; MAX_WIDTH]; 8];
+    kernel(c, &mut acc);
+    acc
+}
+
+fn layer_reference(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+    layer_with(c, |c, acc| {
+        accumulate::<MacInt<W8>, MAX_WIDTH>(&c.weights, c.od, 0, c.row0, &c.input, c.in_dim, c.n, acc)
+    })
+}
+
+fn layer_selected(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+    let l = Layer {
+        in_dim: (c.row0 + c.in_dim) as u16,
+        out_dim: c.od as u16,
+        act_max: 0.0,
+        weights: &c.weights,
+        bias: &[],
+        scales: &[],
+        requant: &[],
+    };
+    layer_with(c, |c, acc| W8::accumulate_wide(&l, c.row0, &c.input, c.in_dim, c.n, acc))
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+fn layer_avx2(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+    layer_with(c, |c, acc| avx2::accumulate_i8(&c.weights, c.od, c.row0, &c.input, c.in_dim, c.n, acc))
+}
+
+/// VNNI takes the whole 32-wide tiles; the portable loop the rest.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+fn layer_vnni(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+    layer_with(c, |c, acc| {
+        vnni::accumulate_i8(&c.weights, c.od, c.row0, &c.input, c.in_dim, c.n, acc);
+        let done = c.od - c.od % crate::layer::TILE_C;
+        accumulate::<MacInt<W8>, MAX_WIDTH>(&c.weights, c.od, done, c.row0, &c.input, c.in_dim, c.n, acc)
+    })
+}
+
+// ---- requantisation of i32 accumulators
+
+/// Requantisation constants of one layer and the bounds to clamp to.
+struct RequantCase {
+    requant: Vec<u8>,
+    od: usize,
+    n: usize,
+    bounds: (i16, i16),
+    acc: [[i32; MAX_WIDTH]; 8],
+}
+
+/// Every shift, multipliers at the ends of their range, accumulators at
+/// the ends of i32, the ReLU and linear bounds of both activation widths;
+/// 67 outputs (16 groups of 4 and a remainder).
+fn requant_cases() -> Vec<RequantCase> {
+    let mut next = rng(0x2545_f491);
+    let od = 67;
+    let mut acc = [[0i32; MAX_WIDTH]; 8];
+    let edges = [i32::MIN, i32::MIN + 1, -1, 0, 1, i32::MAX];
+    for (s, row) in acc.iter_mut().enumerate() {
+        for (c, a) in row[..od].iter_mut().enumerate() {
+            *a = if (s + c) % 5 == 0 { edges[(s * 7 + c) % edges.len()] } else { next() as i32 >> (next() % 31) };
+        }
+    }
+    let mut cases = Vec::new();
+    for shift in Requant::MIN_SHIFT..=Requant::MAX_SHIFT {
+        let mut requant = Vec::new();
+        for c in 0..od {
+            let multiplier = match c % 4 {
+                0 => 1 << 30,
+                1 => i32::MAX,
+                2 if shift == 0 => 0,
+                _ => (1 << 30) + (next() as i32 & 0x3fff_ffff),
+            };
+            requant.extend_from_slice(&multiplier.to_le_bytes());
+            requant.extend_from_slice(&shift.to_le_bytes());
+        }
+        for bounds in [(0, i16::MAX), (0, 255), (i16::MIN, i16::MAX), (-127, 127)] {
+            for n in [1, 5, 8] {
+                cases.push(RequantCase { requant: requant.clone(), od, n, bounds, acc });
+            }
+        }
+    }
+    cases
+}
+
+/// Runs `kernel` on the case's layer into rows starting at a marker.
+fn requant_with(
+    c: &RequantCase,
+    kernel: impl Fn(&Layer<'_>, &RequantCase, &mut [[i16; MAX_WIDTH]]),
+) -> Vec<[i16; MAX_WIDTH]> {
+    let l = Layer {
+        in_dim: 1,
+        out_dim: c.od as u16,
+        act_max: 0.0,
+        weights: &[],
+        bias: &[],
+        scales: &[],
+        requant: &c.requant,
+    };
+    let mut out = std::vec![[0x5555i16; MAX_WIDTH]; 8];
+    kernel(&l, c, &mut out);
+    out
+}
+
+fn requant_reference(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
+    requant_with(c, |l, c, out| requant_rows::<W8>(l, c.n, &c.acc, out, c.bounds))
+}
+
+fn requant_selected(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
+    requant_with(c, |l, c, out| W8::requant_rows(l, c.n, &c.acc, out, c.bounds))
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+fn requant_avx2(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
+    requant_with(c, |l, c, out| avx2::requant_i32(l, c.n, &c.acc, out, c.bounds))
+}
+
+// ---- feature-grid lookups
+
+/// A width-2 grid's table and the positions to look up.
+struct FeatureCase {
+    table: Vec<u8>,
+    levels: usize,
+    min: u16,
+    max: u16,
+    log2: u8,
+    pos: [[i32; 3]; 64],
+}
+
+impl FeatureCase {
+    fn grid(&self) -> FeatureGrid<'_> {
+        FeatureGrid {
+            width: 2,
+            log2_table: self.log2,
+            frac_bits: 9,
+            resolutions: geometric_resolutions(self.levels, self.min, self.max),
+            table: &self.table,
+        }
+    }
+}
+
+/// Dense and hashed levels, one and two register groups, extreme table
+/// values; positions beyond the bounds, on the faces and at vertices.
+fn feature_cases() -> Vec<FeatureCase> {
+    let shapes = [(3, 2, 9, 6), (8, 16, 256, 10), (16, 1, 4096, 10), (9, 4, 600, 8)];
+    let one = 1i32 << NPOS_FRAC;
+    let mut cases = Vec::new();
+    for (shape, (levels, min, max, log2)) in shapes.into_iter().enumerate() {
+        let mut case = FeatureCase { table: Vec::new(), levels, min, max, log2, pos: [[0; 3]; 64] };
+        let values = case.grid().values();
+        case.table = (0..2 * values)
+            .map(|b| {
+                let h = (b as u32 ^ (shape as u32) << 20).wrapping_mul(0x9E37_79B9);
+                if shape == 2 {
+                    [0x00, 0x80, 0xFF, 0x7F][(h >> 30) as usize]
+                } else {
+                    (h >> 24) as u8
+                }
+            })
+            .collect();
+        assert!(case.grid().is_valid(2));
+        for (k, p) in case.pos.iter_mut().enumerate() {
+            let h = |s: u32| (k as u32 ^ s << 8).wrapping_mul(2_654_435_761).rotate_left(s) as i32;
+            *p = match k % 4 {
+                0 => [h(1), h(2), h(3)],
+                1 => [h(4) >> 7, h(5) >> 7, h(6) >> 7],
+                2 => [one, -one, (h(7) >> 7).clamp(-one, one) / 4096 * 4096],
+                _ => [h(8) >> 8, one - 1, -one + 1],
+            };
+        }
+        cases.push(case);
+    }
+    cases
+}
+
+/// Rows of 40 values with the features at 5.. (the rest must stay 0).
+fn features_with(c: &FeatureCase, kernel: impl Fn(&FeatureGrid<'_>, &[[i32; 3]], &mut [[i16; 40]])) -> Vec<[i16; 40]> {
+    let mut rows = std::vec![[0i16; 40]; 64];
+    kernel(&c.grid(), &c.pos, &mut rows);
+    rows
+}
+
+fn features_reference(c: &FeatureCase) -> Vec<[i16; 40]> {
+    features_with(c, |g, pos, rows| {
+        for (p, row) in pos.iter().zip(rows.iter_mut()) {
+            g.encode_fixed(*p, &mut row[5..5 + g.dim()]);
+        }
+    })
+}
+
+fn features_selected(c: &FeatureCase) -> Vec<[i16; 40]> {
+    features_with(c, |g, pos, rows| feature_rows(g, pos, rows, 5))
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+fn features_avx2(c: &FeatureCase) -> Vec<[i16; 40]> {
+    features_with(c, |g, pos, rows| avx2::features_w2(g, pos, rows, 5))
+}
+
+same_as_reference! {
+    selected_sine: sine_cases(), sine_selected, sine_reference;
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    avx2_sine: sine_cases(), sine_avx2, sine_reference;
+
+    selected_int8_layer: layer_cases(), layer_selected, layer_reference;
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    avx2_int8_layer: layer_cases(), layer_avx2, layer_reference;
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+    vnni_int8_layer: layer_cases(), layer_vnni, layer_reference;
+
+    selected_int8_requantisation: requant_cases(), requant_selected, requant_reference;
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    avx2_int8_requantisation: requant_cases(), requant_avx2, requant_reference;
+
+    selected_feature_lookups: feature_cases(), features_selected, features_reference;
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    avx2_feature_lookups: feature_cases(), features_avx2, features_reference;
+}
+
+/// The requantisation reference itself against `Requant::apply` and a
+/// clamp, so that the chain of equalities ends in the definition.
+#[test]
+fn requantisation_reference_is_requant_apply_then_clamp() {
+    for c in requant_cases() {
+        let out = requant_reference(&c);
+        let l = requant_with(&c, |_, _, _| {});
+        let rq = |k: usize| i32::from_le_bytes(c.requant[8 * k..8 * k + 4].try_into().unwrap());
+        let sh = |k: usize| i32::from_le_bytes(c.requant[8 * k + 4..8 * k + 8].try_into().unwrap());
+        for s in 0..8 {
+            for k in 0..c.od {
+                let want = if s < c.n {
+                    let r = Requant { multiplier: rq(k), shift: sh(k) };
+                    r.apply(c.acc[s][k] as i64).clamp(c.bounds.0 as i64, c.bounds.1 as i64) as i16
+                } else {
+                    l[s][k]
+                };
+                assert_eq!(out[s][k], want, "s {s} c {k}");
+            }
+        }
+    }
+}

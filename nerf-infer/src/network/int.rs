@@ -1,0 +1,317 @@
+//! The network in fixed point: i16 activations, integer weights
+//! accumulated exactly (int16 in i64, int8 in i32), requantised per output
+//! channel to the next layer's scale. The dense kernels are those
+//! [`crate::arch`] picks for the build ([`IntKernel`]).
+
+use super::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX};
+use crate::arch::{feature_rows, IntKernel};
+use crate::encoding::encode_fixed;
+use crate::error::{Error, Result};
+use crate::fixed::{sat_i32, sigmoid_q12_q15};
+use crate::format::{read_i32, Layer, Model, Network, Scheme};
+use crate::layer::TILE_C;
+use crate::limits::MAX_WIDTH;
+
+/// The accumulators of a fixed-point block: i64 rows for int16 weights,
+/// i32 rows for int8 weights ([`IntWeight::pick`] chooses).
+#[derive(Clone)]
+pub struct FixedAcc<const B: usize> {
+    a64: [[i64; MAX_WIDTH]; B],
+    a32: [[i32; MAX_WIDTH]; B],
+}
+
+impl<const B: usize> Default for FixedAcc<B> {
+    fn default() -> Self {
+        Self { a64: [[0; MAX_WIDTH]; B], a32: [[0; MAX_WIDTH]; B] }
+    }
+}
+
+impl Numbers for Fixed {
+    type X = i16;
+    type Pos = [i32; 3];
+    type Sigma = i32;
+    type Rgb = [u16; 3];
+    type View = i64;
+    type Acc<const B: usize> = FixedAcc<B>;
+
+    fn encode_rows(model: &Model<'_>, pos: &[[i32; 3]], enc: &mut [[i16; ENC_MAX]]) -> usize {
+        let e = &model.encoding;
+        let mut pd = 0;
+        for (s, p) in pos.iter().enumerate() {
+            pd = encode_fixed(*p, e.pos_freqs as usize, e.include_input, e.raw_frac_bits as u32, &mut enc[s]);
+        }
+        #[cfg(feature = "feature-grid")]
+        if let Some(f) = &model.features {
+            feature_rows(f, pos, enc, pd);
+            pd += f.dim();
+        }
+        pd
+    }
+
+    fn encode_dir(model: &Model<'_>, dir: [i32; 3], out: &mut [i16; ENC_MAX]) -> usize {
+        let e = &model.encoding;
+        encode_fixed(dir, e.dir_freqs as usize, e.include_input, e.raw_frac_bits as u32, out)
+    }
+}
+
+/// int16 and int8 weights.
+impl<W: IntKernel> LayerKernel<Fixed> for W {
+    fn dense<const B: usize>(
+        net: &Network<'_>,
+        l: &Layer<'_>,
+        view: Option<&[i64; MAX_WIDTH]>,
+        inputs: Inputs<'_, i16, MAX_WIDTH>,
+        n: usize,
+        acc: &mut FixedAcc<B>,
+        out: &mut [[i16; MAX_WIDTH]],
+        act: Act,
+    ) {
+        let acc = W::pick(&mut acc.a64, &mut acc.a32);
+        init_int::<W>(l, view, n, acc);
+        let mut row0 = 0;
+        if let Some((enc, pd)) = inputs.enc {
+            accumulate_int::<W, ENC_MAX>(l, 0, enc, pd, n, acc);
+            row0 = pd;
+        }
+        if let Some((prev, w)) = inputs.prev {
+            accumulate_int::<W, MAX_WIDTH>(l, row0, prev, w, n, acc);
+        }
+        let bounds = match act {
+            Act::Relu => relu_bounds(net),
+            Act::Linear => linear_bounds(net),
+        };
+        W::requant_rows(l, n, acc, out, bounds);
+    }
+
+    fn sigma_head<const B: usize>(
+        l: &Layer<'_>,
+        trunk: &[[i16; MAX_WIDTH]],
+        w: usize,
+        n: usize,
+        acc: &mut FixedAcc<B>,
+        sigma: &mut [i32; B],
+    ) {
+        let acc = W::pick(&mut acc.a64, &mut acc.a32);
+        init_int::<W>(l, None, n, acc);
+        accumulate_int::<W, MAX_WIDTH>(l, 0, trunk, w, n, acc);
+        let r = l.requant(0);
+        for s in 0..n {
+            sigma[s] = sat_i32(r.apply(acc[s][0].into()));
+        }
+    }
+
+    fn rgb_head<const B: usize>(
+        l: &Layer<'_>,
+        input: &[[i16; MAX_WIDTH]],
+        dim: usize,
+        n: usize,
+        acc: &mut FixedAcc<B>,
+        rgb: &mut [[u16; 3]; B],
+    ) {
+        let acc = W::pick(&mut acc.a64, &mut acc.a32);
+        init_int::<W>(l, None, n, acc);
+        accumulate_int::<W, MAX_WIDTH>(l, 0, input, dim, n, acc);
+        for c in 0..3 {
+            let r = l.requant(c);
+            for s in 0..n {
+                rgb[s][c] = sigmoid_q12_q15(sat_i32(r.apply(acc[s][c].into())));
+            }
+        }
+    }
+
+    fn fold_view<const B: usize>(
+        l: &Layer<'_>,
+        dir: &[i16; ENC_MAX],
+        nd: usize,
+        w: usize,
+        acc: &mut FixedAcc<B>,
+        view: &mut [i64; MAX_WIDTH],
+    ) {
+        let od = l.out_dim as usize;
+        if cfg!(target_arch = "x86_64") {
+            // the layer kernel on one sample, rows w.. (the SIMD one where
+            // built; kept off the Cortex-M for flash)
+            let acc = W::pick(&mut acc.a64, &mut acc.a32);
+            init_int::<W>(l, None, 1, acc);
+            accumulate_int::<W, ENC_MAX>(l, w, core::slice::from_ref(dir), nd, 1, acc);
+            for (v, &a) in view[..od].iter_mut().zip(&acc[0][..od]) {
+                *v = a.into();
+            }
+            return;
+        }
+        for c in 0..od {
+            let mut acc: W::Acc = W::from_i64(read_i32(l.bias, c) as i64);
+            for (j, &a) in dir[..nd].iter().enumerate() {
+                let k = ((w + j) * od + c) * W::BYTES;
+                acc += W::mul(a, &l.weights[k..k + W::BYTES]);
+            }
+            view[c] = acc.into();
+        }
+    }
+}
+
+/// Checks that no int8 layer can overflow its i32 accumulator:
+/// `Σⱼ |W[j][c]| · 32768 + |bias[c]| ≤ i32::MAX` for every output `c`.
+pub fn check_i8_headroom(net: &Network<'_>) -> Result<()> {
+    if net.scheme != Scheme::I8 {
+        return Ok(());
+    }
+    for (i, l) in net.layers.iter().enumerate() {
+        let od = l.out_dim as usize;
+        for c in 0..od {
+            let mut sum = (read_i32(l.bias, c) as i64).abs();
+            for j in 0..l.in_dim as usize {
+                sum += ((l.weights[j * od + c] as i8 as i64).abs()) << 15;
+            }
+            if sum > i32::MAX as i64 {
+                return Err(Error::InvalidScale(i as u8));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` (integer weights, exact).
+#[inline]
+fn accumulate_int<W: IntKernel, const N: usize>(
+    l: &Layer<'_>,
+    row0: usize,
+    input: &[[i16; N]],
+    in_dim: usize,
+    n: usize,
+    acc: &mut [[W::Acc; MAX_WIDTH]],
+) {
+    let od = l.out_dim as usize;
+    // x86 only: on a Cortex-M the unrolled loop costs 6 KiB of flash for 1 %
+    // fewer instructions
+    if od == 1 && cfg!(target_arch = "x86_64") {
+        // the density head: contiguous weights, a dot product that vectorises
+        let w = &l.weights[row0 * W::BYTES..(row0 + in_dim) * W::BYTES];
+        for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
+            let mut sum = W::Acc::default();
+            for (&x, w) in x[..in_dim].iter().zip(w.chunks_exact(W::BYTES)) {
+                sum += W::mul(x, w);
+            }
+            a[0] += sum;
+        }
+        return;
+    }
+    if od < TILE_C && !W::WIDE_TAKES_NARROW {
+        // the colour head: one dot product per output
+        for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
+            for c in 0..od {
+                let mut sum = W::Acc::default();
+                for j in 0..in_dim {
+                    let k = ((row0 + j) * od + c) * W::BYTES;
+                    sum += W::mul(x[j], &l.weights[k..k + W::BYTES]);
+                }
+                a[c] += sum;
+            }
+        }
+        return;
+    }
+    W::accumulate_wide(l, row0, input, in_dim, n, acc);
+}
+
+/// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
+fn init_int<W: IntKernel>(l: &Layer<'_>, view: Option<&[i64; MAX_WIDTH]>, n: usize, acc: &mut [[W::Acc; MAX_WIDTH]]) {
+    let od = l.out_dim as usize;
+    let Some((first, rest)) = acc[..n].split_first_mut() else {
+        return;
+    };
+    for (c, y) in first[..od].iter_mut().enumerate() {
+        *y = match view {
+            // prepare_ray summed a subset of this channel's checked terms.
+            Some(v) => W::from_i64(v[c]),
+            None => W::from_i64(read_i32(l.bias, c) as i64),
+        };
+    }
+    // the other samples start from the same row (a block copy)
+    for row in rest {
+        row[..od].copy_from_slice(&first[..od]);
+    }
+}
+
+/// The linear feature layer's saturation: i16, or i8 when the network
+/// says so.
+fn linear_bounds(net: &Network<'_>) -> (i16, i16) {
+    if net.act_bits == 8 {
+        (-127, 127)
+    } else {
+        (i16::MIN, i16::MAX)
+    }
+}
+
+/// The ReLU of hidden activations: i16, or u8 when the network says so.
+fn relu_bounds(net: &Network<'_>) -> (i16, i16) {
+    (0, if net.act_bits == 8 { 255 } else { i16::MAX })
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::layer::{W16, W8};
+
+    /// The dispatching integer kernel (VNNI or AVX2 where built, heads as dot
+    /// products) against the plain triple loop, over the shapes the format
+    /// allows: odd and even inputs, narrow and wide outputs, short tiles.
+    fn check_against_naive<W: IntKernel>() {
+        let mut h = 0x9e37_79b9u32;
+        let mut next = move || {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            h
+        };
+        for &in_dim in &[1usize, 2, 51, 64, 79, 255, 256] {
+            for &od in &[1usize, 3, 7, 32, 40, 45, 48, 64, 255, 256] {
+                for &n in &[1usize, 3, 5, 8] {
+                    let row0 = (next() % 3) as usize;
+                    let rows = row0 + in_dim;
+                    let weights: std::vec::Vec<u8> = (0..rows * od * W::BYTES).map(|_| next() as u8).collect();
+                    let l = Layer {
+                        in_dim: rows as u16,
+                        out_dim: od as u16,
+                        act_max: 0.0,
+                        weights: &weights,
+                        bias: &[],
+                        scales: &[],
+                        requant: &[],
+                    };
+                    let mut input = [[0i16; MAX_WIDTH]; 8];
+                    for row in input.iter_mut() {
+                        for x in row.iter_mut() {
+                            // half zeros (ReLU), the rest small enough for i32 sums
+                            *x = if next() % 2 == 0 { 0 } else { (next() % 4096) as i16 - 2048 };
+                        }
+                    }
+                    let mut acc = [[W::Acc::default(); MAX_WIDTH]; 8];
+                    accumulate_int::<W, MAX_WIDTH>(&l, row0, &input, in_dim, n, &mut acc);
+                    for s in 0..8 {
+                        for c in 0..od {
+                            let mut want = 0i64;
+                            if s < n {
+                                for j in 0..in_dim {
+                                    let k = ((row0 + j) * od + c) * W::BYTES;
+                                    want += input[s][j] as i64 * W::decode(&weights[k..]) as i64;
+                                }
+                            }
+                            assert_eq!(acc[s][c].into(), want, "in {in_dim} out {od} n {n} s {s} c {c}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn int8_kernel_matches_the_naive_sum() {
+        check_against_naive::<W8>();
+    }
+
+    #[test]
+    fn int16_kernel_matches_the_naive_sum() {
+        check_against_naive::<W16>();
+    }
+}
