@@ -10,7 +10,7 @@
 mod support;
 
 use glam::Vec3;
-use nerf_infer::composite::{alpha_f32, survival_fixed, CompositorF32, CompositorFixed, DELTA_INF_Q16};
+use nerf_infer::composite::{alpha_f32, survival_fixed, Compositor, CompositorF32, CompositorFixed, DELTA_INF_Q16};
 use nerf_infer::fixed::to_fixed;
 use nerf_infer::format::{Scene, Scheme};
 use nerf_infer::sampling::hash32;

@@ -5,7 +5,7 @@
 
 mod support;
 
-use nerf_infer::composite::{CompositorF32, CompositorFixed, DELTA_INF_Q16};
+use nerf_infer::composite::{Compositor, CompositorF32, CompositorFixed, DELTA_INF_Q16};
 use nerf_infer::encoding::NPOS_FRAC;
 use nerf_infer::format::Scheme;
 use nerf_infer::network::{BlockF32, BlockFixed, F32, W16, W8};

@@ -76,12 +76,36 @@ pub fn alpha_f32(sigma_raw: f32, delta: f32) -> f32 {
     }
 }
 
-impl CompositorF32 {
+/// A front-to-back accumulator: what the march composites samples with.
+/// `T` is the ray parameter, `S` the raw density, `D` the interval length
+/// and `C` the colour, each in its path's format.
+pub trait Compositor<T, S, D, C>: Copy + Default {
+    /// Weight and transmittance format.
+    type W;
+    /// The finished pixel.
+    type Pixel;
+    /// Transmittance before the next sample.
+    fn transmittance(&self) -> Self::W;
+    /// Adds a sample at `t` and returns its weight.
+    fn add(&mut self, sigma: S, delta: D, rgb: C, t: T) -> Self::W;
+    /// Finishes the ray on the background; `far` is the depth of empty space.
+    fn finish(&self, white_background: bool, far: T) -> Self::Pixel;
+}
+
+impl Compositor<f32, f32, f32, [f32; 3]> for CompositorF32 {
+    type W = f32;
+    type Pixel = Pixel;
+
+    #[inline(always)]
+    fn transmittance(&self) -> f32 {
+        self.transmittance
+    }
+
     /// Adds one sample (`delta` in world units, `f32::INFINITY` for the last
     /// interval; colour clamped to `[0, 1]`, NaN read as 0; `t` the sample's
     /// ray parameter) and returns its weight `wᵢ` in `[0, 1]`.
     #[inline]
-    pub fn add(&mut self, sigma_raw: f32, delta: f32, rgb: [f32; 3], t: f32) -> f32 {
+    fn add(&mut self, sigma_raw: f32, delta: f32, rgb: [f32; 3], t: f32) -> f32 {
         let alpha = alpha_f32(sigma_raw, delta);
         let w = self.transmittance * alpha;
         self.transmittance *= 1.0 - alpha;
@@ -96,7 +120,7 @@ impl CompositorF32 {
     /// Finishes the ray on the background; `far` is the depth of empty space.
     /// Colour and opacity are in `[0, 1]`; depth in `[0, far]` (a ray with
     /// no opacity has depth `far`).
-    pub fn finish(&self, white_background: bool, far: f32) -> Pixel {
+    fn finish(&self, white_background: bool, far: f32) -> Pixel {
         let acc = unit(self.opacity);
         let rest = 1.0 - acc;
         let bg = if white_background { rest } else { 0.0 };
@@ -157,11 +181,19 @@ pub fn survival_fixed(sigma_q10: i32, delta_q16: i32) -> u32 {
     exp_neg_q26_q30(sigma_q10 as i64 * delta_q16 as i64)
 }
 
-impl CompositorFixed {
+impl Compositor<i32, i32, i32, [u16; 3]> for CompositorFixed {
+    type W = u32;
+    type Pixel = FixedPixel;
+
+    #[inline(always)]
+    fn transmittance(&self) -> u32 {
+        self.transmittance
+    }
+
     /// Adds one sample: σ in Q10, δ in Q16 ([`DELTA_INF_Q16`] for the last
     /// interval), colour in Q15, `t` in Q16. Returns the weight in Q30.
     #[inline]
-    pub fn add(&mut self, sigma_q10: i32, delta_q16: i32, rgb: [u16; 3], t_q16: i32) -> u32 {
+    fn add(&mut self, sigma_q10: i32, delta_q16: i32, rgb: [u16; 3], t_q16: i32) -> u32 {
         let e = survival_fixed(sigma_q10, delta_q16) as u64;
         let t = self.transmittance as u64;
         let alpha = T_ONE as u64 - e;
@@ -177,7 +209,7 @@ impl CompositorFixed {
     }
 
     /// Finishes the ray on the background; `far_q16` is the empty-ray depth.
-    pub fn finish(&self, white_background: bool, far_q16: i32) -> FixedPixel {
+    fn finish(&self, white_background: bool, far_q16: i32) -> FixedPixel {
         let acc = self.opacity.min(T_ONE as u64);
         let rest = T_ONE as u64 - acc;
         let half = 1u64 << (T_FRAC - 1);

@@ -118,7 +118,8 @@ mod tests {
         let mut d = Vec::new();
         push_deltas(&t, 1.0, &mut d);
         let c = composite(&sigma, &rgb, &d, 0.0, &mut w);
-        let mut k = nerf_infer::composite::CompositorF32::default();
+        use nerf_infer::composite::{Compositor, CompositorF32};
+        let mut k = CompositorF32::default();
         for i in 0..4 {
             let d = if i < 3 { t[i + 1] - t[i] } else { LAST_DELTA };
             k.add(sigma[i], d, [rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]], t[i]);

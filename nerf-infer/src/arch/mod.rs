@@ -45,11 +45,12 @@ pub trait IntKernel: IntWeight + Sized {
     /// Whether [`IntKernel::accumulate_wide`] also takes layers narrower
     /// than the portable tile (the colour head) faster than scalar dot
     /// products.
-    const WIDE_TAKES_NARROW: bool;
+    const WIDE_TAKES_NARROW: bool = false;
     /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
     /// samples and every output of a layer at least
     /// [`crate::layer::TILE_C`] wide (or any width if
-    /// [`IntKernel::WIDE_TAKES_NARROW`]).
+    /// [`IntKernel::WIDE_TAKES_NARROW`]); the portable kernel by default.
+    #[inline]
     fn accumulate_wide<const N: usize>(
         l: &Layer<'_>,
         row0: usize,
@@ -57,37 +58,25 @@ pub trait IntKernel: IntWeight + Sized {
         in_dim: usize,
         n: usize,
         acc: &mut [[Self::Acc; MAX_WIDTH]],
-    );
+    ) {
+        accumulate::<MacInt<Self>, N>(l.weights, l.out_dim as usize, 0, row0, input, in_dim, n, acc);
+    }
     /// `out[s][c] = clamp(requantised acc[s][c], lo, hi)` for the first `n`
-    /// samples and every output of `l`.
+    /// samples and every output of `l`; the portable loop by default.
+    #[inline]
     fn requant_rows(
         l: &Layer<'_>,
         n: usize,
         acc: &[[Self::Acc; MAX_WIDTH]],
         out: &mut [[i16; MAX_WIDTH]],
         bounds: (i16, i16),
-    );
+    ) {
+        requant_rows::<Self>(l, n, acc, out, bounds);
+    }
 }
 
 /// int16 weights: the portable kernels everywhere (i64 sums auto-vectorise).
-impl IntKernel for W16 {
-    const WIDE_TAKES_NARROW: bool = false;
-    #[inline]
-    fn accumulate_wide<const N: usize>(
-        l: &Layer<'_>,
-        row0: usize,
-        input: &[[i16; N]],
-        in_dim: usize,
-        n: usize,
-        acc: &mut [[i64; MAX_WIDTH]],
-    ) {
-        accumulate::<MacInt<W16>, N>(l.weights, l.out_dim as usize, 0, row0, input, in_dim, n, acc);
-    }
-    #[inline]
-    fn requant_rows(l: &Layer<'_>, n: usize, acc: &[[i64; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], b: (i16, i16)) {
-        requant_rows::<W16>(l, n, acc, out, b);
-    }
-}
+impl IntKernel for W16 {}
 
 /// int8 weights: VNNI for whole 32-wide tiles (the portable loop for the
 /// rest), else AVX2 `vpmaddwd` 8 outputs at a time (a short last group

@@ -7,13 +7,23 @@ use crate::format::{read_f32, Layer, Model, Network};
 use crate::layer::{accumulate, MacF32};
 use crate::limits::MAX_WIDTH;
 
+/// The f32 path's per-ray start of the view layer's sums (it accumulates
+/// in the activations themselves).
+#[derive(Clone)]
+pub struct ViewBias([f32; MAX_WIDTH]);
+
+impl Default for ViewBias {
+    fn default() -> Self {
+        Self([0.0; MAX_WIDTH])
+    }
+}
+
 impl Numbers for F32 {
     type X = f32;
     type Pos = [f32; 3];
     type Sigma = f32;
     type Rgb = [f32; 3];
-    type View = f32;
-    type Acc<const B: usize> = ();
+    type Acc<const B: usize> = ViewBias;
 
     fn encode_rows(model: &Model<'_>, pos: &[[f32; 3]], enc: &mut [[f32; ENC_MAX]]) -> usize {
         let e = &model.encoding;
@@ -79,17 +89,18 @@ impl LayerKernel<F32> for F32 {
     fn dense<const B: usize>(
         _net: &Network<'_>,
         l: &Layer<'_>,
-        view: Option<&[f32; MAX_WIDTH]>,
+        view: bool,
         inputs: Inputs<'_, f32, MAX_WIDTH>,
         n: usize,
-        _acc: &mut (),
+        acc: &mut ViewBias,
         out: &mut [[f32; MAX_WIDTH]],
         act: Act,
     ) {
         let od = l.out_dim as usize;
-        match view {
-            Some(v) => init(|c| v[c], od, n, out),
-            None => init(|c| read_f32(l.bias, c), od, n, out),
+        if view {
+            init(|c| acc.0[c], od, n, out);
+        } else {
+            init(|c| read_f32(l.bias, c), od, n, out);
         }
         let mut row0 = 0;
         if let Some((enc, pd)) = inputs.enc {
@@ -109,7 +120,7 @@ impl LayerKernel<F32> for F32 {
         trunk: &[[f32; MAX_WIDTH]],
         w: usize,
         n: usize,
-        _acc: &mut (),
+        _acc: &mut ViewBias,
         sigma: &mut [f32; B],
     ) {
         for s in 0..n {
@@ -126,7 +137,7 @@ impl LayerKernel<F32> for F32 {
         input: &[[f32; MAX_WIDTH]],
         dim: usize,
         n: usize,
-        _acc: &mut (),
+        _acc: &mut ViewBias,
         rgb: &mut [[f32; 3]; B],
     ) {
         for s in 0..n {
@@ -140,15 +151,8 @@ impl LayerKernel<F32> for F32 {
         }
     }
 
-    fn fold_view<const B: usize>(
-        l: &Layer<'_>,
-        dir: &[f32; ENC_MAX],
-        nd: usize,
-        w: usize,
-        _acc: &mut (),
-        view: &mut [f32; MAX_WIDTH],
-    ) {
-        let od = l.out_dim as usize;
+    fn fold_view<const B: usize>(l: &Layer<'_>, dir: &[f32; ENC_MAX], nd: usize, w: usize, acc: &mut ViewBias) {
+        let (od, view) = (l.out_dim as usize, &mut acc.0);
         for c in 0..od {
             view[c] = read_f32(l.bias, c);
         }

@@ -13,16 +13,18 @@ use crate::layer::TILE_C;
 use crate::limits::MAX_WIDTH;
 
 /// The accumulators of a fixed-point block: i64 rows for int16 weights,
-/// i32 rows for int8 weights ([`IntWeight::pick`] chooses).
+/// i32 rows for int8 weights ([`IntWeight::pick`] chooses), and the
+/// per-ray start of the view layer's sums.
 #[derive(Clone)]
 pub struct FixedAcc<const B: usize> {
     a64: [[i64; MAX_WIDTH]; B],
     a32: [[i32; MAX_WIDTH]; B],
+    view: [i64; MAX_WIDTH],
 }
 
 impl<const B: usize> Default for FixedAcc<B> {
     fn default() -> Self {
-        Self { a64: [[0; MAX_WIDTH]; B], a32: [[0; MAX_WIDTH]; B] }
+        Self { a64: [[0; MAX_WIDTH]; B], a32: [[0; MAX_WIDTH]; B], view: [0; MAX_WIDTH] }
     }
 }
 
@@ -31,7 +33,6 @@ impl Numbers for Fixed {
     type Pos = [i32; 3];
     type Sigma = i32;
     type Rgb = [u16; 3];
-    type View = i64;
     type Acc<const B: usize> = FixedAcc<B>;
 
     fn encode_rows(model: &Model<'_>, pos: &[[i32; 3]], enc: &mut [[i16; ENC_MAX]]) -> usize {
@@ -59,15 +60,16 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
     fn dense<const B: usize>(
         net: &Network<'_>,
         l: &Layer<'_>,
-        view: Option<&[i64; MAX_WIDTH]>,
+        view: bool,
         inputs: Inputs<'_, i16, MAX_WIDTH>,
         n: usize,
         acc: &mut FixedAcc<B>,
         out: &mut [[i16; MAX_WIDTH]],
         act: Act,
     ) {
-        let acc = W::pick(&mut acc.a64, &mut acc.a32);
-        init_int::<W>(l, view, n, acc);
+        let FixedAcc { a64, a32, view: v } = acc;
+        let acc = W::pick(a64, a32);
+        init_int::<W>(l, view.then_some(&*v), n, acc);
         let mut row0 = 0;
         if let Some((enc, pd)) = inputs.enc {
             accumulate_int::<W, ENC_MAX>(l, 0, enc, pd, n, acc);
@@ -119,19 +121,13 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
         }
     }
 
-    fn fold_view<const B: usize>(
-        l: &Layer<'_>,
-        dir: &[i16; ENC_MAX],
-        nd: usize,
-        w: usize,
-        acc: &mut FixedAcc<B>,
-        view: &mut [i64; MAX_WIDTH],
-    ) {
+    fn fold_view<const B: usize>(l: &Layer<'_>, dir: &[i16; ENC_MAX], nd: usize, w: usize, acc: &mut FixedAcc<B>) {
         let od = l.out_dim as usize;
+        let FixedAcc { a64, a32, view } = acc;
         if cfg!(target_arch = "x86_64") {
             // the layer kernel on one sample, rows w.. (the SIMD one where
             // built; kept off the Cortex-M for flash)
-            let acc = W::pick(&mut acc.a64, &mut acc.a32);
+            let acc = W::pick(a64, a32);
             init_int::<W>(l, None, 1, acc);
             accumulate_int::<W, ENC_MAX>(l, w, core::slice::from_ref(dir), nd, 1, acc);
             for (v, &a) in view[..od].iter_mut().zip(&acc[0][..od]) {

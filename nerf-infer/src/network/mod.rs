@@ -23,6 +23,7 @@ mod float;
 mod int;
 
 pub use crate::layer::{IntWeight, OUTPUT_TILE, W16, W8};
+pub use float::ViewBias;
 pub use int::{check_i8_headroom, FixedAcc};
 
 use crate::format::{sigma_layer, Layer, Model, Network};
@@ -52,10 +53,9 @@ pub trait Numbers: Sized + Copy {
     type Sigma: Copy + Default;
     /// Colour; its default is black (`[f32; 3]` in `[0, 1]`; `[u16; 3]` Q15).
     type Rgb: Copy + Default;
-    /// Per-ray start of a view-layer output's sum (f32; i64).
-    type View: Copy + Default;
-    /// Accumulators kept beside the activations, for `B` samples (none for
-    /// f32, which accumulates in place).
+    /// Accumulators kept beside the activations for `B` samples (none for
+    /// f32, which accumulates in place), and the per-ray start of the view
+    /// layer's sums.
     type Acc<const B: usize>: Clone + Default;
     /// Encodes each position (γ, then the feature grid's values) into the
     /// same row of `enc`; returns the encoded width.
@@ -87,12 +87,13 @@ pub struct Inputs<'i, X, const N: usize> {
 /// [`F32`]; int16 ([`W16`]) or int8 ([`W8`]) weights for [`Fixed`].
 pub trait LayerKernel<N: Numbers> {
     /// `out[s] = act(start + Σ inputs[s] · W)` for the first `n` samples,
-    /// `start` being the bias, or `view` when given.
+    /// `start` being the bias, or with `view` the per-ray start that
+    /// [`LayerKernel::fold_view`] left in `acc`.
     #[allow(clippy::too_many_arguments)]
     fn dense<const B: usize>(
         net: &Network<'_>,
         l: &Layer<'_>,
-        view: Option<&[N::View; MAX_WIDTH]>,
+        view: bool,
         inputs: Inputs<'_, N::X, MAX_WIDTH>,
         n: usize,
         acc: &mut N::Acc<B>,
@@ -117,16 +118,10 @@ pub trait LayerKernel<N: Numbers> {
         acc: &mut N::Acc<B>,
         rgb: &mut [N::Rgb; B],
     );
-    /// `view[c] = bias[c] + Σ_j dir[j] · W[w + j][c]`: the direction's part
-    /// of the view layer `l` (the first `w` rows are the feature layer's).
-    fn fold_view<const B: usize>(
-        l: &Layer<'_>,
-        dir: &[N::X; ENC_MAX],
-        nd: usize,
-        w: usize,
-        acc: &mut N::Acc<B>,
-        view: &mut [N::View; MAX_WIDTH],
-    );
+    /// `view[c] = bias[c] + Σ_j dir[j] · W[w + j][c]` into `acc`: the
+    /// direction's part of the view layer `l` (the first `w` rows are the
+    /// feature layer's).
+    fn fold_view<const B: usize>(l: &Layer<'_>, dir: &[N::X; ENC_MAX], nd: usize, w: usize, acc: &mut N::Acc<B>);
 }
 
 /// Per-block buffers of a network evaluation on `B` samples (f32: about
@@ -137,7 +132,6 @@ pub struct Block<N: Numbers, const B: usize> {
     h: [[N::X; MAX_WIDTH]; B],
     g: [[N::X; MAX_WIDTH]; B],
     acc: N::Acc<B>,
-    view: [N::View; MAX_WIDTH],
     /// Raw density head output per sample.
     pub sigma: [N::Sigma; B],
     /// Colour `j` of the last [`Block::eval_colour`].
@@ -156,7 +150,6 @@ impl<N: Numbers, const B: usize> Default for Block<N, B> {
             h: [[N::X::default(); MAX_WIDTH]; B],
             g: [[N::X::default(); MAX_WIDTH]; B],
             acc: N::Acc::default(),
-            view: [N::View::default(); MAX_WIDTH],
             sigma: [N::Sigma::default(); B],
             rgb: [N::Rgb::default(); B],
         }
@@ -192,7 +185,7 @@ impl<N: Numbers, const B: usize> Block<N, B> {
         let mut dir = [N::X::default(); ENC_MAX];
         let nd = N::encode_dir(model, viewdir, &mut dir);
         let w = l.in_dim as usize - nd; // the feature layer's width
-        K::fold_view::<B>(l, &dir, nd, w, &mut self.acc, &mut self.view);
+        K::fold_view::<B>(l, &dir, nd, w, &mut self.acc);
     }
 
     /// The trunk and density head at positions `pos` (≤ `B`): fills
@@ -206,12 +199,12 @@ impl<N: Numbers, const B: usize> Block<N, B> {
         // layer widths come from the layers: pruned ones are narrower
         let width = |k: usize| layers[k].out_dim as usize;
         let first = Inputs { enc: Some((&*enc, pd)), prev: None };
-        K::dense::<B>(net, &layers[0], None, first, n, acc, h, Act::Relu);
+        K::dense::<B>(net, &layers[0], false, first, n, acc, h, Act::Relu);
         let mut in_h = true;
         for (i, l) in layers.iter().enumerate().take(t.depth as usize).skip(1) {
             let (src, dst) = if in_h { (&*h, &mut *g) } else { (&*g, &mut *h) };
             let inputs = Inputs { enc: t.is_skip(i).then_some((&*enc, pd)), prev: Some((src, width(i - 1))) };
-            K::dense::<B>(net, l, None, inputs, n, acc, dst, Act::Relu);
+            K::dense::<B>(net, l, false, inputs, n, acc, dst, Act::Relu);
             in_h = !in_h;
         }
         debug_assert_eq!(in_h, trunk_in_h(t.depth));
@@ -226,7 +219,7 @@ impl<N: Numbers, const B: usize> Block<N, B> {
     pub fn eval_colour<K: LayerKernel<N>>(&mut self, model: &Model<'_>, net: &Network<'_>, rows: &[usize]) {
         let n = rows.len();
         let t = &model.topology;
-        let Self { h, g, acc, view, rgb, .. } = self;
+        let Self { h, g, acc, rgb, .. } = self;
         let (trunk, spare) = if trunk_in_h(t.depth) { (h, g) } else { (g, h) };
         let layers = &net.layers;
         let width = |k: usize| layers[k].out_dim as usize;
@@ -235,9 +228,9 @@ impl<N: Numbers, const B: usize> Block<N, B> {
         gather_rows(trunk, rows, w);
         let (dim, head) = if t.view_dependent {
             let feature = Inputs { enc: None, prev: Some((&*trunk, w)) };
-            K::dense::<B>(net, &layers[si + 1], None, feature, n, acc, spare, Act::Linear);
+            K::dense::<B>(net, &layers[si + 1], false, feature, n, acc, spare, Act::Linear);
             let with_view = Inputs { enc: None, prev: Some((&*spare, width(si + 1))) };
-            K::dense::<B>(net, &layers[si + 2], Some(view), with_view, n, acc, trunk, Act::Relu);
+            K::dense::<B>(net, &layers[si + 2], true, with_view, n, acc, trunk, Act::Relu);
             (width(si + 2), &layers[si + 3])
         } else {
             (w, &layers[si + 1])

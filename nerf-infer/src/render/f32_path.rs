@@ -89,20 +89,6 @@ impl NumericPath for F32 {
         sample_pdf_f32(t, w, |j| u_q16(j) as f32 / 65536.0, cdf, out);
     }
 
-    #[inline(always)]
-    fn transmittance(c: &CompositorF32) -> f32 {
-        c.transmittance
-    }
-
-    #[inline(always)]
-    fn add(c: &mut CompositorF32, sigma: f32, delta: f32, rgb: [f32; 3], t: f32) -> f32 {
-        c.add(sigma, delta, rgb, t)
-    }
-
-    fn finish(c: &CompositorF32, white_background: bool, far: f32) -> Pixel {
-        c.finish(white_background, far)
-    }
-
     fn viewdir(ray: &Ray) -> [f32; 3] {
         ray.viewdir.to_array()
     }

@@ -70,43 +70,6 @@ impl FixedRay {
     }
 }
 
-/// The `n` stratified samples of `ray` that a pass over `span` (Q16) can
-/// use, written to `out`: from the last one before `span.0` to the first one
-/// after `span.1` (or the end). The pass reads the same samples and deltas
-/// as over all `n` (the one after the span bounds the last delta, and the
-/// one before it confirms that no earlier sample is inside), so the pixel is
-/// bit-identical; only their generation is saved.
-fn stratified_fixed_around<'o>(
-    ray: &FixedRay,
-    n: usize,
-    key: Option<u32>,
-    span: (i32, i32),
-    out: &'o mut [i32],
-) -> &'o [i32] {
-    let (near, len) = (ray.near as i64, (ray.far as i64 - ray.near as i64).max(0));
-    // an unbounded scene's samples are not evenly spaced in `t` (and its span is the whole ray)
-    if n < 3 || len == 0 || ray.linear_until.is_some() {
-        ray.stratified(key, &mut out[..n]);
-        return &out[..n];
-    }
-    // unjittered index of a Q16 parameter, rounded down; jitter moves a
-    // sample by less than one stratum, so one more on each side is enough
-    let d = (n - 1) as i64;
-    let index = |t: i32| ((t as i64 - near).clamp(0, len) * d / len) as usize;
-    let first = index(span.0).saturating_sub(1);
-    let end = (index(span.1) + 3).min(n);
-    let part = &mut out[..end - first];
-    stratified_fixed_from(ray.near, ray.far, n, key, first, part);
-    let starts_before = first == 0 || part[0] < span.0;
-    let ends_after = end == n || part[part.len() - 1] > span.1;
-    if starts_before && ends_after {
-        return &out[..end - first];
-    }
-    // not reached for valid rays; kept so the result never depends on it
-    stratified_fixed(ray.near, ray.far, key, &mut out[..n]);
-    &out[..n]
-}
-
 impl NumericPath for Fixed {
     type T = i32;
     type W = u32;
@@ -180,6 +143,12 @@ impl NumericPath for Fixed {
         ray.stratified(key, out);
     }
 
+    /// The `n` stratified samples of `ray` that a pass over `span` (Q16) can
+    /// use, written to `out`: from the last one before `span.0` to the first one
+    /// after `span.1` (or the end). The pass reads the same samples and deltas
+    /// as over all `n` (the one after the span bounds the last delta, and the
+    /// one before it confirms that no earlier sample is inside), so the pixel is
+    /// bit-identical; only their generation is saved.
     fn samples_around<'o>(
         ray: &FixedRay,
         n: usize,
@@ -187,25 +156,32 @@ impl NumericPath for Fixed {
         span: (i32, i32),
         out: &'o mut [i32],
     ) -> &'o [i32] {
-        stratified_fixed_around(ray, n, key, span, out)
+        let (near, len) = (ray.near as i64, (ray.far as i64 - ray.near as i64).max(0));
+        // an unbounded scene's samples are not evenly spaced in `t` (and its span is the whole ray)
+        if n < 3 || len == 0 || ray.linear_until.is_some() {
+            ray.stratified(key, &mut out[..n]);
+            return &out[..n];
+        }
+        // unjittered index of a Q16 parameter, rounded down; jitter moves a
+        // sample by less than one stratum, so one more on each side is enough
+        let d = (n - 1) as i64;
+        let index = |t: i32| ((t as i64 - near).clamp(0, len) * d / len) as usize;
+        let first = index(span.0).saturating_sub(1);
+        let end = (index(span.1) + 3).min(n);
+        let part = &mut out[..end - first];
+        stratified_fixed_from(ray.near, ray.far, n, key, first, part);
+        let starts_before = first == 0 || part[0] < span.0;
+        let ends_after = end == n || part[part.len() - 1] > span.1;
+        if starts_before && ends_after {
+            return &out[..end - first];
+        }
+        // not reached for valid rays; kept so the result never depends on it
+        stratified_fixed(ray.near, ray.far, key, &mut out[..n]);
+        &out[..n]
     }
 
     fn sample_pdf(t: &[i32], w: &[u32], u_q16: impl Fn(usize) -> u32, cdf: &mut [u64], out: &mut [i32]) {
         sample_pdf_fixed(t, w, u_q16, cdf, out);
-    }
-
-    #[inline(always)]
-    fn transmittance(c: &CompositorFixed) -> u32 {
-        c.transmittance
-    }
-
-    #[inline(always)]
-    fn add(c: &mut CompositorFixed, sigma: i32, delta: i32, rgb: [u16; 3], t: i32) -> u32 {
-        c.add(sigma, delta, rgb, t)
-    }
-
-    fn finish(c: &CompositorFixed, white_background: bool, far: i32) -> FixedPixel {
-        c.finish(white_background, far)
     }
 
     fn viewdir(ray: &FixedRay) -> [i32; 3] {
@@ -261,7 +237,7 @@ mod tests {
                 linear_until: None,
             };
             stratified_fixed(near, far, key, &mut full[..n]);
-            let part = stratified_fixed_around(&ray, n, key, span, &mut out);
+            let part = Fixed::samples_around(&ray, n, key, span, &mut out);
             let len = part.len();
             let first = (0..=n - len).find(|&k| full[k..k + len] == *part);
             let first = first.unwrap_or_else(|| panic!("case {case}: not a run of the full set"));

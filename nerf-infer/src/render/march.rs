@@ -7,6 +7,7 @@ use super::path::NumericPath;
 use super::renderer::Renderer;
 use super::scratch::Scratch;
 use crate::camera::Ray;
+use crate::composite::Compositor;
 use crate::format::Network;
 use crate::network::{Block, LayerKernel};
 use crate::sampling::{jitter_q16, merge_sorted};
@@ -80,7 +81,7 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     let run = coarse.map_or(0, |c| P::run_len(c, ray, t));
     let (mut next, mut tested) = (0, 0);
     while next < n {
-        if P::transmittance(&comp) < r.early_stop {
+        if comp.transmittance() < r.early_stop {
             if let Some(w) = weights.as_deref_mut() {
                 w[next..n].fill(zero);
             }
@@ -131,9 +132,9 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
         // carry weight: only they need the colour branch
         let mut delta = [P::Delta::default(); B];
         let (mut probe, mut used, mut rows, mut n_rows) = (comp, 0, [0usize; B], 0);
-        while used < len && P::transmittance(&probe) >= r.early_stop {
+        while used < len && probe.transmittance() >= r.early_stop {
             delta[used] = P::delta(ray, t, idx[used]);
-            let w = P::add(&mut probe, block.sigma[used], delta[used], P::Rgb::default(), t[idx[used]]);
+            let w = probe.add(block.sigma[used], delta[used], P::Rgb::default(), t[idx[used]]);
             rows[n_rows] = used;
             n_rows += (need_rgb && w > zero) as usize;
             used += 1;
@@ -153,7 +154,7 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
             } else {
                 P::Rgb::default() // weight 0: the colour adds nothing
             };
-            let w = P::add(&mut comp, block.sigma[k], delta[k], rgb, t[idx[k]]);
+            let w = comp.add(block.sigma[k], delta[k], rgb, t[idx[k]]);
             if let Some(ws) = weights.as_deref_mut() {
                 ws[idx[k]] = w;
             }
@@ -164,5 +165,5 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
             }
         }
     }
-    P::finish(&comp, m.scene.white_background, r.far)
+    comp.finish(m.scene.white_background, r.far)
 }

@@ -9,6 +9,7 @@
 //! weights) plugs in without touching the march.
 
 use crate::camera::Ray;
+use crate::composite::Compositor;
 use crate::error::Result;
 use crate::format::Model;
 use crate::network::Numbers;
@@ -30,7 +31,7 @@ pub trait NumericPath: Numbers + Debug {
     /// A ray in this path's formats.
     type Ray;
     /// Front-to-back accumulator of the quadrature.
-    type Compositor: Copy + Default;
+    type Compositor: Compositor<Self::T, Self::Sigma, Self::Delta, Self::Rgb, W = Self::W, Pixel = Self::Pixel>;
     /// The rendered pixel.
     type Pixel: Copy + Default;
 
@@ -79,12 +80,6 @@ pub trait NumericPath: Numbers + Debug {
         cdf: &mut [Self::Cdf],
         out: &mut [Self::T],
     );
-    /// Transmittance before the next sample.
-    fn transmittance(c: &Self::Compositor) -> Self::W;
-    /// Adds a sample at `t` and returns its weight.
-    fn add(c: &mut Self::Compositor, sigma: Self::Sigma, delta: Self::Delta, rgb: Self::Rgb, t: Self::T) -> Self::W;
-    /// Finishes the ray on the background; `far` is the depth of empty space.
-    fn finish(c: &Self::Compositor, white_background: bool, far: Self::T) -> Self::Pixel;
     /// The unit view direction of `ray`, the view branch's input.
     fn viewdir(ray: &Self::Ray) -> Self::Pos;
 }

@@ -6,6 +6,7 @@ use super::api::{RayRenderer, RenderOptions};
 use super::path::NumericPath;
 use super::scratch::Scratch;
 use crate::camera::Ray;
+use crate::composite::Compositor;
 use crate::error::Result;
 use crate::format::Model;
 use crate::occupancy::{clip_to_box, occupied_box, CoarseOccupancy};
@@ -93,7 +94,7 @@ impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
 
     /// The pixel of a ray that meets nothing: the background at `far`.
     pub(super) fn background(&self) -> P::Pixel {
-        P::finish(&P::Compositor::default(), self.model.scene.white_background, self.far)
+        P::Compositor::default().finish(self.model.scene.white_background, self.far)
     }
 }
 
