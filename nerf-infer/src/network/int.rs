@@ -4,7 +4,7 @@
 //! [`crate::arch`] picks for the build ([`IntKernel`]).
 
 use super::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX};
-use crate::arch::{feature_rows, IntKernel};
+use crate::arch::IntKernel;
 use crate::encoding::encode_fixed;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, sigmoid_q12_q15};
@@ -13,7 +13,7 @@ use crate::layer::TILE_C;
 use crate::limits::MAX_WIDTH;
 
 /// The accumulators of a fixed-point block: i64 rows for int16 weights,
-/// i32 rows for int8 weights ([`IntWeight::pick`] chooses), and the
+/// i32 rows for int8 weights ([`IntWeight::pick`](crate::layer::IntWeight::pick) chooses), and the
 /// per-ray start of the view layer's sums.
 #[derive(Clone)]
 pub struct FixedAcc<const B: usize> {
@@ -43,7 +43,7 @@ impl Numbers for Fixed {
         }
         #[cfg(feature = "feature-grid")]
         if let Some(f) = &model.features {
-            feature_rows(f, pos, enc, pd);
+            crate::arch::feature_rows(f, pos, enc, pd);
             pd += f.dim();
         }
         pd

@@ -3,7 +3,7 @@
 //! front to back with early ray termination. With an occupancy grid
 //! ([`crate::occupancy`]) both passes skip the samples in empty cells.
 //!
-//! The march ([`march`]) is written once over a numeric path
+//! The march (`render/march.rs`) is written once over a numeric path
 //! ([`NumericPath`], in [`path`]); [`F32`] and [`Fixed`] are its two
 //! implementations. [`F32Renderer`] renders [`Scheme::F32`] models,
 //! [`FixedRenderer`] renders the integer schemes with no float operation

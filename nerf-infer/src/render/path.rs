@@ -1,6 +1,6 @@
 //! The contract between the march and a numeric path.
 //!
-//! The march ([`super::march`]) is written once over [`NumericPath`]: the
+//! The march (`render/march.rs`) is written once over [`NumericPath`]: the
 //! formats of a ray, its samples, their weights and the pixel, and the
 //! per-sample operations in them. The network's numbers come from
 //! [`Numbers`], its layers from a [`LayerKernel`](crate::network::LayerKernel) the path picks per model

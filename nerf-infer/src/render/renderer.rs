@@ -13,7 +13,7 @@ use crate::occupancy::{clip_to_box, occupied_box, CoarseOccupancy};
 use glam::Vec3;
 
 /// A numeric path's choice of layer kernel for a renderer's model: the
-/// march ([`super::march::render`]) instantiated with it.
+/// march (`render/march.rs`) instantiated with it.
 pub trait Dispatch: NumericPath {
     /// Renders `ray` (a ray that meets the scene bounds), jittered by `key`.
     fn render<const B: usize>(
@@ -55,10 +55,10 @@ pub struct Renderer<'m, 'a, P: NumericPath> {
 }
 
 impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
-    /// A renderer for `model`; fails with [`Error::WrongNumericPath`] if
-    /// the path does not render the model's scheme, [`Error::InvalidScale`]
+    /// A renderer for `model`; fails with [`Error::WrongNumericPath`](crate::Error::WrongNumericPath) if
+    /// the path does not render the model's scheme, [`Error::InvalidScale`](crate::Error::InvalidScale)
     /// if an int8 layer could overflow its i32 accumulator and
-    /// [`Error::InvalidSamples`] for bad options.
+    /// [`Error::InvalidSamples`](crate::Error::InvalidSamples) for bad options.
     pub fn new(model: &'m Model<'a>, opts: RenderOptions) -> Result<Self> {
         P::check(model)?;
         opts.validate(model)?;

@@ -1,0 +1,248 @@
+//! The model file format (versions 1 to 5). The full layout is in `FORMAT.md`.
+//!
+//! A model is a 14-byte header followed by a postcard payload:
+//!
+//! | offset | size | field                                   |
+//! |--------|------|-----------------------------------------|
+//! | 0      | 4    | magic `b"NERF"`                          |
+//! | 4      | 2    | format version, u16 little-endian (1–5)  |
+//! | 6      | 4    | payload length in bytes, u32 LE         |
+//! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
+//! | 14     | n    | payload: [`Model`] in postcard encoding |
+//!
+//! Version 2 appends one field, the optional occupancy grid; version 3
+//! another, the optional learned feature grid ([`FeatureGrid`]); version 4
+//! the optional record of the training capture's split ([`Capture`]);
+//! version 5 unbounded space ([`Unbounded`]). A model is written as the
+//! oldest version that holds it (not unbounded: 4; no capture record
+//! either: 3; no feature grid either: 2; no occupancy grid and no pruned
+//! layer either: 1), byte for byte what earlier builds wrote, so older readers
+//! keep reading it.
+//!
+//! Tensors are borrowed from the blob ([`Model::from_bytes`] never copies or
+//! allocates), so a model can live in flash. Multi-byte tensor elements are
+//! little-endian and read without alignment requirements.
+
+mod header;
+mod layers;
+mod records;
+mod validate;
+
+pub use header::crc32;
+use header::{check_header, Padded};
+pub use layers::{expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network};
+pub use records::{
+    CameraConvention, Capture, Encoding, Framing, Meta, Ndc, Samples, Scene, Scheme, Topology, Unbounded,
+};
+
+use crate::error::{Error, Result};
+pub use crate::features::FeatureGrid;
+pub use crate::occupancy::Occupancy;
+use serde::{Deserialize, Serialize};
+
+pub use crate::limits::{
+    FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_FEATURES, FORMAT_VERSION_NO_GRID,
+    FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
+};
+pub use crate::tensor::{read_f32, read_i32};
+
+/// A decoded model, borrowing its tensors from the blob.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+pub struct Model<'a> {
+    /// Scene bounds, near/far, background, camera convention.
+    pub scene: Scene,
+    /// Positional encoding.
+    pub encoding: Encoding,
+    /// Network shape (both networks share it).
+    pub topology: Topology,
+    /// Default sample counts.
+    pub samples: Samples,
+    /// Provenance.
+    pub meta: Meta,
+    /// The coarse network (the only one when `fine` is `None`).
+    #[serde(borrow)]
+    pub coarse: Network<'a>,
+    /// The fine network evaluated on coarse + importance samples.
+    #[serde(borrow)]
+    pub fine: Option<Network<'a>>,
+    /// Occupancy grid (format version 2): samples in clear cells are
+    /// skipped by both numeric paths. (Version 2 also lets trunk and view
+    /// layers be narrower than the topology: pruned neurons.)
+    #[serde(borrow)]
+    pub grid: Option<Occupancy<'a>>,
+    /// Learned feature grid (format version 3): its values follow γ(x) in
+    /// the trunk's input (`encoding.grid_dim` of them).
+    #[serde(borrow)]
+    pub features: Option<FeatureGrid<'a>>,
+    /// How the training capture was split and framed (format version 4;
+    /// `None` for datasets with their own split files, such as Blender's).
+    pub capture: Option<Capture>,
+    /// Unbounded space (format version 5), the same as `scene.unbounded`.
+    pub unbounded: Option<Unbounded>,
+}
+
+impl<'a> Model<'a> {
+    /// Decodes and validates a model from `bytes` without copying or allocating.
+    pub fn from_bytes(bytes: &'a [u8]) -> Result<Self> {
+        let (version, payload) = check_header(bytes)?;
+        let absent = (FORMAT_VERSION - version) as usize;
+        let mut de = postcard::Deserializer::from_flavor(Padded { rest: payload, absent });
+        let mut model = Model::deserialize(&mut de).map_err(|_| Error::Decode)?;
+        de.finalize().map_err(|_| Error::Decode)?;
+        model.encoding.grid_dim = model.features.as_ref().map_or(0, |f| f.dim() as u8);
+        model.scene.unbounded = model.unbounded;
+        model.validate()?;
+        if version == FORMAT_VERSION_NO_GRID && model.is_pruned() {
+            return Err(Error::InvalidTopology("pruned layers need format version 2"));
+        }
+        Ok(model)
+    }
+
+    /// The network that produces the final colour (fine if present).
+    pub fn final_network(&self) -> &Network<'a> {
+        self.fine.as_ref().unwrap_or(&self.coarse)
+    }
+
+    /// Numeric scheme of the model (both networks share it).
+    pub fn scheme(&self) -> Scheme {
+        self.coarse.scheme
+    }
+
+    /// True if a network has a layer narrower than the topology (pruned).
+    pub fn is_pruned(&self) -> bool {
+        let (t, e) = (&self.topology, &self.encoding);
+        core::iter::once(&self.coarse)
+            .chain(self.fine.as_ref())
+            .any(|n| n.layers.iter().enumerate().any(|(i, l)| l.out_dim as usize != expected_shape(t, e, i).1))
+    }
+
+    /// Tensor bytes the model would have without pruning.
+    pub fn unpruned_tensor_bytes(&self) -> usize {
+        let (t, e) = (&self.topology, &self.encoding);
+        let per_layer = |n: &Network<'_>, i: usize| {
+            let (din, dout) = expected_shape(t, e, i);
+            let b = n.scheme.weight_bytes();
+            din * dout * b + 4 * dout + if n.scheme.is_fixed() { 12 * dout } else { 0 }
+        };
+        core::iter::once(&self.coarse)
+            .chain(self.fine.as_ref())
+            .map(|n| (0..n.layers.len()).map(|i| per_layer(n, i)).sum::<usize>())
+            .sum()
+    }
+
+    /// The format version this model is written as: 5 with unbounded
+    /// space, 4 with a capture record, 3 with a feature grid, 2 with an
+    /// occupancy grid or pruned layers, else 1.
+    pub fn format_version(&self) -> u16 {
+        if self.unbounded.is_some() {
+            FORMAT_VERSION
+        } else if self.capture.is_some() {
+            FORMAT_VERSION_NO_UNBOUNDED
+        } else if self.features.is_some() {
+            FORMAT_VERSION_NO_CAPTURE
+        } else if self.grid.is_some() || self.is_pruned() {
+            FORMAT_VERSION_NO_FEATURES
+        } else {
+            FORMAT_VERSION_NO_GRID
+        }
+    }
+
+    /// Bytes of the occupancy bits (0 without a grid).
+    pub fn grid_bytes(&self) -> usize {
+        self.grid.map_or(0, |g| g.bits.len())
+    }
+
+    /// Bytes of the feature grid's table (0 without one).
+    pub fn feature_bytes(&self) -> usize {
+        self.features.as_ref().map_or(0, |f| f.table.len())
+    }
+
+    /// Total bytes of all tensors (weights, biases, scales, requant).
+    pub fn tensor_bytes(&self) -> usize {
+        core::iter::once(&self.coarse)
+            .chain(self.fine.as_ref())
+            .flat_map(|n| n.layers.iter())
+            .map(|l| l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len())
+            .sum()
+    }
+}
+
+/// Encodes a model (header + postcard payload) into a new byte vector.
+#[cfg(feature = "alloc")]
+pub fn to_bytes(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
+    model.validate()?;
+    encode(model)
+}
+
+/// [`to_bytes`] without the validation (tests write invalid models with it).
+#[cfg(feature = "alloc")]
+fn encode(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
+    let mut payload = postcard::to_allocvec(model).map_err(|_| Error::Decode)?;
+    // older versions are the same encoding without the trailing `None` bytes
+    let absent = (FORMAT_VERSION - model.format_version()) as usize;
+    payload.truncate(payload.len() - absent);
+    let mut out = alloc::vec::Vec::with_capacity(HEADER_LEN + payload.len());
+    out.extend_from_slice(&MAGIC);
+    out.extend_from_slice(&model.format_version().to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    out.extend_from_slice(&crc32(&payload).to_le_bytes());
+    out.extend_from_slice(&payload);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crc32_matches_zlib() {
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+        assert_eq!(crc32(b""), 0);
+    }
+
+    #[test]
+    fn header_errors_are_typed() {
+        assert_eq!(Model::from_bytes(b"NE").unwrap_err(), Error::Truncated);
+        assert_eq!(Model::from_bytes(b"XXXXXXXXXXXXXXXXXX").unwrap_err(), Error::BadMagic);
+        let mut h = [0u8; 14];
+        h[..4].copy_from_slice(&MAGIC);
+        h[4] = 9;
+        assert_eq!(Model::from_bytes(&h).unwrap_err(), Error::UnsupportedVersion(9));
+    }
+
+    /// A capture record makes a version-4 file that decodes to the same
+    /// model; without one the file is the version it was before, and an
+    /// invalid record is refused.
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn capture_record_is_version_4() {
+        let golden = include_bytes!("../../tests/data/golden.nerf");
+        let mut m = Model::from_bytes(golden).unwrap();
+        assert_eq!(to_bytes(&m).unwrap(), golden);
+        let c = Capture { holdout: 8, views: 71, held_out_crc: 0xdead_beef, framing: Framing::Unbounded, lens: true };
+        m.capture = Some(c);
+        let bytes = to_bytes(&m).unwrap();
+        assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 4);
+        assert_eq!(Model::from_bytes(&bytes).unwrap(), m);
+        m.capture = Some(Capture { holdout: 0, ..c });
+        assert!(matches!(Model::from_bytes(&encode(&m).unwrap()), Err(Error::InvalidScene(_))));
+    }
+
+    /// Without the `feature-grid` feature a model with a feature grid is
+    /// refused before anything else is checked; with it, this one (whose
+    /// layer 0 lacks the grid's inputs) fails on that instead.
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn feature_grid_models_need_the_feature() {
+        let table = [0u8; 8 * 2 * 2]; // 1 cell: 8 vertices of 2 i16
+        let mut m = Model::from_bytes(include_bytes!("../../tests/data/golden.nerf")).unwrap();
+        let resolutions = heapless::Vec::from_slice(&[1]).unwrap();
+        m.features = Some(FeatureGrid { width: 2, log2_table: 3, frac_bits: 8, resolutions, table: &table });
+        let e = Model::from_bytes(&encode(&m).unwrap()).unwrap_err();
+        if cfg!(feature = "feature-grid") {
+            assert_eq!(e, Error::LayerShape(0));
+        } else {
+            assert!(matches!(e, Error::Capacity(s) if s.contains("feature-grid")), "{e:?}");
+        }
+    }
+}

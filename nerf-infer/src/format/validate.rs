@@ -1,0 +1,149 @@
+//! Validation of a decoded model: every field, every tensor length, every
+//! value the kernels rely on.
+
+use super::*;
+use crate::error::{Error, Result};
+use crate::tensor::read_f32;
+
+impl Model<'_> {
+    /// Checks every field; called by [`Model::from_bytes`].
+    pub fn validate(&self) -> Result<()> {
+        let s = &self.scene;
+        let finite3 = |v: &[f32; 3]| v.iter().all(|x| x.is_finite());
+        if !finite3(&s.bounds_min) || !finite3(&s.bounds_max) {
+            return Err(Error::InvalidScene("bounds are not finite"));
+        }
+        if (0..3).any(|i| s.bounds_min[i] >= s.bounds_max[i]) {
+            return Err(Error::InvalidScene("bounds_min is not below bounds_max"));
+        }
+        if !(s.near.is_finite() && s.far.is_finite() && s.near >= 0.0 && s.near < s.far) {
+            return Err(Error::InvalidScene("need finite 0 <= near < far"));
+        }
+        if s.far > 30000.0 {
+            return Err(Error::InvalidScene("far exceeds the fixed-point range (30000)"));
+        }
+        if s.unbounded != self.unbounded {
+            return Err(Error::InvalidScene("scene.unbounded differs from the model's unbounded field"));
+        }
+        if let Some(u) = s.unbounded {
+            if s.ndc.is_some() || !(u.linear_until.is_finite() && u.linear_until > 0.0 && u.linear_until < s.far) {
+                return Err(Error::InvalidScene("unbounded space needs 0 < linear_until < far and no NDC"));
+            }
+        }
+        if let Some(n) = s.ndc {
+            let finite = n.focal.is_finite() && n.width.is_finite() && n.height.is_finite();
+            if !(finite && n.focal > 0.0 && n.width >= 1.0 && n.height >= 1.0) {
+                return Err(Error::InvalidScene("NDC parameters"));
+            }
+        }
+        let e = &self.encoding;
+        if e.pos_freqs as usize > MAX_FREQS || e.dir_freqs as usize > MAX_FREQS {
+            return Err(Error::InvalidEncoding("more than 16 frequencies"));
+        }
+        if e.raw_frac_bits > 15 {
+            return Err(Error::InvalidEncoding("raw_frac_bits above 15"));
+        }
+        if e.pos_dim() == 0 || (self.topology.view_dependent && e.dir_dim() == 0) {
+            return Err(Error::InvalidEncoding("empty encoding"));
+        }
+        let t = &self.topology;
+        if t.depth == 0 || t.width == 0 || (t.view_dependent && t.view_width == 0) {
+            return Err(Error::InvalidTopology("zero depth or width"));
+        }
+        if t.width as usize > MAX_WIDTH || t.view_width as usize > MAX_WIDTH {
+            return Err(Error::Capacity("layer width above 256"));
+        }
+        if t.layer_count() > MAX_LAYERS {
+            return Err(Error::Capacity("more than 24 layers"));
+        }
+        if t.skip_mask & 1 != 0 || (t.depth < 16 && t.skip_mask >> t.depth != 0) {
+            return Err(Error::InvalidTopology("skip mask names a layer outside 1..depth"));
+        }
+        let sm = &self.samples;
+        if sm.coarse < 2 || sm.coarse as usize > MAX_COARSE || sm.fine as usize > MAX_FINE {
+            return Err(Error::InvalidSamples);
+        }
+        if (sm.fine > 0) != self.fine.is_some() {
+            return Err(Error::InvalidTopology("fine samples without a fine network or vice versa"));
+        }
+        if self.grid.is_some_and(|g| !g.is_valid()) {
+            return Err(Error::InvalidTopology("occupancy grid resolution or length"));
+        }
+        if self.features.is_some() && !cfg!(feature = "feature-grid") {
+            return Err(Error::Capacity("feature grid (nerf-infer built without its `feature-grid` feature)"));
+        }
+        let elem = if self.scheme().is_fixed() { 2 } else { 4 };
+        if self.features.as_ref().is_some_and(|f| !f.is_valid(elem)) {
+            return Err(Error::InvalidEncoding("feature grid shape, range or table length"));
+        }
+        if self.encoding.grid_dim as usize != self.features.as_ref().map_or(0, |f| f.dim()) {
+            return Err(Error::InvalidEncoding("grid_dim does not match the feature grid"));
+        }
+        if self.capture.is_some_and(|c| c.holdout == 0 || c.holdout > Capture::MAX_HOLDOUT || c.views == 0) {
+            return Err(Error::InvalidScene("capture record: holdout outside 1..=100000 or no views"));
+        }
+        self.validate_network(&self.coarse)?;
+        if let Some(f) = &self.fine {
+            if f.scheme != self.coarse.scheme {
+                return Err(Error::MixedScheme(0));
+            }
+            self.validate_network(f)?;
+        }
+        Ok(())
+    }
+
+    fn validate_network(&self, n: &Network<'_>) -> Result<()> {
+        let t = &self.topology;
+        let e = &self.encoding;
+        if n.layers.len() != t.layer_count() {
+            return Err(Error::InvalidTopology("layer count does not match the topology"));
+        }
+        let act_ok = match n.scheme {
+            Scheme::F32 => n.act_bits == 32,
+            Scheme::I16 => n.act_bits == 16,
+            Scheme::I8 => n.act_bits == 16 || n.act_bits == 8,
+        };
+        if !act_ok {
+            return Err(Error::InvalidTopology("unsupported activation width"));
+        }
+        for (i, l) in n.layers.iter().enumerate() {
+            let (din, dout) = pruned_shape(t, e, &n.layers, i);
+            let idx = i as u8;
+            let full = expected_shape(t, e, i).1;
+            if l.in_dim as usize != din || l.out_dim as usize != dout || dout == 0 || dout > full {
+                return Err(Error::LayerShape(idx));
+            }
+            if !(l.act_max.is_finite() && l.act_max >= 0.0) {
+                return Err(Error::InvalidScale(idx));
+            }
+            let elems = din * dout;
+            if l.weights.len() != elems * n.scheme.weight_bytes() || l.bias.len() != 4 * dout {
+                return Err(Error::TensorLength(idx));
+            }
+            if n.scheme.is_fixed() {
+                if din > 512 {
+                    return Err(Error::Capacity("fixed-point layer input above 512"));
+                }
+                if l.scales.len() != 4 * dout || l.requant.len() != 8 * dout {
+                    return Err(Error::TensorLength(idx));
+                }
+                for c in 0..dout {
+                    let sc = l.scale(c);
+                    if !(sc.is_finite() && sc > 0.0 && l.requant(c).is_valid()) {
+                        return Err(Error::InvalidScale(idx));
+                    }
+                }
+            } else {
+                if !l.scales.is_empty() || !l.requant.is_empty() {
+                    return Err(Error::TensorLength(idx));
+                }
+                let all_finite = (0..elems).all(|k| read_f32(l.weights, k).is_finite())
+                    && (0..dout).all(|k| read_f32(l.bias, k).is_finite());
+                if !all_finite {
+                    return Err(Error::InvalidScale(idx));
+                }
+            }
+        }
+        Ok(())
+    }
+}
