@@ -19,8 +19,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nerf_infer::format::{CameraConvention, Scene};
-use nerf_infer::tile::{render_tile, Tile};
-use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, Scheme, ScratchF32, ScratchFixed};
+use nerf_infer::{render_tile, Tile};
+use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, Scheme, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{orbit_camera, quantise, random_model, OwnedModel};
 use std::hint::black_box;
@@ -68,11 +68,11 @@ fn bench(c: &mut Criterion) {
         let q8 = quantise(&mf, Scheme::I8).unwrap().to_bytes().unwrap();
         let macs = macs_per_ray(&mf) as u64;
         println!("{name}: {macs} MACs per ray");
-        let rf = F32Renderer::new(&mf, RenderOptions::from_model(&mf)).unwrap();
+        let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
         let mut sf = Box::<ScratchF32>::default();
         let qs: Vec<_> = [("int16", &q16), ("int8", &q8)].map(|(l, b)| (l, Model::from_bytes(b).unwrap())).into();
         let rqs: Vec<_> =
-            qs.iter().map(|(l, m)| (*l, FixedRenderer::new(m, RenderOptions::from_model(m)).unwrap())).collect();
+            qs.iter().map(|(l, m)| (*l, RendererFixed::new(m, RenderOptions::from_model(m)).unwrap())).collect();
         let mut sq = Box::<ScratchFixed>::default();
         let samples = if name == "paper" { 20 } else { 60 };
 
@@ -146,7 +146,7 @@ fn bench_grid(c: &mut Criterion) {
             let opts = RenderOptions { early_stop: ert, ..RenderOptions::from_model(&m) };
             let name = if ert > 0.0 { format!("{label}/ert") } else { label.clone() };
             if m.scheme() == Scheme::F32 {
-                let r = F32Renderer::new(&m, opts).unwrap();
+                let r = RendererF32::new(&m, opts).unwrap();
                 let mut s = Box::<ScratchF32>::default();
                 let mut out = vec![Default::default(); frame.len()];
                 render_tile(&r, &cam, frame, &mut s, &mut out).unwrap();
@@ -155,7 +155,7 @@ fn bench_grid(c: &mut Criterion) {
                     b.iter(|| render_tile(&r, &cam, frame, &mut s, black_box(&mut out)).unwrap())
                 });
             } else {
-                let r = FixedRenderer::new(&m, opts).unwrap();
+                let r = RendererFixed::new(&m, opts).unwrap();
                 let mut s = Box::<ScratchFixed>::default();
                 let mut out = vec![Default::default(); frame.len()];
                 render_tile(&r, &cam, frame, &mut s, &mut out).unwrap();

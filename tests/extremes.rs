@@ -14,7 +14,7 @@ use nerf_infer::composite::{alpha_f32, survival_fixed, Compositor, CompositorF32
 use nerf_infer::fixed::to_fixed;
 use nerf_infer::format::{Scene, Scheme};
 use nerf_infer::sampling::hash32;
-use nerf_infer::{Camera, Error, F32Renderer, FixedRenderer, Model, Pixel, RayRenderer, RenderOptions};
+use nerf_infer::{Camera, Error, Model, Pixel, RayRenderer, RenderOptions, RendererF32, RendererFixed};
 use nerf_infer::{Ray, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{orbit_camera, quantise, quantise_acts, random_model, OwnedModel};
@@ -168,9 +168,9 @@ fn render_all(bytes: &[u8], what: &str) -> usize {
         for (k, (o, d)) in rays(&m.scene).into_iter().enumerate() {
             let pixel = (k as u32, 7);
             let p = if m.scheme() == Scheme::F32 {
-                F32Renderer::new(&m, opts).unwrap().render_ray(o, d, pixel, &mut sf)
+                RendererF32::new(&m, opts).unwrap().render_ray(o, d, pixel, &mut sf)
             } else {
-                match FixedRenderer::new(&m, opts) {
+                match RendererFixed::new(&m, opts) {
                     Ok(r) => r.render_ray(o, d, pixel, &mut sq).to_pixel(),
                     // int8 weights at their extremes may not fit the i32
                     // accumulator: the renderer proves headroom or refuses.
@@ -278,13 +278,13 @@ fn huge_density_is_opaque_at_the_first_sample_and_negative_density_is_empty() {
         let mf = Model::from_bytes(&f).unwrap();
         let q = quantise(&mf, Scheme::I16).unwrap().to_bytes().unwrap();
         let mq = Model::from_bytes(&q).unwrap();
-        let pf = F32Renderer::new(&mf, RenderOptions::from_model(&mf)).unwrap().render_ray(
+        let pf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap().render_ray(
             o,
             d,
             (0, 0),
             &mut Box::<ScratchF32>::default(),
         );
-        let pq = FixedRenderer::new(&mq, RenderOptions::from_model(&mq))
+        let pq = RendererFixed::new(&mq, RenderOptions::from_model(&mq))
             .unwrap()
             .render_ray(o, d, (0, 0), &mut Box::<ScratchFixed>::default())
             .to_pixel();

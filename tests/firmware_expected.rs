@@ -4,7 +4,7 @@
 //! step with the host kernel; regenerate it with
 //! `cargo test --release --test firmware_expected -- --ignored bless`.
 
-use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RenderOptions, ScratchFixed};
+use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, ScratchFixed};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
@@ -16,14 +16,14 @@ fn firmware_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/cortex-m")
 }
 
-fn render(model_file: &str) -> Vec<FixedPixel> {
+fn render(model_file: &str) -> Vec<PixelFixed> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(model_file);
     let blob = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let model = Model::from_bytes(&blob).unwrap();
-    let renderer = FixedRenderer::new(&model, RenderOptions::from_model(&model)).unwrap();
+    let renderer = RendererFixed::new(&model, RenderOptions::from_model(&model)).unwrap();
     let camera = Camera::from_fov(view::WIDTH, view::HEIGHT, view::FOV_X, view::POSE).unwrap();
     let mut scratch = Box::new(ScratchFixed::<8>::default());
-    let mut px = vec![FixedPixel::default(); view::PIXELS];
+    let mut px = vec![PixelFixed::default(); view::PIXELS];
     render_tile(&renderer, &camera, view::TILE, &mut *scratch, &mut px).unwrap();
     px
 }

@@ -7,7 +7,7 @@
 
 mod support;
 
-use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RenderOptions, Scheme, ScratchFixed, Tile};
+use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, Scheme, ScratchFixed, Tile};
 use nerf_train::export::{quantise, random_model};
 use std::fmt::Write;
 use support::*;
@@ -18,11 +18,11 @@ fn data_dir() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("nerf-infer/tests/data")
 }
 
-fn render_golden(bytes: &[u8]) -> Vec<FixedPixel> {
+fn render_golden(bytes: &[u8]) -> Vec<PixelFixed> {
     let model = Model::from_bytes(bytes).unwrap();
-    let r = FixedRenderer::new(&model, RenderOptions::from_model(&model)).unwrap();
+    let r = RendererFixed::new(&model, RenderOptions::from_model(&model)).unwrap();
     let cam = Camera::from_fov(16, 16, 0.7, POSE).unwrap();
-    let mut px = vec![FixedPixel::default(); 256];
+    let mut px = vec![PixelFixed::default(); 256];
     render_tile(&r, &cam, Tile { x0: 0, y0: 0, width: 16, height: 16 }, &mut ScratchFixed::<8>::default(), &mut px)
         .unwrap();
     px

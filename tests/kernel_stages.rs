@@ -9,7 +9,7 @@ use nerf_infer::composite::{Compositor, CompositorF32, CompositorFixed, DELTA_IN
 use nerf_infer::encoding::NPOS_FRAC;
 use nerf_infer::format::Scheme;
 use nerf_infer::network::{BlockF32, BlockFixed, F32, W16, W8};
-use nerf_infer::{F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
+use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{orbit_camera, quantise, quantise_acts, random_model};
 use proptest::prelude::*;
@@ -215,8 +215,8 @@ fn compositing_regression_cases() {
 fn full_rays_fixed_against_f32_and_degenerate_rays() {
     let (f, q16, _) = models(&small_config(), 3);
     let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
-    let rf = F32Renderer::new(&mf, RenderOptions::from_model(&mf)).unwrap();
-    let rq = FixedRenderer::new(&mq, RenderOptions::from_model(&mq)).unwrap();
+    let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
+    let rq = RendererFixed::new(&mq, RenderOptions::from_model(&mq)).unwrap();
     let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
     let cam = orbit_camera(&mf.scene, 0.3, 24, 24);
     let mut worst = 0.0f32;
@@ -251,14 +251,14 @@ fn wrong_path_and_bad_options_are_typed_errors() {
     let (f, q16, _) = models(&small_config(), 4);
     let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
     assert_eq!(
-        FixedRenderer::new(&mf, RenderOptions::from_model(&mf)).unwrap_err(),
+        RendererFixed::new(&mf, RenderOptions::from_model(&mf)).unwrap_err(),
         nerf_infer::Error::WrongNumericPath
     );
-    assert_eq!(F32Renderer::new(&mq, RenderOptions::from_model(&mq)).unwrap_err(), nerf_infer::Error::WrongNumericPath);
+    assert_eq!(RendererF32::new(&mq, RenderOptions::from_model(&mq)).unwrap_err(), nerf_infer::Error::WrongNumericPath);
     let mut o = RenderOptions::from_model(&mf);
     o.coarse = 1;
-    assert_eq!(F32Renderer::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
+    assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
     o.coarse = 16;
     o.early_stop = f32::NAN;
-    assert_eq!(F32Renderer::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
+    assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
 }

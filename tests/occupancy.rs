@@ -8,7 +8,7 @@ mod support;
 
 use nerf_infer::format::Scheme;
 use nerf_infer::{
-    render_tile, Camera, Error, F32Renderer, FixedPixel, FixedRenderer, Model, RenderOptions, ScratchF32, ScratchFixed,
+    render_tile, Camera, Error, Model, PixelFixed, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed,
     Tile,
 };
 use nerf_train::config::TrainConfig;
@@ -33,17 +33,17 @@ fn render(bytes: &[u8]) -> (Vec<[u32; 3]>, u64) {
     let opts = RenderOptions::from_model(&m);
     let tile = Tile { x0: 0, y0: 0, width: N, height: N };
     if m.scheme() == Scheme::F32 {
-        let r = F32Renderer::new(&m, opts).unwrap();
+        let r = RendererF32::new(&m, opts).unwrap();
         let mut s: ScratchF32 = ScratchF32::default();
         let mut px = vec![Default::default(); tile.len()];
         render_tile(&r, &camera(), tile, &mut s, &mut px).unwrap();
         (px.iter().map(|p: &nerf_infer::Pixel| p.rgb.map(f32::to_bits)).collect(), s.evaluations)
     } else {
-        let r = FixedRenderer::new(&m, opts).unwrap();
+        let r = RendererFixed::new(&m, opts).unwrap();
         let mut s: ScratchFixed = ScratchFixed::default();
         let mut px = vec![Default::default(); tile.len()];
         render_tile(&r, &camera(), tile, &mut s, &mut px).unwrap();
-        (px.iter().map(|p: &nerf_infer::FixedPixel| p.rgb.map(|c| c as u32)).collect(), s.evaluations)
+        (px.iter().map(|p: &nerf_infer::PixelFixed| p.rgb.map(|c| c as u32)).collect(), s.evaluations)
     }
 }
 
@@ -165,8 +165,8 @@ fn the_coarse_level_changes_no_pixel_and_skips_no_occupied_sample() {
             for cam in &cameras {
                 let what = format!("{:?}, res {res}, {per_mille}‰", m.coarse.scheme);
                 if k == 0 {
-                    let r = F32Renderer::new(&model, opts).unwrap();
-                    let run = |r: &F32Renderer| {
+                    let r = RendererF32::new(&model, opts).unwrap();
+                    let run = |r: &RendererF32| {
                         let (mut s, mut px) =
                             (ScratchF32::<8>::default(), vec![nerf_infer::Pixel::default(); tile.len()]);
                         render_tile(r, cam, tile, &mut s, &mut px).unwrap();
@@ -176,9 +176,9 @@ fn the_coarse_level_changes_no_pixel_and_skips_no_occupied_sample() {
                     assert_eq!(on, off, "{what}");
                     evaluated += on.1;
                 } else {
-                    let r = FixedRenderer::new(&model, opts).unwrap();
-                    let run = |r: &FixedRenderer| {
-                        let (mut s, mut px) = (ScratchFixed::<8>::default(), vec![FixedPixel::default(); tile.len()]);
+                    let r = RendererFixed::new(&model, opts).unwrap();
+                    let run = |r: &RendererFixed| {
+                        let (mut s, mut px) = (ScratchFixed::<8>::default(), vec![PixelFixed::default(); tile.len()]);
                         render_tile(r, cam, tile, &mut s, &mut px).unwrap();
                         (px, s.evaluations)
                     };

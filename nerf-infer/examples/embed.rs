@@ -10,7 +10,7 @@
 //! microcontroller), the same calls render into a caller-owned buffer:
 //! see `examples/cortex-m` in the workspace.
 
-use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RenderOptions, ScratchFixed, Tile};
+use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, ScratchFixed, Tile};
 use std::io::Write;
 
 /// The model, in the binary's read-only data (flash on a microcontroller).
@@ -37,13 +37,13 @@ fn look_at(eye: [f32; 3]) -> [[f32; 4]; 3] {
 
 /// Renders the view into 8-bit RGB, row-major from the top row.
 fn render(model: &Model<'_>) -> nerf_infer::Result<Vec<u8>> {
-    let renderer = FixedRenderer::new(model, RenderOptions::from_model(model))?;
+    let renderer = RendererFixed::new(model, RenderOptions::from_model(model))?;
     // a camera 4 units from the origin, 30° above the xy plane, looking at the origin
     let pose = look_at([0.0, -4.0 * 0.866, 4.0 * 0.5]);
     let camera = Camera::from_fov(SIZE, SIZE, 0.69, pose)?;
     // working memory: one sample per block, about 14 KiB
     let mut scratch: ScratchFixed<1> = ScratchFixed::default();
-    let mut tile_px = [FixedPixel::default(); (TILE * TILE) as usize];
+    let mut tile_px = [PixelFixed::default(); (TILE * TILE) as usize];
     let mut image = vec![0u8; (3 * SIZE * SIZE) as usize];
     for y0 in (0..SIZE).step_by(TILE as usize) {
         for x0 in (0..SIZE).step_by(TILE as usize) {

@@ -3,7 +3,7 @@
 // replays `seeds/` and `regressions/` on every `cargo test`.
 use glam::Vec3;
 use nerf_infer::format::{crc32, HEADER_LEN};
-use nerf_infer::{Camera, F32Renderer, FixedRenderer, Model, Pixel, RayRenderer, RenderOptions, Scheme};
+use nerf_infer::{Camera, Model, Pixel, RayRenderer, RenderOptions, RendererF32, RendererFixed, Scheme};
 use nerf_infer::{ScratchF32, ScratchFixed};
 
 fn fix_header(blob: &mut [u8]) {
@@ -59,13 +59,13 @@ pub fn run(data: &[u8]) {
     opts.early_stop = if ctl & 4 != 0 { 0.01 } else { 0.0 };
     opts.seed = (ctl & 8 != 0).then_some(ctl as u32);
     if m.scheme() == Scheme::F32 {
-        let Ok(r) = F32Renderer::new(&m, opts) else { return };
+        let Ok(r) = RendererF32::new(&m, opts) else { return };
         let mut s = Box::new(ScratchF32::<3>::default());
         for (k, (o, d)) in rays().enumerate() {
             check(r.render_ray(o, d, (k as u32, 0), &mut s), &m);
         }
     } else {
-        let Ok(r) = FixedRenderer::new(&m, opts) else { return };
+        let Ok(r) = RendererFixed::new(&m, opts) else { return };
         let mut s = Box::new(ScratchFixed::<3>::default());
         for (k, (o, d)) in rays().enumerate() {
             check(r.render_ray(o, d, (k as u32, 0), &mut s).to_pixel(), &m);

@@ -25,7 +25,7 @@ pub struct Pixel {
 
 /// A rendered pixel from the fixed-point path.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FixedPixel {
+pub struct PixelFixed {
     /// RGB in Q15, `[0, 32768]` (32768 = 1.0).
     pub rgb: [u16; 3],
     /// Accumulated opacity in Q15, `[0, 32768]`.
@@ -34,7 +34,7 @@ pub struct FixedPixel {
     pub depth: i32,
 }
 
-impl FixedPixel {
+impl PixelFixed {
     /// Converts to the f32 representation (exact: every field fits f32).
     pub fn to_pixel(&self) -> Pixel {
         Pixel {
@@ -183,7 +183,7 @@ pub fn survival_fixed(sigma_q10: i32, delta_q16: i32) -> u32 {
 
 impl Compositor<i32, i32, i32, [u16; 3]> for CompositorFixed {
     type W = u32;
-    type Pixel = FixedPixel;
+    type Pixel = PixelFixed;
 
     #[inline(always)]
     fn transmittance(&self) -> u32 {
@@ -209,14 +209,14 @@ impl Compositor<i32, i32, i32, [u16; 3]> for CompositorFixed {
     }
 
     /// Finishes the ray on the background; `far_q16` is the empty-ray depth.
-    fn finish(&self, white_background: bool, far_q16: i32) -> FixedPixel {
+    fn finish(&self, white_background: bool, far_q16: i32) -> PixelFixed {
         let acc = self.opacity.min(T_ONE as u64);
         let rest = T_ONE as u64 - acc;
         let half = 1u64 << (T_FRAC - 1);
         let bg = if white_background { rest * COLOR_ONE as u64 } else { 0 };
         let rgb = self.rgb.map(|c| (((c + bg + half) >> T_FRAC).min(COLOR_ONE as u64)) as u16);
         let depth = (self.depth + rest as i64 * far_q16 as i64 + half as i64) >> T_FRAC;
-        FixedPixel { rgb, opacity: ((acc + (1 << 14)) >> 15) as u16, depth: depth.clamp(0, far_q16 as i64) as i32 }
+        PixelFixed { rgb, opacity: ((acc + (1 << 14)) >> 15) as u16, depth: depth.clamp(0, far_q16 as i64) as i32 }
     }
 }
 
@@ -247,7 +247,7 @@ mod tests {
         let p = CompositorF32::default().finish(true, 6.0);
         assert_eq!(p, Pixel { rgb: [1.0; 3], opacity: 0.0, depth: 6.0 });
         let q = CompositorFixed::default().finish(true, 6 << 16);
-        assert_eq!(q, FixedPixel { rgb: [32768; 3], opacity: 0, depth: 6 << 16 });
+        assert_eq!(q, PixelFixed { rgb: [32768; 3], opacity: 0, depth: 6 << 16 });
     }
 
     #[test]

@@ -29,7 +29,7 @@ pub const ENC_FRAC: u32 = 15;
 pub const SIGMA_FRAC: u32 = 10;
 /// Fractional bits of the colour head output before the sigmoid (Q12).
 pub const LOGIT_FRAC: u32 = 12;
-/// Fractional bits of colours and opacity in [`crate::FixedPixel`] (Q15).
+/// Fractional bits of colours and opacity in [`crate::PixelFixed`] (Q15).
 pub const COLOR_FRAC: u32 = 15;
 /// Fractional bits of transmittance, alpha and compositing weights (Q30).
 pub const T_FRAC: u32 = 30;

@@ -3,11 +3,15 @@
 //! point, from a model blob that can sit in flash.
 //!
 //! Pipeline, one module per stage: [`camera`] (pixel → ray) →
-//! [`sampling`] (where along the ray) → [`encoding`] (γ, and the learned [`features`]) → [`network`]
-//! (the MLP) → [`composite`] (the quadrature) → [`render`] (one ray, both
-//! passes) → [`tile`] (a rectangle of pixels). [`occupancy`] skips empty space; [`format`](mod@format) decodes models;
-//! [`fixed`] holds the Q formats and integer primitives; [`unbounded`] the
-//! contraction and sample spacing of scenes without bounds.
+//! [`sampling`] (where along the ray; [`unbounded`] for scenes without
+//! bounds, [`occupancy`] to skip empty space) → [`encoding`] (γ, and the
+//! learned [`features`]) → [`network`] (the MLP) → [`composite`] (the
+//! quadrature) → [`render`] (the march over one ray, written once for both
+//! numeric paths, and [`render::tile`]). [`format`](mod@format) decodes
+//! models. Below them: [`limits`] (capacities and format constants),
+//! [`fixed`] (Q formats and integer primitives), [`tensor`] (tensor
+//! elements), [`layer`] (the portable dense-layer kernels); [`arch`] holds
+//! the SIMD kernels and is the one place that picks them.
 //!
 //! Memory: nothing is allocated. Working memory is a scratch value the
 //! caller owns ([`ScratchF32`], [`ScratchFixed`]), sized by the constants in
@@ -16,10 +20,10 @@
 //!
 //! # Numeric formats
 //!
-//! [`F32Renderer`] renders f32 models in f32. [`FixedRenderer`] renders int16
+//! [`RendererF32`] renders f32 models in f32. [`RendererFixed`] renders int16
 //! and int8 models with integers only after a per-ray setup: positions and
 //! `t` in Q16 (±32768 world units), encoding features in Q15, colours and
-//! opacity in Q15 (`[0, 32768]`, [`FixedPixel`]), transmittance and weights
+//! opacity in Q15 (`[0, 32768]`, [`PixelFixed`]), transmittance and weights
 //! in Q30, layer activations at per-layer scales fixed at export. Every shift
 //! rounds half up and every narrowing saturates; the table and the rounding
 //! rules are in [`fixed`]. The two paths agree within bounds the workspace
@@ -48,18 +52,18 @@
 //! # Embedding example
 //!
 //! ```
-//! use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchFixed, Tile};
+//! use nerf_infer::{render_tile, Camera, PixelFixed, RendererFixed, Model, RayRenderer, RenderOptions, ScratchFixed, Tile};
 //!
 //! // The model can live in flash: decoding borrows, it never copies.
 //! static MODEL: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/golden.nerf"));
 //!
 //! let model = Model::from_bytes(MODEL).expect("valid model");
-//! let renderer = FixedRenderer::new(&model, RenderOptions::from_model(&model)).unwrap();
+//! let renderer = RendererFixed::new(&model, RenderOptions::from_model(&model)).unwrap();
 //! let pose = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 3.0]];
 //! let camera = Camera::from_fov(16, 16, 0.7, pose).unwrap();
 //! let tile = Tile { x0: 4, y0: 4, width: 4, height: 2 };
 //! let mut scratch = ScratchFixed::<1>::default(); // one sample per block: ~14 KiB
-//! let mut pixels = [FixedPixel::default(); 8];
+//! let mut pixels = [PixelFixed::default(); 8];
 //! for (k, px) in pixels.iter_mut().enumerate() {
 //!     let (x, y) = (tile.x0 + k as u32 % 4, tile.y0 + k as u32 / 4);
 //!     let (o, d) = camera.ray(x, y);
@@ -67,7 +71,7 @@
 //! }
 //! // Or the whole tile at once (here with the default block size, 8):
 //! let mut scratch: ScratchFixed = ScratchFixed::default();
-//! let mut tile_px = [FixedPixel::default(); 8];
+//! let mut tile_px = [PixelFixed::default(); 8];
 //! render_tile(&renderer, &camera, tile, &mut scratch, &mut tile_px).unwrap();
 //! assert_eq!(pixels, tile_px);
 //! assert!(pixels.iter().all(|p| p.rgb.iter().all(|&c| c <= 32768)));
@@ -98,17 +102,16 @@ pub mod occupancy;
 pub mod render;
 pub mod sampling;
 pub mod tensor;
-pub mod tile;
 pub mod unbounded;
 
 pub use camera::{Camera, Ray};
-pub use composite::{FixedPixel, Pixel};
+pub use composite::{Pixel, PixelFixed};
 pub use error::{Error, Result};
 pub use format::{Model, Scheme};
 pub use glam::{self, Vec3};
 pub use heapless;
+pub use render::tile::{render_tile, Tile};
 pub use render::{
-    F32Renderer, Fixed, FixedRenderer, NumericPath, RayRenderer, RenderOptions, Renderer, Scratch, ScratchF32,
+    Fixed, NumericPath, RayRenderer, RenderOptions, Renderer, RendererF32, RendererFixed, Scratch, ScratchF32,
     ScratchFixed, F32,
 };
-pub use tile::{render_tile, Tile};

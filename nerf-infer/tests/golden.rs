@@ -2,7 +2,7 @@
 //! bit (also on Cortex-M). Regenerate with the workspace's
 //! `cargo test --release --test golden -- --ignored bless`.
 
-use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RenderOptions, ScratchFixed, Tile};
+use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, ScratchFixed, Tile};
 
 #[allow(dead_code)]
 mod expected {
@@ -13,9 +13,9 @@ const POSE: [[f32; 4]; 3] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0
 
 fn check<const B: usize>(blob: &[u8], want: &[(u16, u16, u16, u16, i32); 256]) {
     let model = Model::from_bytes(blob).unwrap();
-    let r = FixedRenderer::new(&model, RenderOptions::from_model(&model)).unwrap();
+    let r = RendererFixed::new(&model, RenderOptions::from_model(&model)).unwrap();
     let cam = Camera::from_fov(16, 16, 0.7, POSE).unwrap();
-    let mut px = [FixedPixel::default(); 256];
+    let mut px = [PixelFixed::default(); 256];
     let mut scratch = Box::new(ScratchFixed::<B>::default());
     render_tile(&r, &cam, Tile { x0: 0, y0: 0, width: 16, height: 16 }, &mut *scratch, &mut px).unwrap();
     for (k, (p, w)) in px.iter().zip(want).enumerate() {
@@ -38,12 +38,12 @@ fn int8_golden_pixels_are_bit_exact() {
     check::<2>(include_bytes!("data/golden8.nerf"), &expected::GOLDEN8);
 }
 
-fn render_with<const B: usize>(blob: &[u8], early_stop: f32) -> [FixedPixel; 256] {
+fn render_with<const B: usize>(blob: &[u8], early_stop: f32) -> [PixelFixed; 256] {
     let model = Model::from_bytes(blob).unwrap();
     let opts = RenderOptions { early_stop, ..RenderOptions::from_model(&model) };
-    let r = FixedRenderer::new(&model, opts).unwrap();
+    let r = RendererFixed::new(&model, opts).unwrap();
     let cam = Camera::from_fov(16, 16, 0.7, POSE).unwrap();
-    let mut px = [FixedPixel::default(); 256];
+    let mut px = [PixelFixed::default(); 256];
     let mut scratch = Box::new(ScratchFixed::<B>::default());
     render_tile(&r, &cam, Tile { x0: 0, y0: 0, width: 16, height: 16 }, &mut *scratch, &mut px).unwrap();
     px

@@ -5,12 +5,12 @@
 
 use nerf_infer::format::{crc32, HEADER_LEN};
 use nerf_infer::sampling::hash32;
-use nerf_infer::{Camera, Error, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchFixed};
+use nerf_infer::{Camera, Error, Model, RayRenderer, RenderOptions, RendererFixed, ScratchFixed};
 
 const BLOB: &[u8] = include_bytes!("data/golden.nerf");
 
 fn render_a_few(m: &Model<'_>) {
-    let Ok(r) = FixedRenderer::new(m, RenderOptions::from_model(m)) else { return };
+    let Ok(r) = RendererFixed::new(m, RenderOptions::from_model(m)) else { return };
     let pose = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 3.0]];
     let cam = Camera::from_fov(4, 4, 0.7, pose).unwrap();
     let mut s = Box::new(ScratchFixed::<2>::default());

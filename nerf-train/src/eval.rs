@@ -3,7 +3,7 @@
 
 use crate::dataset::View;
 use crate::metrics::{psnr, ssim};
-use nerf_infer::{Camera, F32Renderer, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchF32, ScratchFixed};
+use nerf_infer::{Camera, Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -67,7 +67,7 @@ pub fn render_view<C: PixelRays + ?Sized>(
 }
 
 /// [`render_view`] with the march's coarse occupancy level on or off
-/// (`FixedRenderer::with_coarse_skipping`): the same pixels, for timing
+/// (`RendererFixed::with_coarse_skipping`): the same pixels, for timing
 /// what the coarse level buys.
 pub fn render_view_marching<C: PixelRays + ?Sized>(
     model: &Model<'_>,
@@ -78,7 +78,7 @@ pub fn render_view_marching<C: PixelRays + ?Sized>(
     let (w, h) = camera.size();
     let (w, h) = (w as usize, h as usize);
     let rows: Vec<Row> = if model.scheme().is_fixed() {
-        let r = FixedRenderer::new(model, opts)?.with_coarse_skipping(coarse_skipping);
+        let r = RendererFixed::new(model, opts)?.with_coarse_skipping(coarse_skipping);
         (0..h)
             .into_par_iter()
             .map_init(Box::<ScratchFixed>::default, |s, y| {
@@ -86,7 +86,7 @@ pub fn render_view_marching<C: PixelRays + ?Sized>(
             })
             .collect()
     } else {
-        let r = F32Renderer::new(model, opts)?.with_coarse_skipping(coarse_skipping);
+        let r = RendererF32::new(model, opts)?.with_coarse_skipping(coarse_skipping);
         (0..h)
             .into_par_iter()
             .map_init(Box::<ScratchF32>::default, |s, y| {

@@ -18,7 +18,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use nerf_infer::{render_tile, Camera, FixedPixel, FixedRenderer, Model, RayRenderer, RenderOptions, ScratchFixed};
+use nerf_infer::{render_tile, Camera, PixelFixed, RendererFixed, Model, RayRenderer, RenderOptions, ScratchFixed};
 use panic_semihosting as _;
 
 mod expected;
@@ -129,7 +129,7 @@ fn stack_high_water() -> usize {
     }
 }
 
-fn as_tuple(p: &FixedPixel) -> (u16, u16, u16, u16, i32) {
+fn as_tuple(p: &PixelFixed) -> (u16, u16, u16, u16, i32) {
     (p.rgb[0], p.rgb[1], p.rgb[2], p.opacity, p.depth)
 }
 
@@ -151,7 +151,7 @@ fn run(
             return false;
         }
     };
-    let renderer = match FixedRenderer::new(&model, RenderOptions::from_model(&model)) {
+    let renderer = match RendererFixed::new(&model, RenderOptions::from_model(&model)) {
         Ok(r) => r,
         Err(e) => {
             hprintln!("{}: renderer rejected the model: {}", name, e);
@@ -162,7 +162,7 @@ fn run(
     let tile = view::TILE;
 
     // Ray by ray: per-ray cost (min / max).
-    let mut rays = [FixedPixel::default(); view::PIXELS];
+    let mut rays = [PixelFixed::default(); view::PIXELS];
     let (mut lo, mut hi) = (u64::MAX, 0);
     for (k, px) in rays.iter_mut().enumerate() {
         let (x, y) = (tile.x0 + k as u32 % tile.width, tile.y0 + k as u32 / tile.width);
@@ -176,7 +176,7 @@ fn run(
     }
 
     // The whole tile at once.
-    let mut pixels = [FixedPixel::default(); view::PIXELS];
+    let mut pixels = [PixelFixed::default(); view::PIXELS];
     let evals0 = scratch.evaluations;
     let (tile_cost, res) = clock.count(|| render_tile(&renderer, &camera, tile, scratch, &mut pixels));
     if let Err(e) = res {

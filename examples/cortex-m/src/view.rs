@@ -1,7 +1,7 @@
 //! The fixed view the firmware renders, shared with the host test that
 //! generates `expected.rs` (`tests/firmware_expected.rs` in the workspace).
 
-use nerf_infer::{FixedPixel, Tile};
+use nerf_infer::{PixelFixed, Tile};
 
 /// Image width and height in pixels (the shipped models' training size).
 pub const WIDTH: u32 = 64;
@@ -23,7 +23,7 @@ pub const PIXELS: usize = 64;
 
 /// FNV-1a (32-bit) over every pixel's fields, little-endian, in order
 /// r, g, b, opacity (u16, Q15) and depth (i32, Q16).
-pub fn checksum(pixels: &[FixedPixel]) -> u32 {
+pub fn checksum(pixels: &[PixelFixed]) -> u32 {
     let mut h: u32 = 0x811c_9dc5;
     for p in pixels {
         let fields = [p.rgb[0] as u32, p.rgb[1] as u32, p.rgb[2] as u32, p.opacity as u32];

@@ -9,7 +9,7 @@ use super::path::NumericPath;
 use super::renderer::{Dispatch, Renderer};
 use super::scratch::Scratch;
 use crate::camera::Ray;
-use crate::composite::{CompositorFixed, FixedPixel, DELTA_INF_Q16};
+use crate::composite::{CompositorFixed, PixelFixed, DELTA_INF_Q16};
 use crate::encoding::NPOS_FRAC;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
@@ -22,7 +22,7 @@ use glam::Vec3;
 
 /// A ray in the fixed-point path's formats.
 #[derive(Clone, Copy, Debug)]
-pub struct FixedRay {
+pub struct RayFixed {
     origin: [i32; 3], // Q24 normalised
     dir: [i32; 3],    // Q24 normalised per unit t
     viewdir: [i32; 3],
@@ -32,7 +32,7 @@ pub struct FixedRay {
     linear_until: Option<i32>, // Q16: unbounded scene (contracted positions, spaced samples)
 }
 
-impl FixedRay {
+impl RayFixed {
     fn new(r: &Ray) -> Self {
         let q24 = |v: Vec3| v.to_array().map(|x| to_fixed(x, NPOS_FRAC));
         Self {
@@ -75,9 +75,9 @@ impl NumericPath for Fixed {
     type W = u32;
     type Delta = i32;
     type Cdf = u64;
-    type Ray = FixedRay;
+    type Ray = RayFixed;
     type Compositor = CompositorFixed;
-    type Pixel = FixedPixel;
+    type Pixel = PixelFixed;
 
     fn check(model: &Model<'_>) -> Result<()> {
         if !model.scheme().is_fixed() {
@@ -103,12 +103,12 @@ impl NumericPath for Fixed {
         (libm::floorf(lo * 65536.0) as i32, libm::ceilf(hi * 65536.0) as i32)
     }
 
-    fn ray(r: &Ray) -> FixedRay {
-        FixedRay::new(r)
+    fn ray(r: &Ray) -> RayFixed {
+        RayFixed::new(r)
     }
 
     #[inline(always)]
-    fn at(ray: &FixedRay, t: i32) -> [i32; 3] {
+    fn at(ray: &RayFixed, t: i32) -> [i32; 3] {
         ray.at(t)
     }
 
@@ -122,7 +122,7 @@ impl NumericPath for Fixed {
         grid.at_fixed(p, NPOS_FRAC)
     }
 
-    fn run_len(coarse: &CoarseOccupancy, ray: &FixedRay, t: &[i32]) -> usize {
+    fn run_len(coarse: &CoarseOccupancy, ray: &RayFixed, t: &[i32]) -> usize {
         let n = t.len();
         let spacing = if n > 1 { (t[n - 1] as i64 - t[0] as i64) / (n - 1) as i64 } else { 0 };
         let fastest = ray.dir.iter().map(|d| d.unsigned_abs() as u64).max().unwrap_or(0);
@@ -130,7 +130,7 @@ impl NumericPath for Fixed {
     }
 
     #[inline(always)]
-    fn delta(ray: &FixedRay, t: &[i32], i: usize) -> i32 {
+    fn delta(ray: &RayFixed, t: &[i32], i: usize) -> i32 {
         if i + 1 < t.len() {
             let dt = t[i + 1] as i64 - t[i] as i64;
             shr_round_i64(dt * ray.dir_len as i64, POS_FRAC).clamp(0, DELTA_INF_Q16 as i64 - 1) as i32
@@ -139,7 +139,7 @@ impl NumericPath for Fixed {
         }
     }
 
-    fn samples(ray: &FixedRay, key: Option<u32>, out: &mut [i32]) {
+    fn samples(ray: &RayFixed, key: Option<u32>, out: &mut [i32]) {
         ray.stratified(key, out);
     }
 
@@ -150,7 +150,7 @@ impl NumericPath for Fixed {
     /// one before it confirms that no earlier sample is inside), so the pixel is
     /// bit-identical; only their generation is saved.
     fn samples_around<'o>(
-        ray: &FixedRay,
+        ray: &RayFixed,
         n: usize,
         key: Option<u32>,
         span: (i32, i32),
@@ -184,7 +184,7 @@ impl NumericPath for Fixed {
         sample_pdf_fixed(t, w, u_q16, cdf, out);
     }
 
-    fn viewdir(ray: &FixedRay) -> [i32; 3] {
+    fn viewdir(ray: &RayFixed) -> [i32; 3] {
         ray.viewdir
     }
 }
@@ -196,7 +196,7 @@ impl Dispatch for Fixed {
         ray: &Ray,
         key: Option<u32>,
         s: &mut Scratch<Fixed, B>,
-    ) -> FixedPixel {
+    ) -> PixelFixed {
         match r.model.scheme() {
             Scheme::I16 => render::<Fixed, W16, B>(r, ray, key, s),
             _ => render::<Fixed, W8, B>(r, ray, key, s),
@@ -227,7 +227,7 @@ mod tests {
             let key = (h(4) % 2 == 0).then(|| h(5));
             let a = near - (1 << 16) + (h(6) % (10 << 16)) as i32;
             let span = (a, a + (h(7) % (4 << 16)) as i32);
-            let ray = FixedRay {
+            let ray = RayFixed {
                 origin: [0; 3],
                 dir: [0; 3],
                 viewdir: [0; 3],

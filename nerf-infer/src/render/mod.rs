@@ -5,8 +5,8 @@
 //!
 //! The march (`render/march.rs`) is written once over a numeric path
 //! ([`NumericPath`], in [`path`]); [`F32`] and [`Fixed`] are its two
-//! implementations. [`F32Renderer`] renders [`Scheme::F32`] models,
-//! [`FixedRenderer`] renders the integer schemes with no float operation
+//! implementations. [`RendererF32`] renders [`Scheme::F32`] models,
+//! [`RendererFixed`] renders the integer schemes with no float operation
 //! per sample (per-ray setup converts the ray to fixed point once).
 //!
 //! [`Scheme::F32`]: crate::format::Scheme::F32
@@ -18,20 +18,21 @@ mod march;
 pub mod path;
 mod renderer;
 mod scratch;
+pub mod tile;
 
 pub use crate::network::{Fixed, F32};
 pub use api::{RayRenderer, RenderOptions};
-pub use fixed_path::FixedRay;
+pub use fixed_path::RayFixed;
 pub use path::NumericPath;
 pub use renderer::{Dispatch, Renderer};
 pub use scratch::Scratch;
 
-/// Working memory of [`F32Renderer`].
+/// Working memory of [`RendererF32`].
 pub type ScratchF32<const B: usize = 8> = Scratch<F32, B>;
-/// Working memory of [`FixedRenderer`].
+/// Working memory of [`RendererFixed`].
 pub type ScratchFixed<const B: usize = 8> = Scratch<Fixed, B>;
 
 /// The f32 reference path.
-pub type F32Renderer<'m, 'a> = Renderer<'m, 'a, F32>;
+pub type RendererF32<'m, 'a> = Renderer<'m, 'a, F32>;
 /// The integer-only fixed-point path (int16 and int8 models).
-pub type FixedRenderer<'m, 'a> = Renderer<'m, 'a, Fixed>;
+pub type RendererFixed<'m, 'a> = Renderer<'m, 'a, Fixed>;

@@ -1,8 +1,8 @@
 //! Rendering a rectangular tile of a frame into a caller-provided buffer.
 
+use super::api::RayRenderer;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::render::RayRenderer;
 
 /// A rectangle of pixels: columns `x0..x0+width`, rows `y0..y0+height`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
