@@ -22,7 +22,8 @@ use nerf_infer::format::{CameraConvention, Scene};
 use nerf_infer::{render_tile, Tile};
 use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, Scheme, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{orbit_camera, quantise, random_model, OwnedModel};
+use nerf_train::export::{quantise, random_model, OwnedModel};
+use nerf_train::path::orbit_camera;
 use std::hint::black_box;
 
 fn scene() -> Scene {

@@ -300,7 +300,7 @@ fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
     assert_eq!(depth.color(), image::ColorType::L16);
     // a forward-facing model's orbit is a circle in front of the capture: every ray meets the scene
     let llff = load(&scene.join("llff"), Split::Train, opts(Format::Auto)).unwrap();
-    let cam = nerf_train::export::orbit_camera(&llff.scene, 0.3, 8, 6);
+    let cam = nerf_train::path::orbit_camera(&llff.scene, 0.3, 8, 6);
     for (x, y) in [(0, 0), (7, 5), (4, 3)] {
         let (o, d) = cam.ray(x, y);
         assert!(nerf_infer::Ray::new(&llff.scene, o, d).is_some(), "({x},{y})");

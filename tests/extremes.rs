@@ -17,7 +17,8 @@ use nerf_infer::sampling::hash32;
 use nerf_infer::{Camera, Error, Model, Pixel, RayRenderer, RenderOptions, RendererF32, RendererFixed};
 use nerf_infer::{Ray, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{orbit_camera, quantise, quantise_acts, random_model, OwnedModel};
+use nerf_train::export::{quantise, quantise_acts, random_model, OwnedModel};
+use nerf_train::path::orbit_camera;
 use support::{small_config, unit_scene};
 
 /// What a model's weights are set to after random initialisation.

@@ -3,7 +3,8 @@
 mod support;
 
 use nerf_infer::{Model, Scheme};
-use nerf_train::export::{orbit_camera, quantise, random_model};
+use nerf_train::export::{quantise, random_model};
+use nerf_train::path::orbit_camera;
 use support::*;
 
 #[test]

@@ -11,7 +11,8 @@ use nerf_infer::format::Scheme;
 use nerf_infer::network::{BlockF32, BlockFixed, F32, W16, W8};
 use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{orbit_camera, quantise, quantise_acts, random_model};
+use nerf_train::export::{quantise, quantise_acts, random_model};
+use nerf_train::path::orbit_camera;
 use proptest::prelude::*;
 use support::*;
 

@@ -7,7 +7,8 @@ mod support;
 use nerf_infer::format::{prunable, Scheme};
 use nerf_infer::Model;
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{orbit_camera, orbit_rays, quantise, trainer_model, OwnedModel, Prune};
+use nerf_train::export::{quantise, trainer_model, OwnedModel, Prune};
+use nerf_train::path::{orbit_camera, orbit_rays};
 use nerf_train::train::Trainer;
 use support::{psnr, render, small_config, unit_scene};
 

@@ -126,31 +126,16 @@ impl TrainConfig {
         Self {
             pos_freqs: 8,
             dir_freqs: 2,
-            include_input: true,
             depth: 4,
             width: 64,
             skips: vec![],
-            view_dependent: true,
             view_width: 32,
             n_coarse: 48,
             n_fine: 48,
             batch_rays: 1024,
-            chunk_rays: 32,
             lr: 5e-3,
-            lr_final_ratio: 0.1,
             lr_decay_steps: 0,
-            beta1: 0.9,
-            beta2: 0.999,
-            eps: 1e-7,
-            grid_res: 0,
-            grid_warmup: 256,
-            grid_every: 16,
-            grid_alpha: 0.01,
-            feature_levels: 0,
-            feature_width: 2,
-            feature_log2_table: 15,
-            feature_min_res: 16,
-            feature_max_res: 256,
+            ..Self::paper()
         }
     }
 

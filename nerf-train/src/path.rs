@@ -1,4 +1,5 @@
-//! Camera paths for videos: the capture's own trajectory smoothed, and
+//! Camera paths for videos: an orbit fitted to the scene, the capture's
+//! own trajectory smoothed, and
 //! nerfstudio's `camera_path.json` (its rendered camera list), read and
 //! written, so a path made here can be edited elsewhere and rendered again.
 //!
@@ -6,6 +7,7 @@
 //! nerfstudio's), fields of view in degrees.
 
 use glam::{Mat3, Quat, Vec3};
+use nerf_infer::format::Scene;
 use nerf_infer::Camera;
 use std::path::Path;
 
@@ -127,6 +129,59 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
                 .map_err(|_| bad(format!("camera {i}: not finite, or the rotation is not rigid")))
         })
         .collect()
+}
+
+/// Rays of `views` cameras on a circle around the scene centre, `size`²
+/// pixels each, with zero ground truth (for calibration).
+pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::Sample> {
+    let mut out = Vec::new();
+    for k in 0..views {
+        let cam = orbit_camera(scene, k as f32 / views as f32, size, size);
+        for y in 0..size {
+            for x in 0..size {
+                let (o, d) = cam.ray(x, y);
+                if let Some(r) = nerf_infer::Ray::new(scene, o, d) {
+                    out.push((r, [0.0; 3]));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A camera on a path around the scene, `turn` (fraction of the path)
+/// along it. Scenes seen from all around (Blender, fitted captures, whose
+/// up is +z): at 30° elevation on a circle around the bounds' centre at
+/// the middle of the near..far range (unbounded scenes, whose bounds hold
+/// the cameras: at 0.45 of the bounds' smaller horizontal extent), looking
+/// at the centre, field of view
+/// 0.69 rad as lego's. Forward-facing (NDC) scenes: a small circle in the
+/// image plane of the capture's average pose, looking down −z with the
+/// capture's field of view (LLFF's spiral without the depth motion).
+pub fn orbit_camera(scene: &Scene, turn: f32, width: u32, height: u32) -> nerf_infer::Camera {
+    let az = turn * std::f32::consts::TAU;
+    if let Some(n) = scene.ndc {
+        // the capture is normalised so its nearest depth is 1/0.75: move by a tenth of it
+        let r = 0.1;
+        let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
+        let fov = 2.0 * (0.5 * n.width / n.focal).atan();
+        return nerf_infer::Camera::from_fov(width, height, fov, m).expect("spiral camera is rigid");
+    }
+    let lo = glam::Vec3::from(scene.bounds_min);
+    let hi = glam::Vec3::from(scene.bounds_max);
+    let centre = 0.5 * (lo + hi);
+    // an unbounded scene's bounds hold the capture's cameras: orbit inside them
+    let radius = match scene.unbounded {
+        Some(_) => 0.45 * (hi - lo).x.min((hi - lo).y),
+        None => 0.5 * (scene.near + scene.far),
+    };
+    let el = 30f32.to_radians();
+    let eye = centre + radius * glam::Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    let mut m = crate::dataset::synthetic::look_at(eye - centre);
+    for (r, c) in m.iter_mut().zip(eye.to_array()) {
+        r[3] = c;
+    }
+    nerf_infer::Camera::from_fov(width, height, 0.691_111_2, m).expect("orbit camera is rigid")
 }
 
 #[cfg(test)]

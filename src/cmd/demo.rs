@@ -1,11 +1,10 @@
 //! `nerf demo`: generate the built-in scene, train with the default
 //! configuration, export, render in f32 and fixed point, print the PSNRs,
 //! write the images, an orbit GIF of the int8 model and the speed/accuracy
-//! plot — the commands a user would type, run through the same parser.
+//! plot — each step the command a user would type, called with its typed
+//! arguments.
 
-use super::{num_in, CmdResult};
-use crate::Cli;
-use clap::Parser;
+use super::{eval, num_in, CmdResult, WeightBits};
 use std::path::PathBuf;
 
 /// Arguments of `nerf demo`.
@@ -19,62 +18,50 @@ pub struct Args {
     minutes: f64,
 }
 
-fn run_cli(args: &[&str]) -> CmdResult {
-    let cli = Cli::try_parse_from(std::iter::once("nerf").chain(args.iter().copied())).map_err(|e| e.to_string())?;
-    crate::dispatch(cli.command)
-}
-
 /// Runs `nerf demo`.
 pub fn run(a: Args) -> CmdResult {
-    let out = a.out.display().to_string();
-    let scene = format!("{out}/scene");
-    let data = format!("{scene}/blender");
-    let run_dir = format!("{out}/run");
-    eprintln!("1/6 generating the built-in scene in {scene}");
-    run_cli(&["scene", "--out", &scene])?;
-    eprintln!("2/6 training for {} minutes into {run_dir}", a.minutes);
-    let minutes = a.minutes.to_string();
-    run_cli(&["train", "--data", &data, "--out", &run_dir, "--minutes", &minutes, "--val-views", "0", "--force"])?;
+    let out = &a.out;
+    let scene = out.join("scene");
+    let data = scene.join("blender");
+    let run_dir = out.join("run");
+    eprintln!("1/6 generating the built-in scene in {}", scene.display());
+    super::scene::run(super::scene::Args::new(scene.clone()))?;
+    eprintln!("2/6 training for {} minutes into {}", a.minutes, run_dir.display());
+    let train = super::train::Args {
+        val_views: 0,
+        force: true,
+        ..super::train::Args::new(data.clone(), a.minutes, run_dir.clone())
+    };
+    super::train::run(train)?;
     eprintln!("3/6 exporting int16 and int8 models");
-    let model = format!("{run_dir}/model.nerf");
-    for bits in ["16", "8"] {
-        run_cli(&["export", &model, "--bits", bits, "--out", &format!("{run_dir}/model_int{bits}.nerf")])?;
+    let model = run_dir.join("model.nerf");
+    for bits in [WeightBits::I16, WeightBits::I8] {
+        let file = run_dir.join(format!("model_int{}.nerf", bits.bits()));
+        super::export::run(super::export::Args::new(model.clone(), bits, file))?;
     }
     eprintln!("4/6 rendering the test views");
     let mut rows = Vec::new();
     for (name, file) in [("f32", "model.nerf"), ("int16", "model_int16.nerf"), ("int8", "model_int8.nerf")] {
-        let save = format!("{out}/renders/{name}");
-        let path = format!("{run_dir}/{file}");
-        let args = super::eval::Args::try_parse_from([
-            "eval",
-            path.as_str(),
-            "--data",
-            &data,
-            "--split",
-            "test",
-            "--save",
-            &save,
-        ])
-        .map_err(|e| e.to_string())?;
-        let r = super::eval::evaluate(args)?;
-        rows.push((name, r));
+        let eval = eval::Args {
+            save: Some(out.join("renders").join(name)),
+            ..eval::Args::new(run_dir.join(file), data.clone())
+        };
+        rows.push((name, eval::evaluate(&eval)?));
     }
     out!("{:<6} {:>9} {:>7} {:>10} {:>12}", "model", "PSNR dB", "SSIM", "µs/ray", "bytes");
     for (name, r) in &rows {
-        out!(
-            "{:<6} {:>9.2} {:>7.4} {:>10.1} {:>12}",
-            name,
-            r["psnr"].as_f64().unwrap_or(0.0),
-            r["ssim"].as_f64().unwrap_or(0.0),
-            r["us_per_ray"].as_f64().unwrap_or(0.0),
-            r["model_bytes"]
-        );
+        out!("{:<6} {:>9.2} {:>7.4} {:>10.1} {:>12}", name, r.psnr, r.ssim, r.us_per_ray, r.model_bytes);
     }
     eprintln!("5/6 rendering an orbit of the int8 model");
-    let int8 = format!("{run_dir}/model_int8.nerf");
-    run_cli(&["render", &int8, "--orbit", "24", "--size", "96", "--out", &format!("{out}/orbit")])?;
+    let orbit = super::render::Args {
+        size: 96,
+        ..super::render::Args::orbit(run_dir.join("model_int8.nerf"), 24, out.join("orbit"))
+    };
+    super::render::run(orbit)?;
     eprintln!("6/6 sweeping bits, samples and early termination (speed against accuracy)");
-    run_cli(&["tradeoff", &model, "--data", &data, "--views", "1", "--out", &format!("{out}/tradeoff")])?;
+    let tradeoff = super::tradeoff::Args { views: 1, ..super::tradeoff::Args::new(model, data, out.join("tradeoff")) };
+    super::tradeoff::run(tradeoff)?;
+    let out = out.display();
     out!("images: {out}/renders/{{f32,int16,int8}}/ (render beside *_gt.png ground truth)");
     out!("orbit:  {out}/orbit/orbit.gif; speed against accuracy: {out}/tradeoff/tradeoff.png");
     Ok(())

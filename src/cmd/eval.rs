@@ -1,77 +1,112 @@
 //! `nerf eval`: renders a split through nerf-infer and prints one JSON
 //! object with PSNR, SSIM, per-view scores, µs per ray and model size.
 
-use super::{
-    create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, FormatArg, SplitArg,
-};
+use super::{create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
 use clap::Parser;
 use nerf_infer::RenderOptions;
 use nerf_train::dataset::save_png_rgb;
-use nerf_train::eval::{render_view, render_view_marching, score_rendered};
+use nerf_train::eval::{render_view, render_view_marching, score_rendered, ViewScore};
 use nerf_train::metrics::psnr;
 use std::path::PathBuf;
 
 /// Arguments of `nerf eval`.
-#[derive(Parser)]
+#[derive(Parser, Debug)]
 pub struct Args {
     /// Model file (.nerf).
-    model: PathBuf,
+    pub(crate) model: PathBuf,
     /// Dataset directory.
     #[arg(long)]
-    data: PathBuf,
+    pub(crate) data: PathBuf,
     /// Split to evaluate.
-    #[arg(long, value_enum, default_value = "test")]
-    split: SplitArg,
-    /// Dataset layout.
-    #[arg(long, value_enum, default_value = "auto")]
-    format: FormatArg,
+    #[arg(long, value_enum, default_value_t = SplitArg::Test)]
+    pub(crate) split: SplitArg,
     #[command(flatten)]
-    capture: CaptureArgs,
-    /// Downscale factor (default: the one the model was trained at).
-    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
-    downscale: Option<u32>,
+    pub(crate) capture: CaptureArgs,
     /// Worker threads (0: all cores); µs per ray is per core either way.
     #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
-    threads: usize,
+    pub(crate) threads: usize,
     /// Write each render and its ground truth as PNG into this directory.
     #[arg(long)]
-    save: Option<PathBuf>,
+    pub(crate) save: Option<PathBuf>,
     /// Coarse samples per ray (default: the model's).
     #[arg(long, value_name = "2..=256", value_parser = num_in(2usize, nerf_infer::format::MAX_COARSE))]
-    coarse: Option<usize>,
+    pub(crate) coarse: Option<usize>,
     /// Fine samples per ray (default: the model's).
     #[arg(long, value_name = "0..=256", value_parser = num_in(0usize, nerf_infer::format::MAX_FINE))]
-    fine: Option<usize>,
+    pub(crate) fine: Option<usize>,
     /// Early ray termination threshold on transmittance (0: off).
     #[arg(long, default_value_t = 0.0, value_name = "0.0..=0.5", value_parser = num_in(0.0f32, 0.5))]
-    early_stop: f32,
+    pub(crate) early_stop: f32,
     /// Also render with this model (e.g. the f32 original of a quantised
     /// model) and report `psnr_vs_reference`, the mean PSNR between the two.
     #[arg(long)]
-    reference: Option<PathBuf>,
+    pub(crate) reference: Option<PathBuf>,
     /// Render each view this many times and time the fastest: steadier µs
     /// per ray on a shared machine (the images are identical every time).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100))]
-    repeat: u32,
+    pub(crate) repeat: u32,
     /// March without the coarse occupancy level (test every sample's grid
     /// cell): the same images, slower; for measuring what the level buys.
     #[arg(long)]
-    no_coarse_skip: bool,
+    pub(crate) no_coarse_skip: bool,
+}
+
+impl Args {
+    /// `nerf eval MODEL --data DATA` with every other flag at its default.
+    pub fn new(model: PathBuf, data: PathBuf) -> Self {
+        Self {
+            model,
+            data,
+            split: SplitArg::Test,
+            capture: CaptureArgs::default(),
+            threads: 0,
+            save: None,
+            coarse: None,
+            fine: None,
+            early_stop: 0.0,
+            reference: None,
+            repeat: 1,
+            no_coarse_skip: false,
+        }
+    }
+}
+
+/// What `nerf eval` prints, as one JSON object.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Report {
+    /// Downscale factor the views were rendered at.
+    pub downscale: u32,
+    /// Size of the model file in bytes.
+    pub model_bytes: usize,
+    /// Mean PSNR over the views, dB.
+    pub psnr: f64,
+    /// Mean PSNR against the `--reference` model's renders, dB.
+    pub psnr_vs_reference: Option<f64>,
+    /// Mean network evaluations per ray.
+    pub samples_per_ray: f64,
+    /// Numeric scheme of the model (`F32`, `I16`, `I8`).
+    pub scheme: String,
+    /// Mean SSIM over the views.
+    pub ssim: f64,
+    /// Median over the views of the render time per ray, µs per core.
+    pub us_per_ray: f64,
+    /// Each view's scores.
+    pub views: Vec<ViewScore>,
 }
 
 /// Runs `nerf eval`.
 pub fn run(a: Args) -> CmdResult {
-    out!("{}", evaluate(a)?);
+    out!("{}", serde_json::to_string(&evaluate(&a)?).map_err(|e| e.to_string())?);
     Ok(())
 }
 
 /// Evaluates and returns the report `nerf eval` prints.
-pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
+pub fn evaluate(a: &Args) -> Result<Report, String> {
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
-    let downscale = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
+    let downscale = a.capture.downscale_for(&model);
     let capture = a.capture.for_model(&model, &a.model)?;
-    let data = load_split(&a.data, a.split.into(), a.format, downscale, capture)?;
+    let data = load_split(&a.data, a.split.into(), downscale, capture)?;
     super::same_frame(&data, &model, &a.model)?;
     let mut opts = RenderOptions::from_model(&model);
     opts.coarse = a.coarse.unwrap_or(opts.coarse);
@@ -122,16 +157,29 @@ pub fn evaluate(a: Args) -> Result<serde_json::Value, String> {
     let n = results.len() as f64;
     let mut us: Vec<f64> = results.iter().map(|(r, _, _)| r.secs_per_ray * 1e6).collect();
     us.sort_by(f64::total_cmp);
-    let report = serde_json::json!({
-        "psnr": results.iter().map(|(_, s, _)| s.psnr).sum::<f64>() / n,
-        "ssim": results.iter().map(|(_, s, _)| s.ssim).sum::<f64>() / n,
-        "views": results.iter().map(|(_, s, _)| s).collect::<Vec<_>>(),
-        "psnr_vs_reference": reference.as_ref().map(|_| results.iter().filter_map(|(_, _, p)| *p).sum::<f64>() / n),
-        "us_per_ray": us[us.len() / 2],
-        "samples_per_ray": results.iter().map(|(r, _, _)| r.samples_per_ray).sum::<f64>() / n,
-        "model_bytes": bytes.len(),
-        "scheme": format!("{:?}", model.scheme()),
-        "downscale": downscale,
-    });
+    let report = Report {
+        downscale,
+        model_bytes: bytes.len(),
+        psnr: results.iter().map(|(_, s, _)| s.psnr).sum::<f64>() / n,
+        psnr_vs_reference: reference.as_ref().map(|_| results.iter().filter_map(|(_, _, p)| *p).sum::<f64>() / n),
+        samples_per_ray: results.iter().map(|(r, _, _)| r.samples_per_ray).sum::<f64>() / n,
+        scheme: format!("{:?}", model.scheme()),
+        ssim: results.iter().map(|(_, s, _)| s.ssim).sum::<f64>() / n,
+        us_per_ray: us[us.len() / 2],
+        views: results.into_iter().map(|(_, s, _)| s).collect(),
+    };
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `Args::new` is what the command line gives with only the required arguments.
+    #[test]
+    fn new_matches_the_parsed_defaults() {
+        let parsed = Args::try_parse_from(["eval", "m.nerf", "--data", "d"]).unwrap();
+        let built = Args::new("m.nerf".into(), "d".into());
+        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
+    }
 }

@@ -1,27 +1,27 @@
 //! `nerf export`: writes the model with 32-, 16- or 8-bit weights.
 
-use super::{decode, read_model, write_atomic, CmdResult};
+use super::{decode, read_model, write_atomic, ActBits, CmdResult, WeightBits};
 use nerf_infer::Scheme;
 use nerf_train::export::{quantise_layers, OwnedModel};
 use std::path::PathBuf;
 
 /// Arguments of `nerf export`.
-#[derive(clap::Args)]
+#[derive(clap::Args, Debug)]
 pub struct Args {
     /// f32 model file (.nerf) as `nerf train` writes it.
-    model: PathBuf,
+    pub(crate) model: PathBuf,
     /// Weight bits: 32 (f32 path), 16 or 8 (integer fixed-point path).
-    #[arg(long, value_parser = ["32", "16", "8"])]
-    bits: String,
+    #[arg(long, value_enum)]
+    pub bits: WeightBits,
     /// Hidden-activation bits of the integer path: 16, or 8 with `--bits 8`
     /// (ReLU outputs u8, the feature layer i8; the encoding stays 16-bit).
-    #[arg(long, default_value = "16", value_parser = ["16", "8"])]
-    act_bits: String,
+    #[arg(long, value_enum, default_value_t = ActBits::A16)]
+    pub act_bits: ActBits,
     /// Coarsen the occupancy grid to this many cells per axis (a divisor of
     /// the model's): 8× fewer grid bytes per halving, a little more empty
     /// space sampled, nothing occupied lost.
     #[arg(long)]
-    grid_res: Option<u16>,
+    pub(crate) grid_res: Option<u16>,
     /// With `--bits 16`: round these layers' weights to int8 precision
     /// (comma-separated indices in file order: trunk layers, density head,
     /// then the feature, view and colour layers; `nerf info --json` lists
@@ -33,10 +33,10 @@ pub struct Args {
     /// renderer uses unless told otherwise): fewer samples, less time per
     /// ray, some PSNR (measure with `nerf eval --coarse`).
     #[arg(long, value_parser = clap::value_parser!(u16).range(2..=256))]
-    coarse: Option<u16>,
+    pub(crate) coarse: Option<u16>,
     /// Output file.
     #[arg(long)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
 }
 
 /// An existing `--out` is replaced only if it is a model file (starts with
@@ -54,24 +54,32 @@ fn refuse_foreign_file(out: &std::path::Path) -> CmdResult {
     Ok(())
 }
 
+impl Args {
+    /// `nerf export MODEL --bits BITS --out OUT` with every other flag at its default.
+    pub fn new(model: PathBuf, bits: WeightBits, out: PathBuf) -> Self {
+        Self { model, bits, act_bits: ActBits::A16, grid_res: None, int8_layers: Vec::new(), coarse: None, out }
+    }
+}
+
 /// Runs `nerf export`.
 pub fn run(a: Args) -> CmdResult {
-    if a.act_bits == "8" && a.bits != "8" {
+    if a.act_bits == ActBits::A8 && a.bits != WeightBits::I8 {
         return Err("--act-bits 8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into());
     }
-    if !a.int8_layers.is_empty() && a.bits != "16" {
+    if !a.int8_layers.is_empty() && a.bits != WeightBits::I16 {
         return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
     }
     super::refuse_same_file(&a.out, "--out", &a.model)?;
     refuse_foreign_file(&a.out)?;
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
-    let mut owned = match a.bits.as_str() {
-        "32" if model.scheme() == Scheme::F32 => OwnedModel::from_model(&model),
-        "32" => return Err(format!("{}: model is already quantised; export from the f32 model", a.model.display())),
+    let mut owned = match a.bits {
+        WeightBits::F32 if model.scheme() == Scheme::F32 => OwnedModel::from_model(&model),
+        WeightBits::F32 => {
+            return Err(format!("{}: model is already quantised; export from the f32 model", a.model.display()))
+        }
         bits => {
-            let scheme = if bits == "16" { Scheme::I16 } else { Scheme::I8 };
-            let act_bits = if a.act_bits == "8" { 8 } else { 16 };
+            let (scheme, act_bits) = (bits.scheme(), a.act_bits.bits());
             let layers = model.coarse.layers.len();
             if let Some(&bad) = a.int8_layers.iter().find(|&&i| i >= layers) {
                 return Err(format!(
@@ -92,7 +100,30 @@ pub fn run(a: Args) -> CmdResult {
     }
     let out = owned.to_bytes().map_err(|e| format!("{}: {e}", a.out.display()))?;
     write_atomic(&a.out, &out)?;
-    let acts = if a.bits == "32" { String::new() } else { format!(", {}-bit activations", a.act_bits) };
-    eprintln!("wrote {} ({} bytes, {}-bit weights{acts})", a.out.display(), out.len(), a.bits);
+    let acts = match a.bits {
+        WeightBits::F32 => String::new(),
+        _ => format!(", {}-bit activations", a.act_bits.bits()),
+    };
+    eprintln!("wrote {} ({} bytes, {}-bit weights{acts})", a.out.display(), out.len(), a.bits.bits());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: Args,
+    }
+
+    /// `Args::new` is what the command line gives with only the required arguments.
+    #[test]
+    fn new_matches_the_parsed_defaults() {
+        let parsed = Cli::try_parse_from(["export", "m.nerf", "--bits", "8", "--out", "o.nerf"]).unwrap().a;
+        let built = Args::new("m.nerf".into(), WeightBits::I8, "o.nerf".into());
+        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
+    }
 }

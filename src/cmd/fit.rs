@@ -10,9 +10,7 @@
 //! its fewest samples as the model's default. Writes the table of what it
 //! tried.
 
-use super::{create_dir, eval, num_in, train, write_atomic, CmdResult, FormatArg};
-use clap::Parser;
-use nerf_infer::Scheme;
+use super::{create_dir, eval, num_in, train, write_atomic, CaptureArgs, CmdResult, FixedBits, SplitArg, WeightBits};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::Split;
 use nerf_train::export::{quantise, OwnedModel};
@@ -24,12 +22,8 @@ pub struct Args {
     /// Dataset directory (with validation views).
     #[arg(long)]
     data: PathBuf,
-    /// Dataset layout.
-    #[arg(long, value_enum, default_value = "auto")]
-    format: FormatArg,
-    /// Downscale images by this integer factor.
-    #[arg(long, default_value_t = 1, value_name = "1..=64", value_parser = num_in(1u32, 64))]
-    downscale: u32,
+    #[command(flatten)]
+    capture: CaptureArgs,
     /// PSNR (dB) the fixed-point render must reach on the validation views.
     #[arg(long, value_name = "1.0..=99.0", value_parser = num_in(1.0f64, 99.0))]
     target_psnr: f64,
@@ -37,8 +31,8 @@ pub struct Args {
     #[arg(long, default_value_t = 10.0, value_name = "0.001..=100000.0", value_parser = num_in(0.001f64, 100_000.0))]
     minutes: f64,
     /// Weight bits of the fixed-point model that is scored and timed.
-    #[arg(long, default_value = "8", value_parser = ["8", "16"])]
-    bits: String,
+    #[arg(long, value_enum, default_value_t = FixedBits::I8)]
+    bits: FixedBits,
     /// Early ray termination (transmittance threshold) of the scored render.
     #[arg(long, default_value_t = 1e-3, value_name = "0.0..=0.5", value_parser = num_in(0.0f32, 0.5))]
     early_stop: f32,
@@ -89,17 +83,6 @@ pub fn cost(cfg: &TrainConfig) -> usize {
     macs(cfg) + cfg.feature_levels as usize * FEATURE_LEVEL_MACS
 }
 
-/// `nerf train` with `cfg`, through its own argument parser.
-#[derive(Parser)]
-struct TrainCli {
-    #[command(flatten)]
-    a: train::Args,
-}
-
-fn s(p: &Path) -> String {
-    p.display().to_string()
-}
-
 /// One tried candidate.
 #[derive(Clone)]
 struct Row {
@@ -117,26 +100,17 @@ struct Row {
 
 /// `nerf eval` of `model` on the validation views, with `coarse` samples
 /// per ray, timing the fastest of `repeat` renders of each view.
-fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> Result<serde_json::Value, String> {
-    let argv = [
-        "eval".into(),
-        s(model),
-        "--data".into(),
-        s(&a.data),
-        "--split".into(),
-        "val".into(),
-        "--downscale".into(),
-        a.downscale.to_string(),
-        "--threads".into(),
-        threads.to_string(),
-        "--early-stop".into(),
-        a.early_stop.to_string(),
-        "--coarse".into(),
-        coarse.to_string(),
-        "--repeat".into(),
-        repeat.to_string(),
-    ];
-    eval::evaluate(eval::Args::try_parse_from(argv).map_err(|e| e.to_string())?)
+fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> Result<eval::Report, String> {
+    let args = eval::Args {
+        split: SplitArg::Val,
+        capture: a.capture,
+        threads,
+        early_stop: a.early_stop,
+        coarse: Some(coarse as usize),
+        repeat,
+        ..eval::Args::new(model.to_path_buf(), a.data.clone())
+    };
+    eval::evaluate(&args)
 }
 
 /// Trains candidate `name`, quantises it (`model_fixed.nerf` beside the
@@ -146,35 +120,20 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
     create_dir(&dir)?;
     let cfg_path = dir.join("config.json");
     write_atomic(&cfg_path, serde_json::to_string_pretty(cfg).map_err(|e| e.to_string())?.as_bytes())?;
-    let fmt = format!("{:?}", a.format).to_lowercase();
-    let argv = [
-        "train".to_string(),
-        "--data".into(),
-        s(&a.data),
-        "--format".into(),
-        fmt,
-        "--downscale".into(),
-        a.downscale.to_string(),
-        "--config".into(),
-        s(&cfg_path),
-        "--minutes".into(),
-        a.minutes.to_string(),
-        "--out".into(),
-        s(&dir),
-        "--seed".into(),
-        a.seed.to_string(),
-        "--threads".into(),
-        a.threads.to_string(),
-        "--val-views".into(),
-        "0".into(),
+    let args = train::Args {
+        capture: a.capture,
+        seed: a.seed,
+        threads: a.threads,
+        val_views: 0,
         // the candidate's folder is fit's own (fit refuses a RUN_DIR that holds a fit)
-        "--force".into(),
-    ];
-    train::run(TrainCli::try_parse_from(argv).map_err(|e| e.to_string())?.a)?;
+        force: true,
+        ..train::Args::new(a.data.clone(), a.minutes, dir.clone())
+    };
+    train::run_config(args, cfg.clone())?;
     let f32_path = dir.join("model.nerf");
     let bytes = super::read_model(&f32_path)?;
     let m = super::decode(&f32_path, &bytes)?;
-    let scheme = if a.bits == "16" { Scheme::I16 } else { Scheme::I8 };
+    let scheme = WeightBits::from(a.bits).scheme();
     let q = quantise(&m, scheme).and_then(|q| q.to_bytes().map_err(|e| e.to_string()));
     let q = q.map_err(|e| format!("{}: {e}", f32_path.display()))?;
     let fixed_path = dir.join("model_fixed.nerf");
@@ -197,17 +156,16 @@ fn score_row(
     let rf = score(a, &dir.join("model.nerf"), a.threads, coarse, 1)?;
     // the timed render: one core, the fastest of 3 per view
     let rq = score(a, &dir.join("model_fixed.nerf"), 1, coarse, 3)?;
-    let num = |v: &serde_json::Value, k: &str| v[k].as_f64().unwrap_or(f64::NAN);
     Ok(Row {
         name,
         coarse,
         macs: macs(cfg),
         cost: cost(cfg),
         steps,
-        psnr_f32: num(&rf, "psnr"),
-        psnr_fixed: num(&rq, "psnr"),
-        us_per_ray: num(&rq, "us_per_ray"),
-        samples_per_ray: num(&rq, "samples_per_ray"),
+        psnr_f32: rf.psnr,
+        psnr_fixed: rq.psnr,
+        us_per_ray: rq.us_per_ray,
+        samples_per_ray: rq.samples_per_ray,
         bytes,
     })
 }
@@ -227,7 +185,8 @@ fn with_coarse(model: &Path, coarse: u16, out: &Path) -> Result<(), String> {
     write_atomic(out, &owned.to_bytes().map_err(|e| format!("{}: {e}", out.display()))?)
 }
 
-fn tables(rows: &[Row], bits: &str) -> (String, String) {
+fn tables(rows: &[Row], bits: FixedBits) -> (String, String) {
+    let bits = WeightBits::from(bits).bits();
     let mut csv = String::from(
         "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample,coarse_samples\n",
     );
@@ -304,7 +263,7 @@ fn report(a: &Args, row: &Row) {
         "fit: {} at {} samples: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray evaluated",
         row.name,
         row.coarse,
-        a.bits,
+        WeightBits::from(a.bits).bits(),
         row.psnr_fixed,
         row.psnr_f32,
         row.us_per_ray,
@@ -313,7 +272,7 @@ fn report(a: &Args, row: &Row) {
 }
 
 fn save(a: &Args, rows: &[Row]) -> CmdResult {
-    let (csv, md) = tables(rows, &a.bits);
+    let (csv, md) = tables(rows, a.bits);
     write_atomic(&a.out.join("fit.csv"), csv.as_bytes())?;
     write_atomic(&a.out.join("fit.md"), md.as_bytes())
 }
@@ -325,11 +284,11 @@ pub fn run(a: Args) -> CmdResult {
     if a.out.join("fit.csv").exists() {
         return Err(format!("{}: holds the results of a fit (fit.csv); choose another --out", a.out.display()));
     }
-    let capture = super::CaptureArgs::default();
-    let data = super::load_split(&a.data, Split::Train, a.format, a.downscale, capture)?;
+    let (downscale, capture) = (a.capture.downscale.unwrap_or(1), a.capture);
+    let data = super::load_split(&a.data, Split::Train, downscale, capture)?;
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     drop(data);
-    super::load_split(&a.data, Split::Val, a.format, a.downscale, capture)
+    super::load_split(&a.data, Split::Val, downscale, capture)
         .map_err(|e| format!("{e} (nerf fit scores candidates on the validation views)"))?;
     create_dir(&a.out)?;
     let mut rows = Vec::new();
@@ -355,7 +314,7 @@ pub fn run(a: Args) -> CmdResult {
             reached.push((name, coarse, us, cost_per_ray(&cfg, coarse)));
         }
     }
-    out!("{}", tables(&rows, &a.bits).1);
+    out!("{}", tables(&rows, a.bits).1);
     // the lowest measured µs per ray of the fixed-point render
     let Some(&(name, coarse, us, _)) = reached.iter().min_by(|x, y| x.2.total_cmp(&y.2)) else {
         let best = rows.iter().map(|r| r.psnr_fixed).fold(f64::NEG_INFINITY, f64::max);

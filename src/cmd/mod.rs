@@ -38,9 +38,10 @@ where
 }
 
 /// `--format` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, clap::ValueEnum)]
 pub enum FormatArg {
     /// Detect from the files present.
+    #[default]
     Auto,
     /// transforms_{train,val,test}.json
     Blender,
@@ -60,6 +61,81 @@ impl From<FormatArg> for Format {
             FormatArg::Llff => Format::Llff,
             FormatArg::Ngp => Format::Ngp,
             FormatArg::Colmap => Format::Colmap,
+        }
+    }
+}
+
+/// `--bits` of `nerf export`: the weights' numeric scheme.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum WeightBits {
+    /// f32 (the f32 path).
+    #[value(name = "32")]
+    F32,
+    /// int16 (the integer fixed-point path).
+    #[value(name = "16")]
+    I16,
+    /// int8 (the integer fixed-point path).
+    #[value(name = "8")]
+    I8,
+}
+
+impl WeightBits {
+    /// The model scheme.
+    pub fn scheme(self) -> nerf_infer::Scheme {
+        match self {
+            WeightBits::F32 => nerf_infer::Scheme::F32,
+            WeightBits::I16 => nerf_infer::Scheme::I16,
+            WeightBits::I8 => nerf_infer::Scheme::I8,
+        }
+    }
+
+    /// Bits per weight.
+    pub fn bits(self) -> u32 {
+        match self {
+            WeightBits::F32 => 32,
+            WeightBits::I16 => 16,
+            WeightBits::I8 => 8,
+        }
+    }
+}
+
+/// `--bits` of the commands that score a fixed-point model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FixedBits {
+    /// int16 weights.
+    #[value(name = "16")]
+    I16,
+    /// int8 weights.
+    #[value(name = "8")]
+    I8,
+}
+
+impl From<FixedBits> for WeightBits {
+    fn from(b: FixedBits) -> Self {
+        match b {
+            FixedBits::I16 => WeightBits::I16,
+            FixedBits::I8 => WeightBits::I8,
+        }
+    }
+}
+
+/// `--act-bits`: hidden-activation bits of the integer path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ActBits {
+    /// i16 activations.
+    #[value(name = "16")]
+    A16,
+    /// u8 ReLU outputs and an i8 feature layer (int8 weights only).
+    #[value(name = "8")]
+    A8,
+}
+
+impl ActBits {
+    /// Bits per activation.
+    pub fn bits(self) -> u8 {
+        match self {
+            ActBits::A16 => 16,
+            ActBits::A8 => 8,
         }
     }
 }
@@ -85,26 +161,34 @@ impl From<SplitArg> for Split {
     }
 }
 
-/// How a real capture (LLFF, COLMAP, instant-ngp) becomes a scene: the
-/// flags every command that loads a dataset shares. A model trained on
-/// such a capture records them; `eval`, `render` and `tradeoff` take the
-/// model's where a flag is not given.
+/// How a dataset is read and, for a real capture (LLFF, COLMAP,
+/// instant-ngp), how it becomes a scene: the flags every command that loads
+/// a dataset shares. A model trained on such a capture records the last
+/// three; `eval`, `render` and `tradeoff` take the model's where a flag is
+/// not given.
 #[derive(clap::Args, Clone, Copy, Debug, Default)]
 pub struct CaptureArgs {
+    /// Dataset layout.
+    #[arg(long, value_enum, default_value_t = FormatArg::Auto)]
+    pub format: FormatArg,
+    /// Downscale images by this integer factor (area averaging) [default: 1 to train; with a model: the one it
+    /// was trained at].
+    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
+    pub downscale: Option<u32>,
     /// Hold-out of LLFF, COLMAP and instant-ngp captures: every N-th image is a test/val view [default: 8; with a
     /// model: the one it was trained with].
     #[arg(long, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
-    llffhold: Option<usize>,
+    pub llffhold: Option<usize>,
     /// Scene treatment of COLMAP / instant-ngp captures: `auto` (from the cameras and points), `object` (a box
     /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (bounds holding the cameras and
     /// their surroundings, space beyond them contracted) [default: auto; with a model: the one it was trained
     /// with].
     #[arg(long, value_enum)]
-    scene: Option<SceneArg>,
+    pub scene: Option<SceneArg>,
     /// Treat every photo as an ideal pinhole: ignore the lens distortion the capture gives (with a model trained
     /// so: implied).
     #[arg(long)]
-    ignore_distortion: bool,
+    pub ignore_distortion: bool,
 }
 
 /// The hold-out `--llffhold` defaults to.
@@ -146,7 +230,13 @@ impl CaptureArgs {
             llffhold: Some(c.holdout as usize),
             scene: self.scene.or(Some(scene)),
             ignore_distortion: self.ignore_distortion || !c.lens,
+            ..self
         })
+    }
+
+    /// `--downscale`, or the one `model` was trained at.
+    pub fn downscale_for(&self, model: &nerf_infer::Model<'_>) -> u32 {
+        self.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32)
     }
 }
 
@@ -177,19 +267,13 @@ impl From<SceneArg> for SceneKind {
 
 /// Loads a split, mapping errors to one line and printing the loader's
 /// notes (skipped frames) as warnings.
-pub fn load_split(
-    dir: &Path,
-    split: Split,
-    format: FormatArg,
-    downscale: u32,
-    capture: CaptureArgs,
-) -> Result<Dataset, String> {
+pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs) -> Result<Dataset, String> {
     let holdout = capture.llffhold.unwrap_or(DEFAULT_HOLDOUT);
     if holdout == 0 {
         return Err("--llffhold must be at least 1".into());
     }
     let opts = LoadOptions {
-        format: format.into(),
+        format: capture.format.into(),
         downscale,
         holdout,
         scene: capture.scene.unwrap_or_default().into(),

@@ -3,57 +3,67 @@
 //! colour, the depth as 16-bit PNG in scene units (the step written to
 //! `depth.json`) and as a colour-mapped preview, and the opacity.
 
-use super::{
-    create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, FormatArg, SplitArg,
-};
+use super::{create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
 use nerf_infer::{Camera, RenderOptions};
 use nerf_train::dataset::save_png_rgb;
 use nerf_train::dataset::Split;
 use nerf_train::eval::{render_view, PixelRays, Rendered};
-use nerf_train::export::orbit_camera;
+use nerf_train::path::orbit_camera;
 use nerf_train::path::{read_camera_path, smooth_trajectory, to_camera_path};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nerf render`.
-#[derive(clap::Args)]
+#[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("views").required(true).args(["split", "orbit", "trajectory", "camera_path"])))]
 pub struct Args {
     /// Model file (.nerf).
-    model: PathBuf,
+    pub(crate) model: PathBuf,
     /// The dataset whose views (`--split`) or trajectory (`--trajectory`) to render.
     #[arg(long)]
-    data: Option<PathBuf>,
+    pub(crate) data: Option<PathBuf>,
     /// Render this split's views, each through its photo's lens.
     #[arg(long, value_enum, requires = "data")]
-    split: Option<SplitArg>,
-    /// Dataset layout.
-    #[arg(long, value_enum, default_value = "auto")]
-    format: FormatArg,
+    pub(crate) split: Option<SplitArg>,
     #[command(flatten)]
-    capture: CaptureArgs,
-    /// Downscale factor (default: the model's training downscale).
-    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
-    downscale: Option<u32>,
+    pub(crate) capture: CaptureArgs,
     /// Render N views on an orbit around the scene (a small circle in front for forward-facing scenes).
     #[arg(long, value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
-    orbit: Option<usize>,
+    pub(crate) orbit: Option<usize>,
     /// Render N views along the capture's own camera trajectory (its views in name order, smoothed), with the
     /// field of view of its first camera.
     #[arg(long, requires = "data", value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
-    trajectory: Option<usize>,
+    pub(crate) trajectory: Option<usize>,
     /// Render the cameras of a nerfstudio camera_path.json (its rendered camera list; poses in the model's frame,
     /// as the camera_path.json that --orbit and --trajectory write).
     #[arg(long)]
-    camera_path: Option<PathBuf>,
+    pub(crate) camera_path: Option<PathBuf>,
     /// Image width in pixels of --orbit (square), --trajectory and --camera-path frames.
     #[arg(long, default_value_t = 100, value_name = "1..=4096", value_parser = num_in(1u32, 4096))]
-    size: u32,
+    pub(crate) size: u32,
     /// Output directory.
     #[arg(long)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
-    threads: usize,
+    pub(crate) threads: usize,
+}
+
+impl Args {
+    /// `nerf render MODEL --orbit N --out OUT` with every other flag at its default.
+    pub fn orbit(model: PathBuf, n: usize, out: PathBuf) -> Self {
+        Self {
+            model,
+            data: None,
+            split: None,
+            capture: CaptureArgs::default(),
+            orbit: Some(n),
+            trajectory: None,
+            camera_path: None,
+            size: 100,
+            out,
+            threads: 0,
+        }
+    }
 }
 
 /// Writes `NAME_depth.png` (16-bit, `depth / step`), `NAME_depth_preview.png`
@@ -88,7 +98,7 @@ pub fn run(a: Args) -> CmdResult {
     if let Some(d) = &a.data {
         super::refuse_inside(&a.out, "--out", d)?;
     }
-    let ds = a.downscale.unwrap_or(model.meta.train_downscale.max(1) as u32);
+    let ds = a.capture.downscale_for(&model);
     let path: Option<Vec<Camera>> = match (&a.data, a.orbit, a.trajectory, &a.camera_path) {
         (_, Some(n), _, _) => {
             Some((0..n).map(|k| orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size)).collect())
@@ -96,7 +106,7 @@ pub fn run(a: Args) -> CmdResult {
         (Some(dir), _, Some(n), _) => {
             // every view: holdout 1 makes the whole capture the test split
             let capture = CaptureArgs { llffhold: None, ..a.capture }.for_model(&model, &a.model)?;
-            let data = load_split(dir, Split::Test, a.format, ds, CaptureArgs { llffhold: Some(1), ..capture })?;
+            let data = load_split(dir, Split::Test, ds, CaptureArgs { llffhold: Some(1), ..capture })?;
             super::same_frame(&data, &model, &a.model)?;
             let views = data.views;
             let mut views: Vec<_> = views.into_iter().map(|v| (v.name, v.camera)).collect();
@@ -116,7 +126,7 @@ pub fn run(a: Args) -> CmdResult {
                 .collect()
         }
         (Some(dir), Some(split), _) => {
-            let data = load_split(dir, split.into(), a.format, ds, a.capture.for_model(&model, &a.model)?)?;
+            let data = load_split(dir, split.into(), ds, a.capture.for_model(&model, &a.model)?)?;
             super::same_frame(&data, &model, &a.model)?;
             data.views.into_iter().map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>)).collect()
         }
@@ -195,4 +205,24 @@ fn write_gif(path: &Path, frames: Vec<image::RgbaImage>) -> Result<(), String> {
         }
     }
     nerf_train::atomic::write(path, &bytes).map_err(|e| err(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: Args,
+    }
+
+    /// `Args::new` is what the command line gives with only the required arguments.
+    #[test]
+    fn new_matches_the_parsed_defaults() {
+        let parsed = Cli::try_parse_from(["render", "m.nerf", "--orbit", "24", "--out", "o"]).unwrap().a;
+        let built = Args::orbit("m.nerf".into(), 24, "o".into());
+        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
+    }
 }

@@ -5,19 +5,26 @@ use nerf_train::dataset::synthetic::{write_blender, write_colmap, write_llff, Co
 use std::path::PathBuf;
 
 /// Arguments of `nerf scene`.
-#[derive(clap::Args)]
+#[derive(clap::Args, Debug)]
 pub struct Args {
     /// Output directory; gets `blender/`, `llff/`, `colmap/` (binary model, JPEG, two cameras, one with
     /// lens distortion), `colmap_text/` (the same as text) and `room/` (COLMAP, the scene inside a coloured
     /// room: a 360° capture with a background).
     #[arg(long)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Image side in pixels.
     #[arg(long, default_value_t = 64, value_name = "8..=2048", value_parser = num_in(8u32, 2048))]
-    size: u32,
+    pub(crate) size: u32,
     /// Training views.
     #[arg(long, default_value_t = 48, value_name = "1..=1000", value_parser = num_in(1usize, 1000))]
-    train: usize,
+    pub(crate) train: usize,
+}
+
+impl Args {
+    /// `nerf scene --out OUT` with every other flag at its default.
+    pub fn new(out: PathBuf) -> Self {
+        Self { out, size: 64, train: 48 }
+    }
 }
 
 /// Runs `nerf scene`.
@@ -30,4 +37,24 @@ pub fn run(a: Args) -> CmdResult {
     write_colmap(&a.out.join("room"), spec, ColmapText::Binary, true).map_err(|e| e.to_string())?;
     eprintln!("wrote {} (blender/, llff/, colmap/, colmap_text/, room/)", a.out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: Args,
+    }
+
+    /// `Args::new` is what the command line gives with only the required arguments.
+    #[test]
+    fn new_matches_the_parsed_defaults() {
+        let parsed = Cli::try_parse_from(["scene", "--out", "o"]).unwrap().a;
+        let built = Args::new("o".into());
+        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
+    }
 }

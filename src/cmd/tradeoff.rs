@@ -8,8 +8,7 @@
 //! front marked) and prints the table.
 
 use super::{
-    create_dir, decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, FormatArg,
-    SplitArg,
+    create_dir, decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, SplitArg,
 };
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
@@ -18,34 +17,28 @@ use nerf_train::plot::{pareto, scatter, Point};
 use std::path::PathBuf;
 
 /// Arguments of `nerf tradeoff`.
-#[derive(clap::Args)]
+#[derive(clap::Args, Debug)]
 pub struct Args {
     /// The f32 model (.nerf) as `nerf train` writes it; int16 and int8
     /// variants are quantised from it in memory.
-    model: PathBuf,
+    pub(crate) model: PathBuf,
     /// Dataset directory.
     #[arg(long)]
-    data: PathBuf,
+    pub(crate) data: PathBuf,
     /// Split whose views are rendered.
-    #[arg(long, value_enum, default_value = "val")]
-    split: SplitArg,
-    /// Dataset layout.
-    #[arg(long, value_enum, default_value = "auto")]
-    format: FormatArg,
+    #[arg(long, value_enum, default_value_t = SplitArg::Val)]
+    pub(crate) split: SplitArg,
     #[command(flatten)]
-    capture: CaptureArgs,
-    /// Downscale factor (default: the model's training downscale).
-    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
-    downscale: Option<u32>,
+    pub(crate) capture: CaptureArgs,
     /// Views rendered per point (the first N of the split).
     #[arg(long, default_value_t = 2, value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
-    views: usize,
+    pub(crate) views: usize,
     /// Timed repetitions per point; the median is reported.
     #[arg(long, default_value_t = 3, value_name = "1..=100", value_parser = num_in(1usize, 100))]
-    repeats: usize,
+    pub(crate) repeats: usize,
     /// Output directory for tradeoff.csv and tradeoff.png.
     #[arg(long)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
 }
 
 #[derive(Clone, Copy)]
@@ -102,6 +95,13 @@ fn sweep(m: &Model<'_>) -> Vec<Knobs> {
     v
 }
 
+impl Args {
+    /// `nerf tradeoff MODEL --data DATA --out OUT` with every other flag at its default.
+    pub fn new(model: PathBuf, data: PathBuf, out: PathBuf) -> Self {
+        Self { model, data, split: SplitArg::Val, capture: CaptureArgs::default(), views: 2, repeats: 3, out }
+    }
+}
+
 /// Runs `nerf tradeoff`.
 pub fn run(a: Args) -> CmdResult {
     super::refuse_inside(&a.out, "--out", &a.data)?;
@@ -115,9 +115,9 @@ pub fn run(a: Args) -> CmdResult {
     let (q16, q8, q8a8) = (quantised(Scheme::I16, 16)?, quantised(Scheme::I8, 16)?, quantised(Scheme::I8, 8)?);
     let decoded = |bytes| Model::from_bytes(bytes).map_err(|e| e.to_string());
     let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
-    let downscale = a.downscale.unwrap_or(mf.meta.train_downscale.max(1) as u32);
+    let downscale = a.capture.downscale_for(&mf);
     let capture = a.capture.for_model(&mf, &a.model)?;
-    let data = load_split(&a.data, a.split.into(), a.format, downscale, capture)?;
+    let data = load_split(&a.data, a.split.into(), downscale, capture)?;
     super::same_frame(&data, &mf, &a.model)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
     create_dir(&a.out)?;
@@ -192,4 +192,24 @@ pub fn run(a: Args) -> CmdResult {
     scatter(&a.out.join("tradeoff.png"), &title, "µs per ray (one core)", "PSNR (dB)", &points)?;
     eprintln!("wrote {} and {}", a.out.join("tradeoff.csv").display(), a.out.join("tradeoff.png").display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: Args,
+    }
+
+    /// `Args::new` is what the command line gives with only the required arguments.
+    #[test]
+    fn new_matches_the_parsed_defaults() {
+        let parsed = Cli::try_parse_from(["tradeoff", "m.nerf", "--data", "d", "--out", "o"]).unwrap().a;
+        let built = Args::new("m.nerf".into(), "d".into(), "o".into());
+        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
+    }
 }

@@ -4,7 +4,7 @@
 use super::runlog::RunLog;
 use super::{
     create_dir, load_split, lock_run_dir, num_in, progress, refuse_inside, with_threads, write_atomic, CaptureArgs,
-    CmdResult, FormatArg,
+    CmdResult,
 };
 use nerf_infer::{Model, RenderOptions};
 use nerf_train::config::TrainConfig;
@@ -18,64 +18,58 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 /// Arguments of `nerf train`.
-#[derive(clap::Args)]
+#[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("budget").required(true).args(["iters", "minutes"])))]
 pub struct Args {
     /// Dataset directory.
     #[arg(long)]
-    data: PathBuf,
-    /// Dataset layout.
-    #[arg(long, value_enum, default_value = "auto")]
-    format: FormatArg,
+    pub(crate) data: PathBuf,
     #[command(flatten)]
-    capture: CaptureArgs,
-    /// Downscale images by this integer factor (area averaging).
-    #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
-    downscale: Option<u32>,
+    pub(crate) capture: CaptureArgs,
     /// Named configuration: `features` (default: an occupancy grid, a learned feature grid and a 2x64 network;
     /// the most PSNR per minute on lego and the real captures), `grid` (occupancy grid, one 4x64 network), `fast`
     /// (4x64 network, coarse + fine, no grid) or `paper`.
     #[arg(long)]
-    preset: Option<String>,
+    pub(crate) preset: Option<String>,
     /// Configuration as JSON: fields of the preset (`features` without `--preset`) to override; see docs/CLI.md.
     #[arg(long)]
-    config: Option<PathBuf>,
+    pub(crate) config: Option<PathBuf>,
     /// Train until this many steps in total.
     #[arg(long, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
-    iters: Option<u64>,
+    pub(crate) iters: Option<u64>,
     /// Train until this many minutes of training in total.
     #[arg(long, value_name = "0.001..=100000.0", value_parser = num_in(0.001f64, 100_000.0))]
-    minutes: Option<f64>,
+    pub(crate) minutes: Option<f64>,
     /// Run directory: model.nerf, train.jsonl, checkpoint.bin.
     #[arg(long)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Continue from RUN_DIR/checkpoint.bin (the same data, downscale, preset and configuration).
     #[arg(long, conflicts_with = "force")]
-    resume: bool,
+    pub(crate) resume: bool,
     /// Start a new run in a RUN_DIR that holds one, replacing its checkpoint, model and log.
     #[arg(long)]
-    force: bool,
+    pub(crate) force: bool,
     /// Seed of initialisation and ray sampling.
     #[arg(long, default_value_t = 0)]
-    seed: u64,
+    pub(crate) seed: u64,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
-    threads: usize,
+    pub(crate) threads: usize,
     /// Seconds of training between checkpoints (0: after every step).
     #[arg(long, default_value_t = 60.0, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
-    checkpoint_secs: f64,
+    pub(crate) checkpoint_secs: f64,
     /// Seconds of training between validation renders (0: after every step).
     #[arg(long, default_value_t = 120.0, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
-    val_secs: f64,
+    pub(crate) val_secs: f64,
     /// Validation views rendered each time (0: no periodic validation).
     #[arg(long, default_value_t = 2, value_name = "0..=10000", value_parser = num_in(0usize, 10_000))]
-    val_views: usize,
+    pub(crate) val_views: usize,
     /// Steps between lines of train.jsonl.
     #[arg(long, default_value_t = 10, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
-    log_every: u64,
+    pub(crate) log_every: u64,
     /// Neurons never active on the calibration rays that model.nerf drops.
-    #[arg(long, value_enum, default_value = "tiles")]
-    prune: PruneArg,
+    #[arg(long, value_enum, default_value_t = PruneArg::Tiles)]
+    pub(crate) prune: PruneArg,
 }
 
 /// `--prune` values.
@@ -131,7 +125,7 @@ fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
     if a.val_views == 0 {
         return None;
     }
-    load_split(&a.data, Split::Val, a.format, downscale, a.capture).ok()
+    load_split(&a.data, Split::Val, downscale, a.capture).ok()
 }
 
 /// Mean PSNR of the first `n` validation views rendered by the kernel's f32 path.
@@ -179,7 +173,7 @@ fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
             tr.data
         ));
     }
-    if let Some(d) = a.downscale.filter(|&d| d != tr.downscale) {
+    if let Some(d) = a.capture.downscale.filter(|&d| d != tr.downscale) {
         return Err(format!("--downscale {d} differs from the checkpoint's {}: resume without it", tr.downscale));
     }
     if a.preset.is_some() || a.config.is_some() {
@@ -211,14 +205,46 @@ fn data_source(a: &Args) -> String {
     format!("{} {}", path.display(), a.capture.describe())
 }
 
-/// Runs `nerf train`.
-pub fn run(a: Args) -> CmdResult {
-    with_threads(a.threads, || train(a))?
+impl Args {
+    /// `nerf train --data DATA --minutes MINUTES --out OUT` with every other
+    /// flag at its default.
+    pub fn new(data: PathBuf, minutes: f64, out: PathBuf) -> Self {
+        Self {
+            data,
+            capture: CaptureArgs::default(),
+            preset: None,
+            config: None,
+            iters: None,
+            minutes: Some(minutes),
+            out,
+            resume: false,
+            force: false,
+            seed: 0,
+            threads: 0,
+            checkpoint_secs: 60.0,
+            val_secs: 120.0,
+            val_views: 2,
+            log_every: 10,
+            prune: PruneArg::Tiles,
+        }
+    }
 }
 
-fn train(a: Args) -> CmdResult {
+/// Runs `nerf train`.
+pub fn run(a: Args) -> CmdResult {
     // the arguments first (configuration, where the output goes), then the run folder
     let new_cfg = if a.resume { None } else { Some(load_config(&a)?) };
+    with_threads(a.threads, || train(a, new_cfg))?
+}
+
+/// Runs `nerf train` as a new run of configuration `cfg` (in place of
+/// `--preset` and `--config`).
+pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
+    cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
+    with_threads(a.threads, || train(Args { resume: false, ..a }, Some(cfg)))?
+}
+
+fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
     refuse_inside(&a.out, "--out", &a.data)?;
     create_dir(&a.out)?;
     let _lock = lock_run_dir(&a.out)?;
@@ -230,7 +256,7 @@ fn train(a: Args) -> CmdResult {
             a.out.display()
         ));
     }
-    let load = |downscale| load_split(&a.data, Split::Train, a.format, downscale, a.capture);
+    let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
     let (mut tr, data) = if a.resume && ckpt.is_file() {
         let b = std::fs::read(&ckpt).map_err(|e| format!("{}: cannot read: {e}", ckpt.display()))?;
         let tr = Trainer::from_bytes(&b).ok_or_else(|| {
@@ -243,7 +269,7 @@ fn train(a: Args) -> CmdResult {
         return Err(format!("{}: no checkpoint to resume from", ckpt.display()));
     } else {
         let cfg = new_cfg.ok_or("a configuration for a new run")?;
-        let downscale = a.downscale.unwrap_or(1);
+        let downscale = a.capture.downscale.unwrap_or(1);
         let data = load(downscale)?;
         let mut tr = Trainer::new(cfg, data.scene, downscale, a.seed);
         tr.data = data_source(&a);
@@ -357,4 +383,24 @@ fn train(a: Args) -> CmdResult {
             .unwrap_or_default()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        a: Args,
+    }
+
+    /// `Args::new` is what the command line gives with only the required arguments.
+    #[test]
+    fn new_matches_the_parsed_defaults() {
+        let parsed = Cli::try_parse_from(["train", "--data", "d", "--minutes", "2", "--out", "o"]).unwrap().a;
+        let built = Args::new("d".into(), 2.0, "o".into());
+        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
+    }
 }
