@@ -18,7 +18,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m::peripheral::{syst::SystClkSource, SYST};
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use nerf_infer::{render_tile, Camera, PixelFixed, RendererFixed, Model, RayRenderer, RenderOptions, ScratchFixed};
+use nerf_infer::{render_tile, Camera, Model, PixelFixed, RayRenderer, RenderOptions, RendererFixed, ScratchFixed};
 use panic_semihosting as _;
 
 mod expected;
