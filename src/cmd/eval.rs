@@ -170,16 +170,3 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
     };
     Ok(report)
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// `Args::new` is what the command line gives with only the required arguments.
-    #[test]
-    fn new_matches_the_parsed_defaults() {
-        let parsed = Args::try_parse_from(["eval", "m.nerf", "--data", "d"]).unwrap();
-        let built = Args::new("m.nerf".into(), "d".into());
-        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
-    }
-}

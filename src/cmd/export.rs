@@ -107,23 +107,3 @@ pub fn run(a: Args) -> CmdResult {
     eprintln!("wrote {} ({} bytes, {}-bit weights{acts})", a.out.display(), out.len(), a.bits.bits());
     Ok(())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        a: Args,
-    }
-
-    /// `Args::new` is what the command line gives with only the required arguments.
-    #[test]
-    fn new_matches_the_parsed_defaults() {
-        let parsed = Cli::try_parse_from(["export", "m.nerf", "--bits", "8", "--out", "o.nerf"]).unwrap().a;
-        let built = Args::new("m.nerf".into(), WeightBits::I8, "o.nerf".into());
-        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
-    }
-}

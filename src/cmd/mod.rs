@@ -413,3 +413,34 @@ pub fn progress(len: u64, template: &str) -> indicatif::ProgressBar {
     pb.set_style(indicatif::ProgressStyle::with_template(template).expect("valid template").progress_chars("=> "));
     pb
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The arguments `argv` parses to.
+    fn parsed<A: clap::Args + clap::FromArgMatches>(argv: &[&str]) -> A {
+        let m = A::augment_args(clap::Command::new("nerf")).get_matches_from(argv);
+        A::from_arg_matches(&m).unwrap()
+    }
+
+    /// What one command gives another (`Args::new` and its kin) is what the
+    /// command line gives with only the required arguments: the defaults
+    /// live in one place.
+    #[test]
+    fn constructors_match_the_parsed_defaults() {
+        fn same(a: impl std::fmt::Debug, b: impl std::fmt::Debug) {
+            assert_eq!(format!("{a:?}"), format!("{b:?}"));
+        }
+        same(parsed::<eval::Args>(&["eval", "m.nerf", "--data", "d"]), eval::Args::new("m.nerf".into(), "d".into()));
+        let train = parsed::<train::Args>(&["train", "--data", "d", "--minutes", "2", "--out", "o"]);
+        same(train, train::Args::new("d".into(), 2.0, "o".into()));
+        let export = parsed::<export::Args>(&["export", "m.nerf", "--bits", "8", "--out", "o.nerf"]);
+        same(export, export::Args::new("m.nerf".into(), WeightBits::I8, "o.nerf".into()));
+        same(parsed::<scene::Args>(&["scene", "--out", "o"]), scene::Args::new("o".into()));
+        let render = parsed::<render::Args>(&["render", "m.nerf", "--orbit", "24", "--out", "o"]);
+        same(render, render::Args::orbit("m.nerf".into(), 24, "o".into()));
+        let tradeoff = parsed::<tradeoff::Args>(&["tradeoff", "m.nerf", "--data", "d", "--out", "o"]);
+        same(tradeoff, tradeoff::Args::new("m.nerf".into(), "d".into(), "o".into()));
+    }
+}

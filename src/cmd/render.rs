@@ -206,23 +206,3 @@ fn write_gif(path: &Path, frames: Vec<image::RgbaImage>) -> Result<(), String> {
     }
     nerf_train::atomic::write(path, &bytes).map_err(|e| err(&e))
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        a: Args,
-    }
-
-    /// `Args::new` is what the command line gives with only the required arguments.
-    #[test]
-    fn new_matches_the_parsed_defaults() {
-        let parsed = Cli::try_parse_from(["render", "m.nerf", "--orbit", "24", "--out", "o"]).unwrap().a;
-        let built = Args::orbit("m.nerf".into(), 24, "o".into());
-        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
-    }
-}

@@ -38,23 +38,3 @@ pub fn run(a: Args) -> CmdResult {
     eprintln!("wrote {} (blender/, llff/, colmap/, colmap_text/, room/)", a.out.display());
     Ok(())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        a: Args,
-    }
-
-    /// `Args::new` is what the command line gives with only the required arguments.
-    #[test]
-    fn new_matches_the_parsed_defaults() {
-        let parsed = Cli::try_parse_from(["scene", "--out", "o"]).unwrap().a;
-        let built = Args::new("o".into());
-        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
-    }
-}

@@ -193,23 +193,3 @@ pub fn run(a: Args) -> CmdResult {
     eprintln!("wrote {} and {}", a.out.join("tradeoff.csv").display(), a.out.join("tradeoff.png").display());
     Ok(())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        a: Args,
-    }
-
-    /// `Args::new` is what the command line gives with only the required arguments.
-    #[test]
-    fn new_matches_the_parsed_defaults() {
-        let parsed = Cli::try_parse_from(["tradeoff", "m.nerf", "--data", "d", "--out", "o"]).unwrap().a;
-        let built = Args::new("m.nerf".into(), "d".into(), "o".into());
-        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
-    }
-}

@@ -384,23 +384,3 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
     );
     Ok(())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use clap::Parser;
-
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        a: Args,
-    }
-
-    /// `Args::new` is what the command line gives with only the required arguments.
-    #[test]
-    fn new_matches_the_parsed_defaults() {
-        let parsed = Cli::try_parse_from(["train", "--data", "d", "--minutes", "2", "--out", "o"]).unwrap().a;
-        let built = Args::new("d".into(), 2.0, "o".into());
-        assert_eq!(format!("{parsed:?}"), format!("{built:?}"));
-    }
-}
