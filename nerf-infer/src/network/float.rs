@@ -1,7 +1,7 @@
 //! The network in f32: activations accumulate in place, in the portable
 //! register-tiled kernel ([`crate::layer::accumulate`]).
 
-use super::{Act, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
+use super::contract::{Act, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
 use crate::encoding::encode_f32;
 use crate::format::{read_f32, Layer, Model, Network};
 use crate::layer::{accumulate, MacF32};

@@ -3,7 +3,7 @@
 //! channel to the next layer's scale. The dense kernels are those
 //! [`crate::arch`] picks for the build ([`IntKernel`]).
 
-use super::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX};
+use super::contract::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX};
 use crate::arch::IntKernel;
 use crate::encoding::encode_fixed;
 use crate::error::{Error, Result};

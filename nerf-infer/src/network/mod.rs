@@ -19,110 +19,17 @@
 //! [`Scheme::I16`]: crate::format::Scheme::I16
 //! [`Scheme::I8`]: crate::format::Scheme::I8
 
+mod contract;
 mod float;
 mod int;
 
 pub use crate::layer::{IntWeight, OUTPUT_TILE, W16, W8};
+pub use contract::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
 pub use float::ViewBias;
 pub use int::{check_i8_headroom, FixedAcc};
 
-use crate::format::{sigma_layer, Layer, Model, Network};
-use crate::limits::{MAX_FEATURES, MAX_FREQS, MAX_WIDTH};
-
-/// Longest encoded position or direction: `3 + 6·16` plus the feature
-/// grid's values.
-pub const ENC_MAX: usize = 3 + 6 * MAX_FREQS + MAX_FEATURES;
-
-/// The f32 numbers: f32 activations, positions in normalised coordinates,
-/// raw density, colour in `[0, 1]`.
-#[derive(Clone, Copy, Debug)]
-pub struct F32;
-
-/// The fixed-point numbers: i16 activations at per-layer scales, positions
-/// and directions in Q24, density in Q10, colour in Q15.
-#[derive(Clone, Copy, Debug)]
-pub struct Fixed;
-
-/// The number formats of a network evaluation.
-pub trait Numbers: Sized + Copy {
-    /// Activation (f32; i16).
-    type X: Copy + Default;
-    /// Normalised position or unit direction (`[f32; 3]`; `[i32; 3]` Q24).
-    type Pos: Copy + Default;
-    /// Raw density head output (f32; i32 Q10).
-    type Sigma: Copy + Default;
-    /// Colour; its default is black (`[f32; 3]` in `[0, 1]`; `[u16; 3]` Q15).
-    type Rgb: Copy + Default;
-    /// Accumulators kept beside the activations for `B` samples (none for
-    /// f32, which accumulates in place), and the per-ray start of the view
-    /// layer's sums.
-    type Acc<const B: usize>: Clone + Default;
-    /// Encodes each position (γ, then the feature grid's values) into the
-    /// same row of `enc`; returns the encoded width.
-    fn encode_rows(model: &Model<'_>, pos: &[Self::Pos], enc: &mut [[Self::X; ENC_MAX]]) -> usize;
-    /// γ of a unit direction into `out`; returns its width.
-    fn encode_dir(model: &Model<'_>, dir: Self::Pos, out: &mut [Self::X; ENC_MAX]) -> usize;
-}
-
-/// How a hidden layer ends.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Act {
-    /// ReLU.
-    Relu,
-    /// None (the feature layer), saturated to the activation's range.
-    Linear,
-}
-
-/// The inputs of a dense layer: the encoding (`enc`, its first `pd`
-/// values; trunk input and skip layers) and the previous layer's output.
-pub struct Inputs<'i, X, const N: usize> {
-    /// `(rows, width)` of the encoding, read by weight rows `0..width`.
-    pub enc: Option<(&'i [[X; ENC_MAX]], usize)>,
-    /// `(rows, width)` of the previous layer, read by the rows after the
-    /// encoding's.
-    pub prev: Option<(&'i [[X; N]], usize)>,
-}
-
-/// A dense layer's arithmetic in the numbers `N`: f32 weights for
-/// [`F32`]; int16 ([`W16`]) or int8 ([`W8`]) weights for [`Fixed`].
-pub trait LayerKernel<N: Numbers> {
-    /// `out[s] = act(start + Σ inputs[s] · W)` for the first `n` samples,
-    /// `start` being the bias, or with `view` the per-ray start that
-    /// [`LayerKernel::fold_view`] left in `acc`.
-    #[allow(clippy::too_many_arguments)]
-    fn dense<const B: usize>(
-        net: &Network<'_>,
-        l: &Layer<'_>,
-        view: bool,
-        inputs: Inputs<'_, N::X, MAX_WIDTH>,
-        n: usize,
-        acc: &mut N::Acc<B>,
-        out: &mut [[N::X; MAX_WIDTH]],
-        act: Act,
-    );
-    /// The density head on the trunk's first `w` outputs.
-    fn sigma_head<const B: usize>(
-        l: &Layer<'_>,
-        trunk: &[[N::X; MAX_WIDTH]],
-        w: usize,
-        n: usize,
-        acc: &mut N::Acc<B>,
-        sigma: &mut [N::Sigma; B],
-    );
-    /// The colour head (then the sigmoid) on the first `dim` values of `input`.
-    fn rgb_head<const B: usize>(
-        l: &Layer<'_>,
-        input: &[[N::X; MAX_WIDTH]],
-        dim: usize,
-        n: usize,
-        acc: &mut N::Acc<B>,
-        rgb: &mut [N::Rgb; B],
-    );
-    /// `view[c] = bias[c] + Σ_j dir[j] · W[w + j][c]` into `acc`: the
-    /// direction's part of the view layer `l` (the first `w` rows are the
-    /// feature layer's).
-    fn fold_view<const B: usize>(l: &Layer<'_>, dir: &[N::X; ENC_MAX], nd: usize, w: usize, acc: &mut N::Acc<B>);
-}
+use crate::format::{sigma_layer, Model, Network};
+use crate::limits::MAX_WIDTH;
 
 /// Per-block buffers of a network evaluation on `B` samples (f32: about
 /// `B` · 2.4 KiB + 1 KiB; fixed point: `B` · 4.7 KiB + 2 KiB).

@@ -15,7 +15,9 @@
 //! whose image file is missing are skipped and counted in the dataset's notes.
 
 use super::capture::{build, CaptureOptions, CaptureView, Intrinsics as CaptureIntrinsics, Selection};
-use super::{image_io::load_rgb, rigid_pose, DataError, Dataset, Lens, LoadOptions, Split, View};
+use super::image_io::load_rgb;
+use super::lens::Lens;
+use super::types::{rigid_pose, DataError, Dataset, LoadOptions, Split, View};
 use nerf_infer::camera::Camera;
 use nerf_infer::format::{CameraConvention, Scene};
 use serde::Deserialize;
@@ -154,7 +156,7 @@ fn load_frames(
             return Err(DataError::new(path, "neither camera_angle_x nor fl_x given"));
         }
         .map_err(|_| DataError::new(path, format!("{what}: invalid intrinsics")))?;
-        let name = super::stem(&img);
+        let name = super::types::stem(&img);
         views.push(View { name, camera, rgb, lens: Lens::Pinhole });
     }
     Ok(views)

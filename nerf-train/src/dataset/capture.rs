@@ -4,8 +4,10 @@
 //! the loaded size. Used by the COLMAP and instant-ngp loaders.
 
 use super::fit::{fit_scene, pose_rows, Pose, SceneKind};
+use super::image_io::load_rgb;
+use super::lens::Lens;
 use super::llff::{ndc_scene, ForwardFrame};
-use super::{capture_record, image_io::load_rgb, stem, DataError, Dataset, Lens, Split, View};
+use super::types::{capture_record, stem, DataError, Dataset, Split, View};
 use glam::DVec3;
 use nerf_infer::camera::Camera;
 use nerf_infer::format::Framing;

@@ -13,7 +13,8 @@
 
 use super::capture::{build, CaptureOptions, CaptureView, Intrinsics, Selection};
 use super::colmap_io::{find_model_dir, read_model, CameraModel, ColmapCamera, ColmapImage};
-use super::{DataError, Dataset, Lens, LoadOptions, Split};
+use super::lens::Lens;
+use super::types::{DataError, Dataset, LoadOptions, Split};
 use glam::{DMat3, DQuat, DVec3};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! orientation applied) with compositing and area downscaling, and PNG
 //! writing.
 
-use super::DataError;
+use super::types::DataError;
 use std::path::Path;
 
 /// Decodes the image at `path` (format from its content) upright: the

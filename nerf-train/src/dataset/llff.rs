@@ -7,7 +7,10 @@
 //! NDC (near plane 1), so `t ∈ [0, 1]` and the bounds are `[−1, 1]³`;
 //! every `holdout`-th image is a test/val view.
 
-use super::{capture_record, image_io::load_rgb, npy::read_npy_f64, stem, DataError, Dataset, Lens, Split, View};
+use super::image_io::load_rgb;
+use super::lens::Lens;
+use super::npy::read_npy_f64;
+use super::types::{capture_record, stem, DataError, Dataset, Split, View};
 use glam::{DMat3, DVec3};
 use nerf_infer::camera::Camera;
 use nerf_infer::format::{CameraConvention, Framing, Ndc, Scene};

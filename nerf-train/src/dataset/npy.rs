@@ -1,6 +1,6 @@
 //! Minimal NPY (NumPy array file) reading and writing for 2-D f64/f32 arrays.
 
-use super::DataError;
+use super::types::DataError;
 use std::path::Path;
 
 /// Reads a C-order 2-D `<f8` or `<f4` array; returns (rows, cols, values).

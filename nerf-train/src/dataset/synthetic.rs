@@ -6,7 +6,8 @@
 //! z, `-1` = background stored as 0) and as an LLFF dataset
 //! (`poses_bounds.npy` + `images/`, forward-facing, on black).
 
-use super::{npy::write_npy_f64, DataError};
+use super::npy::write_npy_f64;
+use super::types::DataError;
 use glam::{Vec3, Vec3A};
 use std::path::Path;
 
@@ -288,7 +289,7 @@ pub fn write_colmap(dir: &Path, spec: SceneSpec, format: ColmapText, with_room: 
     use super::colmap_io::{
         write_model_bin, write_model_txt, CameraModel, ColmapCamera, ColmapImage, ColmapPoint, Reconstruction,
     };
-    use super::Lens;
+    use super::lens::Lens;
     let img_dir = dir.join("images");
     let model_dir = dir.join("sparse").join("0");
     for d in [&img_dir, &model_dir] {

@@ -1,0 +1,232 @@
+//! The types every loader shares: the dataset, its views, the split, the
+//! loading options and the error, with the helpers loaders use.
+
+use super::fit::SceneKind;
+use super::lens::Lens;
+use nerf_infer::camera::Camera;
+use nerf_infer::format::{Capture, Framing, Scene};
+use std::path::{Path, PathBuf};
+
+/// A loading error: the file and what is wrong with it.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {msg}", path.display())]
+pub struct DataError {
+    /// The file (or directory) at fault.
+    pub path: PathBuf,
+    /// What is wrong, one line.
+    pub msg: String,
+}
+
+impl DataError {
+    /// An error about `path`.
+    pub fn new(path: impl AsRef<Path>, msg: impl Into<String>) -> Self {
+        Self { path: path.as_ref().to_path_buf(), msg: msg.into() }
+    }
+}
+
+/// Which part of a dataset to load.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Split {
+    /// Training views.
+    Train,
+    /// Validation views.
+    Val,
+    /// Test views.
+    Test,
+}
+
+impl Split {
+    /// The split's name as used in file names (`train`, `val`, `test`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Split::Train => "train",
+            Split::Val => "val",
+            Split::Test => "test",
+        }
+    }
+}
+
+/// Dataset layout on disk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// Detect from the files present.
+    Auto,
+    /// `transforms_{train,val,test}.json` with `camera_angle_x`.
+    Blender,
+    /// `poses_bounds.npy` + `images/`.
+    Llff,
+    /// COLMAP: `images/` + `sparse/0/` (or `sparse/`) with `cameras`,
+    /// `images`, `points3D` as `.bin` or `.txt`.
+    Colmap,
+    /// instant-ngp / nerfstudio `transforms.json` with `fl_x`, `cx`, ….
+    Ngp,
+}
+
+/// One posed image, linear in stored sRGB values, `[0, 1]`.
+#[derive(Clone, Debug)]
+pub struct View {
+    /// Image file stem, for reports.
+    pub name: String,
+    /// Camera at the loaded (downscaled) resolution.
+    pub camera: Camera,
+    /// Pixels row-major, `camera.width × camera.height`.
+    pub rgb: Vec<[f32; 3]>,
+    /// The photo's lens distortion ([`Lens::Pinhole`] for rendered data):
+    /// [`View::ray`] bends each pixel's ray by it.
+    pub lens: Lens,
+}
+
+impl View {
+    /// Origin and direction (camera-space `z = −1`, as [`Camera::ray`]) of
+    /// the ray through the centre of pixel `(x, y)` of the photo, through
+    /// the lens: the ray of the ideal pinhole point the lens moved there.
+    /// A pixel outside the lens model's invertible region keeps its pinhole ray.
+    pub fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3) {
+        let c = &self.camera;
+        if self.lens == Lens::Pinhole {
+            return c.ray(x, y);
+        }
+        let xd = (x as f64 + 0.5 - c.cx as f64) / c.fx as f64;
+        let yd = (y as f64 + 0.5 - c.cy as f64) / c.fy as f64;
+        let (ux, uy) = self.lens.undistort(xd, yd).unwrap_or((xd, yd));
+        // OpenCV's y points down, the camera's (OpenGL) y up
+        (c.position, c.rotation * glam::Vec3::new(ux as f32, -uy as f32, -1.0))
+    }
+}
+
+/// The views of one split and the scene they show.
+#[derive(Clone, Debug)]
+pub struct Dataset {
+    /// Bounds, near/far, background, NDC parameters.
+    pub scene: Scene,
+    /// The views.
+    pub views: Vec<View>,
+    /// Downscale factor applied when loading.
+    pub downscale: u32,
+    /// What the loader passed over, for the user (one line each): frames
+    /// whose images are missing, images the capture did not register.
+    pub notes: Vec<String>,
+    /// How a capture split by hold-out (LLFF, COLMAP, instant-ngp without
+    /// split files) was split and framed; `None` for datasets with split files.
+    pub capture: Option<Capture>,
+}
+
+/// The file stem of `path` (a view's name), lossily as UTF-8.
+pub fn stem(path: &Path) -> String {
+    path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// The record of a capture split by hold-out: every `holdout`-th of the
+/// views named `names` (capture order) is held out.
+pub fn capture_record(holdout: usize, names: &[String], framing: Framing, lens: bool) -> Capture {
+    let views = names.len() as u32;
+    let mut held_out = Vec::new();
+    for (i, n) in names.iter().enumerate() {
+        if i.is_multiple_of(holdout.max(1)) {
+            held_out.extend_from_slice(n.as_bytes());
+            held_out.push(b'\n');
+        }
+    }
+    Capture {
+        holdout: holdout.clamp(1, Capture::MAX_HOLDOUT as usize) as u32,
+        views,
+        held_out_crc: nerf_infer::format::crc32(&held_out),
+        framing,
+        lens,
+    }
+}
+
+impl Dataset {
+    /// Number of pixels over all views.
+    pub fn pixel_count(&self) -> usize {
+        self.views.iter().map(|v| v.rgb.len()).sum()
+    }
+
+    /// The fraction of pixels whose ray meets the scene's bounds within
+    /// near..far, estimated on at most 4096 pixels spread evenly over all views.
+    pub fn ray_hit_fraction(&self) -> f64 {
+        let total = self.pixel_count();
+        let step = (total / 4096).max(1);
+        let (mut tried, mut hit) = (0usize, 0usize);
+        let mut k = 0usize;
+        for v in &self.views {
+            let w = v.camera.width as usize;
+            while k < v.rgb.len() {
+                let (o, d) = v.ray((k % w) as u32, (k / w) as u32);
+                tried += 1;
+                hit += nerf_infer::Ray::new(&self.scene, o, d).is_some() as usize;
+                k += step;
+            }
+            k -= v.rgb.len();
+        }
+        hit as f64 / tried.max(1) as f64
+    }
+
+    /// Fails, saying why and what to try, if fewer than 1 % of the pixels'
+    /// rays meet the scene: training would see almost nothing.
+    pub fn check_rays(&self) -> Result<(), String> {
+        let f = self.ray_hit_fraction();
+        if f >= 0.01 {
+            return Ok(());
+        }
+        let s = &self.scene;
+        Err(format!(
+            "only {:.2} % of the training rays meet the scene box {:?}..{:?} within near {} .. far {}: \
+             the cameras look away from it or the bounds are wrong; check the poses, the aabb/near/far of the \
+             transforms file, or try --scene unbounded",
+            100.0 * f,
+            s.bounds_min,
+            s.bounds_max,
+            s.near,
+            s.far
+        ))
+    }
+}
+
+/// Options of [`load`].
+#[derive(Clone, Copy, Debug)]
+pub struct LoadOptions {
+    /// Layout (or auto-detect).
+    pub format: Format,
+    /// Integer downscale by area averaging (≥ 1).
+    pub downscale: u32,
+    /// LLFF / COLMAP / ngp hold-out: every `holdout`-th image is a test (and val) view.
+    pub holdout: usize,
+    /// Scene treatment of COLMAP and instant-ngp captures ([`SceneKind::Auto`]: fitted).
+    pub scene: SceneKind,
+    /// Bend rays by the photos' lens distortion (COLMAP, instant-ngp); false treats them as pinholes.
+    pub lens: bool,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self { format: Format::Auto, downscale: 1, holdout: 8, scene: SceneKind::Auto, lens: true }
+    }
+}
+
+/// Checks that a row-major 4×4 (or 3×4) pose is finite and rigid and turns
+/// it into a 3×4 camera-to-world matrix.
+pub fn rigid_pose(path: &Path, what: &str, m: &[Vec<f64>]) -> Result<[[f32; 4]; 3], DataError> {
+    if m.len() < 3 || m.iter().take(3).any(|r| r.len() != 4) {
+        return Err(DataError::new(path, format!("{what}: transform_matrix must be 4x4")));
+    }
+    let mut out = [[0f32; 4]; 3];
+    for r in 0..3 {
+        for c in 0..4 {
+            let v = m[r][c];
+            if !v.is_finite() {
+                return Err(DataError::new(path, format!("{what}: transform_matrix has a non-finite value")));
+            }
+            out[r][c] = v as f32;
+        }
+    }
+    let rot = glam::Mat3::from_cols(
+        glam::Vec3::new(out[0][0], out[1][0], out[2][0]),
+        glam::Vec3::new(out[0][1], out[1][1], out[2][1]),
+        glam::Vec3::new(out[0][2], out[1][2], out[2][2]),
+    );
+    if !nerf_infer::camera::is_rotation(&rot) {
+        return Err(DataError::new(path, format!("{what}: pose is not a rigid transform (rotation not orthonormal)")));
+    }
+    Ok(out)
+}
