@@ -54,9 +54,22 @@ pub const TILE_C: usize = 32;
 /// loop), so pruning at export keeps widths on this grain by default.
 pub const OUTPUT_TILE: usize = TILE_C;
 
-/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
-/// samples and the outputs `c ≥ c_start`, `W` being `weights` with `od`
-/// outputs per row.
+/// The input of a dense layer: `rows[s][..width]` for the first `n`
+/// samples, multiplied by the layer's weight rows `row0..row0 + width`.
+#[derive(Clone, Copy, Debug)]
+pub struct Input<'i, X, const N: usize> {
+    /// One row of values per sample.
+    pub rows: &'i [[X; N]],
+    /// The first weight row the values meet.
+    pub row0: usize,
+    /// Values per sample.
+    pub width: usize,
+    /// Samples.
+    pub n: usize,
+}
+
+/// `out[s][c] += Σ_j x.rows[s][j] · W[x.row0 + j][c]` for the first `x.n`
+/// samples and the outputs `c ≥ c_start` of layer `l`.
 ///
 /// Register-tiled: a tile of 4 samples × 32 outputs stays in registers
 /// while the inputs stream past, each weight row segment loaded once for 4
@@ -64,17 +77,14 @@ pub const OUTPUT_TILE: usize = TILE_C;
 /// output the sum runs over `j` in ascending order, so results do not depend
 /// on the tiling.
 #[inline]
-#[allow(clippy::too_many_arguments)]
 pub fn accumulate<M: Mac, const N: usize>(
-    weights: &[u8],
-    od: usize,
+    l: &Layer<'_>,
     c_start: usize,
-    row0: usize,
-    input: &[[M::X; N]],
-    in_dim: usize,
-    n: usize,
+    x: Input<'_, M::X, N>,
     out: &mut [[M::A; MAX_WIDTH]],
 ) {
+    let Input { rows: input, row0, width: in_dim, n } = x;
+    let (weights, od) = (l.weights, l.out_dim as usize);
     let zero = M::X::default();
     let mut s0 = 0;
     while s0 < n {

@@ -30,7 +30,7 @@ mod vnni;
 use crate::features::FeatureGrid;
 use crate::fixed::sin_turns_q15;
 use crate::format::{Layer, MAX_WIDTH};
-use crate::layer::{accumulate, requant_rows, IntWeight, MacInt, W16, W8};
+use crate::layer::{accumulate, requant_rows, Input, IntWeight, MacInt, W16, W8};
 
 /// Whether the AVX2 int8 kernels are built (and AVX-512 VNNI is not).
 const AVX2_ONLY: bool = cfg!(all(
@@ -46,20 +46,13 @@ pub trait IntKernel: IntWeight + Sized {
     /// than the portable tile (the colour head) faster than scalar dot
     /// products.
     const WIDE_TAKES_NARROW: bool = false;
-    /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
-    /// samples and every output of a layer at least
+    /// `acc[s][c] += Σ_j x.rows[s][j] · W[x.row0 + j][c]` for the first
+    /// `x.n` samples and every output of a layer at least
     /// [`crate::layer::TILE_C`] wide (or any width if
     /// [`IntKernel::WIDE_TAKES_NARROW`]); the portable kernel by default.
     #[inline]
-    fn accumulate_wide<const N: usize>(
-        l: &Layer<'_>,
-        row0: usize,
-        input: &[[i16; N]],
-        in_dim: usize,
-        n: usize,
-        acc: &mut [[Self::Acc; MAX_WIDTH]],
-    ) {
-        accumulate::<MacInt<Self>, N>(l.weights, l.out_dim as usize, 0, row0, input, in_dim, n, acc);
+    fn accumulate_wide<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[Self::Acc; MAX_WIDTH]]) {
+        accumulate::<MacInt<Self>, N>(l, 0, x, acc);
     }
     /// `out[s][c] = clamp(requantised acc[s][c], lo, hi)` for the first `n`
     /// samples and every output of `l`; the portable loop by default.
@@ -84,29 +77,21 @@ impl IntKernel for W16 {}
 impl IntKernel for W8 {
     const WIDE_TAKES_NARROW: bool = AVX2_ONLY;
     #[inline]
-    fn accumulate_wide<const N: usize>(
-        l: &Layer<'_>,
-        row0: usize,
-        input: &[[i16; N]],
-        in_dim: usize,
-        n: usize,
-        acc: &mut [[i32; MAX_WIDTH]],
-    ) {
-        let od = l.out_dim as usize;
+    fn accumulate_wide<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[i32; MAX_WIDTH]]) {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
         {
-            vnni::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc);
-            let done = od - od % crate::layer::TILE_C;
-            accumulate::<MacInt<W8>, N>(l.weights, od, done, row0, input, in_dim, n, acc);
+            vnni::accumulate_i8(l, x, acc);
+            let od = l.out_dim as usize;
+            accumulate::<MacInt<W8>, N>(l, od - od % crate::layer::TILE_C, x, acc);
         }
         #[cfg(all(
             target_arch = "x86_64",
             target_feature = "avx2",
             not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
         ))]
-        avx2::accumulate_i8(l.weights, od, row0, input, in_dim, n, acc);
+        avx2::accumulate_i8(l, x, acc);
         #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-        accumulate::<MacInt<W8>, N>(l.weights, od, 0, row0, input, in_dim, n, acc);
+        accumulate::<MacInt<W8>, N>(l, 0, x, acc);
     }
     #[inline]
     fn requant_rows(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], b: (i16, i16)) {

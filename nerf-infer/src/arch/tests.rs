@@ -9,7 +9,7 @@ use std::vec::Vec;
 use super::*;
 use crate::features::geometric_resolutions;
 use crate::fixed::{Requant, NPOS_FRAC};
-use crate::layer::{accumulate, requant_rows, MacInt};
+use crate::layer::{accumulate, requant_rows, Input, MacInt};
 
 /// `$test`: for every case of `$cases`, `$kernel(&case)` equals
 /// `$reference(&case)`.
@@ -105,20 +105,12 @@ fn layer_cases() -> Vec<LayerCase> {
     cases
 }
 
-/// Runs `kernel` on a fresh accumulator (every row starting at a marker).
-fn layer_with(c: &LayerCase, kernel: impl Fn(&LayerCase, &mut [[i32; MAX_WIDTH]])) -> Vec<[i32; MAX_WIDTH]> {
-    let mut acc = std::vec![[0x1234_5678 >> 8; MAX_WIDTH]; 8];
-    kernel(c, &mut acc);
-    acc
-}
-
-fn layer_reference(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
-    layer_with(c, |c, acc| {
-        accumulate::<MacInt<W8>, MAX_WIDTH>(&c.weights, c.od, 0, c.row0, &c.input, c.in_dim, c.n, acc)
-    })
-}
-
-fn layer_selected(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+/// Runs `kernel` on the case's layer and input, into a fresh accumulator
+/// (every row starting at a marker).
+fn layer_with(
+    c: &LayerCase,
+    kernel: impl Fn(&Layer<'_>, Input<'_, i16, MAX_WIDTH>, &mut [[i32; MAX_WIDTH]]),
+) -> Vec<[i32; MAX_WIDTH]> {
     let l = Layer {
         in_dim: (c.row0 + c.in_dim) as u16,
         out_dim: c.od as u16,
@@ -128,21 +120,31 @@ fn layer_selected(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
         scales: &[],
         requant: &[],
     };
-    layer_with(c, |c, acc| W8::accumulate_wide(&l, c.row0, &c.input, c.in_dim, c.n, acc))
+    let x = Input { rows: &c.input, row0: c.row0, width: c.in_dim, n: c.n };
+    let mut acc = std::vec![[0x1234_5678 >> 8; MAX_WIDTH]; 8];
+    kernel(&l, x, &mut acc);
+    acc
+}
+
+fn layer_reference(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+    layer_with(c, |l, x, acc| accumulate::<MacInt<W8>, MAX_WIDTH>(l, 0, x, acc))
+}
+
+fn layer_selected(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+    layer_with(c, W8::accumulate_wide)
 }
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 fn layer_avx2(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
-    layer_with(c, |c, acc| avx2::accumulate_i8(&c.weights, c.od, c.row0, &c.input, c.in_dim, c.n, acc))
+    layer_with(c, avx2::accumulate_i8)
 }
 
 /// VNNI takes the whole 32-wide tiles; the portable loop the rest.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
 fn layer_vnni(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
-    layer_with(c, |c, acc| {
-        vnni::accumulate_i8(&c.weights, c.od, c.row0, &c.input, c.in_dim, c.n, acc);
-        let done = c.od - c.od % crate::layer::TILE_C;
-        accumulate::<MacInt<W8>, MAX_WIDTH>(&c.weights, c.od, done, c.row0, &c.input, c.in_dim, c.n, acc)
+    layer_with(c, |l, x, acc| {
+        vnni::accumulate_i8(l, x, acc);
+        accumulate::<MacInt<W8>, MAX_WIDTH>(l, c.od - c.od % crate::layer::TILE_C, x, acc)
     })
 }
 

@@ -17,7 +17,8 @@
 
 use core::arch::x86_64::*;
 
-use crate::format::{MAX_INPUT, MAX_WIDTH};
+use crate::format::{Layer, MAX_INPUT, MAX_WIDTH};
+use crate::layer::Input;
 
 /// Samples per register tile: 8 samples × 32 outputs is 16 accumulator
 /// registers, leaving room for the weights.
@@ -58,34 +59,19 @@ fn row_i16(weights: &[u8], od: usize, j: usize, c0: usize) -> __m512i {
     _mm512_cvtepi8_epi16(unsafe { _mm256_loadu_si256(w.as_ptr().cast()) })
 }
 
-/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for the first `n`
-/// samples and the outputs `0..od − od % 32` (the caller finishes the rest),
-/// int8 weights `weights` with `od` outputs per row, i32 accumulators.
+/// `out[s][c] += Σ_j x.rows[s][j] · W[x.row0 + j][c]` for the first `x.n`
+/// samples and the outputs `0..od − od % 32` of `l`, an int8 layer with
+/// `od` outputs (the caller finishes the rest), i32 accumulators.
 #[inline]
-pub(crate) fn accumulate_i8<const N: usize>(
-    weights: &[u8],
-    od: usize,
-    row0: usize,
-    input: &[[i16; N]],
-    in_dim: usize,
-    n: usize,
-    out: &mut [[i32; MAX_WIDTH]],
-) {
+pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, out: &mut [[i32; MAX_WIDTH]]) {
     // SAFETY: this module is only compiled when the build enables
     // avx512f, avx512bw and avx512vnni for the whole crate.
-    unsafe { accumulate_i8_vnni(weights, od, row0, input, in_dim, n, out) }
+    unsafe { accumulate_i8_vnni(l.weights, l.out_dim as usize, x, out) }
 }
 
 #[target_feature(enable = "avx512f,avx512bw,avx512vnni")]
-fn accumulate_i8_vnni<const N: usize>(
-    weights: &[u8],
-    od: usize,
-    row0: usize,
-    input: &[[i16; N]],
-    in_dim: usize,
-    n: usize,
-    out: &mut [[i32; MAX_WIDTH]],
-) {
+fn accumulate_i8_vnni<const N: usize>(weights: &[u8], od: usize, x: Input<'_, i16, N>, out: &mut [[i32; MAX_WIDTH]]) {
+    let Input { rows: input, row0, width: in_dim, n } = x;
     // SAFETY: each row of PERM is exactly 64 bytes; unaligned loads.
     let perm = PERM.map(|row| unsafe { _mm512_loadu_si512(row.as_ptr().cast()) });
     // Per tile: the input pairs (2p, 2p + 1) that are non-zero for some

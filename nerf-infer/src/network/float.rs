@@ -4,7 +4,7 @@
 use super::contract::{Act, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
 use crate::encoding::encode_f32;
 use crate::format::{read_f32, Layer, Model, Network};
-use crate::layer::{accumulate, MacF32};
+use crate::layer::{accumulate, Input, MacF32};
 use crate::limits::MAX_WIDTH;
 
 /// The f32 path's per-ray start of the view layer's sums (it accumulates
@@ -55,18 +55,6 @@ fn init(start: impl Fn(usize) -> f32, out_dim: usize, n: usize, out: &mut [[f32;
     }
 }
 
-#[inline]
-fn accumulate_f32<const N: usize>(
-    l: &Layer<'_>,
-    row0: usize,
-    input: &[[f32; N]],
-    in_dim: usize,
-    n: usize,
-    out: &mut [[f32; MAX_WIDTH]],
-) {
-    accumulate::<MacF32, N>(l.weights, l.out_dim as usize, 0, row0, input, in_dim, n, out);
-}
-
 fn relu(out_dim: usize, n: usize, buf: &mut [[f32; MAX_WIDTH]]) {
     for row in buf[..n].iter_mut() {
         for y in row[..out_dim].iter_mut() {
@@ -104,11 +92,11 @@ impl LayerKernel<F32> for F32 {
         }
         let mut row0 = 0;
         if let Some((enc, pd)) = inputs.enc {
-            accumulate_f32(l, 0, enc, pd, n, out);
+            accumulate::<MacF32, ENC_MAX>(l, 0, Input { rows: enc, row0, width: pd, n }, out);
             row0 = pd;
         }
         if let Some((prev, w)) = inputs.prev {
-            accumulate_f32(l, row0, prev, w, n, out);
+            accumulate::<MacF32, MAX_WIDTH>(l, 0, Input { rows: prev, row0, width: w, n }, out);
         }
         if act == Act::Relu {
             relu(od, n, out);

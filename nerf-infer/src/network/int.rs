@@ -9,7 +9,7 @@ use crate::encoding::encode_fixed;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, sigmoid_q12_q15};
 use crate::format::{read_i32, Layer, Model, Network, Scheme};
-use crate::layer::TILE_C;
+use crate::layer::{Input, TILE_C};
 use crate::limits::MAX_WIDTH;
 
 /// The accumulators of a fixed-point block: i64 rows for int16 weights,
@@ -72,11 +72,11 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
         init_int::<W>(l, view.then_some(&*v), n, acc);
         let mut row0 = 0;
         if let Some((enc, pd)) = inputs.enc {
-            accumulate_int::<W, ENC_MAX>(l, 0, enc, pd, n, acc);
+            accumulate_int::<W, ENC_MAX>(l, Input { rows: enc, row0: 0, width: pd, n }, acc);
             row0 = pd;
         }
         if let Some((prev, w)) = inputs.prev {
-            accumulate_int::<W, MAX_WIDTH>(l, row0, prev, w, n, acc);
+            accumulate_int::<W, MAX_WIDTH>(l, Input { rows: prev, row0, width: w, n }, acc);
         }
         let bounds = match act {
             Act::Relu => relu_bounds(net),
@@ -95,7 +95,7 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
     ) {
         let acc = W::pick(&mut acc.a64, &mut acc.a32);
         init_int::<W>(l, None, n, acc);
-        accumulate_int::<W, MAX_WIDTH>(l, 0, trunk, w, n, acc);
+        accumulate_int::<W, MAX_WIDTH>(l, Input { rows: trunk, row0: 0, width: w, n }, acc);
         let r = l.requant(0);
         for s in 0..n {
             sigma[s] = sat_i32(r.apply(acc[s][0].into()));
@@ -112,7 +112,7 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
     ) {
         let acc = W::pick(&mut acc.a64, &mut acc.a32);
         init_int::<W>(l, None, n, acc);
-        accumulate_int::<W, MAX_WIDTH>(l, 0, input, dim, n, acc);
+        accumulate_int::<W, MAX_WIDTH>(l, Input { rows: input, row0: 0, width: dim, n }, acc);
         for c in 0..3 {
             let r = l.requant(c);
             for s in 0..n {
@@ -129,7 +129,7 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
             // built; kept off the Cortex-M for flash)
             let acc = W::pick(a64, a32);
             init_int::<W>(l, None, 1, acc);
-            accumulate_int::<W, ENC_MAX>(l, w, core::slice::from_ref(dir), nd, 1, acc);
+            accumulate_int::<W, ENC_MAX>(l, Input { rows: core::slice::from_ref(dir), row0: w, width: nd, n: 1 }, acc);
             for (v, &a) in view[..od].iter_mut().zip(&acc[0][..od]) {
                 *v = a.into();
             }
@@ -169,14 +169,8 @@ pub fn check_i8_headroom(net: &Network<'_>) -> Result<()> {
 
 /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` (integer weights, exact).
 #[inline]
-fn accumulate_int<W: IntKernel, const N: usize>(
-    l: &Layer<'_>,
-    row0: usize,
-    input: &[[i16; N]],
-    in_dim: usize,
-    n: usize,
-    acc: &mut [[W::Acc; MAX_WIDTH]],
-) {
+fn accumulate_int<W: IntKernel, const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[W::Acc; MAX_WIDTH]]) {
+    let Input { rows: input, row0, width: in_dim, n } = x;
     let od = l.out_dim as usize;
     // x86 only: on a Cortex-M the unrolled loop costs 6 KiB of flash for 1 %
     // fewer instructions
@@ -206,7 +200,7 @@ fn accumulate_int<W: IntKernel, const N: usize>(
         }
         return;
     }
-    W::accumulate_wide(l, row0, input, in_dim, n, acc);
+    W::accumulate_wide(l, x, acc);
 }
 
 /// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
@@ -283,7 +277,7 @@ mod tests {
                         }
                     }
                     let mut acc = [[W::Acc::default(); MAX_WIDTH]; 8];
-                    accumulate_int::<W, MAX_WIDTH>(&l, row0, &input, in_dim, n, &mut acc);
+                    accumulate_int::<W, MAX_WIDTH>(&l, Input { rows: &input, row0, width: in_dim, n }, &mut acc);
                     for s in 0..8 {
                         for c in 0..od {
                             let mut want = 0i64;

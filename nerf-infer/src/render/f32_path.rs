@@ -17,7 +17,6 @@ use crate::sampling::sample_pdf_f32;
 impl NumericPath for F32 {
     type T = f32;
     type W = f32;
-    type Delta = f32;
     type Cdf = f32;
     type Ray = Ray;
     type Compositor = CompositorF32;

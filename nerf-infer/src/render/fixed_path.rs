@@ -73,7 +73,6 @@ impl RayFixed {
 impl NumericPath for Fixed {
     type T = i32;
     type W = u32;
-    type Delta = i32;
     type Cdf = u64;
     type Ray = RayFixed;
     type Compositor = CompositorFixed;

@@ -130,7 +130,7 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
         // which samples are composited (the ray stops before the first one
         // met with transmittance below the threshold) and which of those
         // carry weight: only they need the colour branch
-        let mut delta = [P::Delta::default(); B];
+        let mut delta = [P::T::default(); B];
         let (mut probe, mut used, mut rows, mut n_rows) = (comp, 0, [0usize; B], 0);
         while used < len && probe.transmittance() >= r.early_stop {
             delta[used] = P::delta(ray, t, idx[used]);

@@ -20,18 +20,16 @@ use core::fmt::Debug;
 /// operations. Implemented by [`super::F32`] (f32 throughout) and
 /// [`super::Fixed`] (integers only after a per-ray setup).
 pub trait NumericPath: Numbers + Debug {
-    /// Ray parameter `t` (f32 world units; Q16).
+    /// Ray parameter `t` and interval length `δ` (f32 world units; Q16).
     type T: Copy + Default + PartialOrd + Debug;
     /// Compositing weight and transmittance (f32 in `[0, 1]`; Q30).
     type W: Copy + Default + PartialOrd + Debug;
-    /// Interval length `δ` (f32 world units; Q16).
-    type Delta: Copy + Default;
     /// Cumulative-distribution entry of importance sampling.
     type Cdf: Copy + Default;
     /// A ray in this path's formats.
     type Ray;
     /// Front-to-back accumulator of the quadrature.
-    type Compositor: Compositor<Self::T, Self::Sigma, Self::Delta, Self::Rgb, W = Self::W, Pixel = Self::Pixel>;
+    type Compositor: Compositor<Self::T, Self::Sigma, Self::T, Self::Rgb, W = Self::W, Pixel = Self::Pixel>;
     /// The rendered pixel.
     type Pixel: Copy + Default;
 
@@ -57,7 +55,7 @@ pub trait NumericPath: Numbers + Debug {
     fn run_len(coarse: &CoarseOccupancy, ray: &Self::Ray, t: &[Self::T]) -> usize;
     /// `δ` of sample `i` of `t`: to the next sample in world units, the
     /// infinite interval for the last one.
-    fn delta(ray: &Self::Ray, t: &[Self::T], i: usize) -> Self::Delta;
+    fn delta(ray: &Self::Ray, t: &[Self::T], i: usize) -> Self::T;
     /// The `out.len()` stratified samples of the ray, jittered by `key`.
     fn samples(ray: &Self::Ray, key: Option<u32>, out: &mut [Self::T]);
     /// Of the `n` stratified samples, the run that a pass over `span` needs

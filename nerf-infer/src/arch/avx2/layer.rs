@@ -15,6 +15,7 @@
 use core::arch::x86_64::*;
 
 use crate::format::{Layer, MAX_INPUT, MAX_WIDTH};
+use crate::layer::Input;
 
 /// Samples per register tile.
 const TILE_S: usize = 8;
@@ -55,18 +56,12 @@ fn pair_weights_tail(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, c0
     _mm256_cvtepi8_epi16(_mm_unpacklo_epi8(a, b))
 }
 
-/// `out[s][c] += Σ_j input[s][j] · W[row0 + j][c]` for `s < n` and every
-/// output `c < od`, `W` being int8 `weights` with `od` outputs per row.
+/// `out[s][c] += Σ_j x.rows[s][j] · W[x.row0 + j][c]` for `s < x.n` and
+/// every output `c` of `l`, an int8 layer.
 #[inline]
-pub(crate) fn accumulate_i8<const N: usize>(
-    weights: &[u8],
-    od: usize,
-    row0: usize,
-    input: &[[i16; N]],
-    in_dim: usize,
-    n: usize,
-    out: &mut [[i32; MAX_WIDTH]],
-) {
+pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, out: &mut [[i32; MAX_WIDTH]]) {
+    let Input { rows: input, row0, width: in_dim, n } = x;
+    let (weights, od) = (l.weights, l.out_dim as usize);
     // every weight the tiles read is in rows row0 .. row0 + in_dim
     assert!((row0 + in_dim) * od <= weights.len() && in_dim <= N);
     let mut live_p = [0u16; MAX_PAIRS];
