@@ -139,25 +139,20 @@ pub fn accumulate<M: Mac, const N: usize>(
     }
 }
 
-/// Integer weight element types of the fixed-point path.
-pub trait IntWeight {
-    /// Accumulator: i64 for int16 weights, i32 for int8 weights.
-    type Acc: Copy + Default + core::ops::AddAssign + Into<i64>;
-    /// Bytes per weight.
-    const BYTES: usize;
+/// Integer weight element types of the fixed-point path: a [`Mac`] on i16
+/// inputs and exact i32 products, whose accumulator holds exact sums (i64
+/// for int16 weights; i32 for int8 weights, overflow excluded when a
+/// renderer is made).
+pub trait IntWeight: Mac<X = i16, Wd = i32, A: core::ops::AddAssign + Into<i64>> {
     /// `a · w` in the accumulator type (`w` is the weight's bytes).
-    fn mul(a: i16, w: &[u8]) -> Self::Acc;
-    /// The weight stored in `b`, sign-extended.
-    fn decode(b: &[u8]) -> i32;
-    /// An exact i32 product in the accumulator type.
-    fn widen(p: i32) -> Self::Acc;
+    fn mul(a: i16, w: &[u8]) -> Self::A;
     /// A bias or partial sum (checked at load to fit the accumulator).
-    fn from_i64(b: i64) -> Self::Acc;
+    fn from_i64(b: i64) -> Self::A;
     /// Picks this type's accumulator buffer.
     fn pick<'a, const B: usize>(
         a64: &'a mut [[i64; MAX_WIDTH]; B],
         a32: &'a mut [[i32; MAX_WIDTH]; B],
-    ) -> &'a mut [[Self::Acc; MAX_WIDTH]; B];
+    ) -> &'a mut [[Self::A; MAX_WIDTH]; B];
 }
 
 /// int16 weights, i64 accumulation.
@@ -165,23 +160,28 @@ pub struct W16;
 /// int8 weights, i32 accumulation.
 pub struct W8;
 
-impl IntWeight for W16 {
-    type Acc = i64;
+impl Mac for W16 {
+    type X = i16;
+    type Wd = i32;
+    type A = i64;
     const BYTES: usize = 2;
+    #[inline(always)]
+    fn decode(b: &[u8]) -> i32 {
+        i16::from_le_bytes([b[0], b[1]]) as i32
+    }
+    #[inline(always)]
+    fn mac(acc: &mut i64, x: i16, w: i32) {
+        *acc += (x as i32 * w) as i64;
+    }
+}
+
+impl IntWeight for W16 {
     #[inline(always)]
     fn mul(a: i16, w: &[u8]) -> i64 {
         a as i64 * i16::from_le_bytes([w[0], w[1]]) as i64
     }
     fn from_i64(b: i64) -> i64 {
         b
-    }
-    #[inline(always)]
-    fn decode(b: &[u8]) -> i32 {
-        i16::from_le_bytes([b[0], b[1]]) as i32
-    }
-    #[inline(always)]
-    fn widen(p: i32) -> i64 {
-        p as i64
     }
     fn pick<'a, const B: usize>(
         a64: &'a mut [[i64; MAX_WIDTH]; B],
@@ -191,23 +191,28 @@ impl IntWeight for W16 {
     }
 }
 
-impl IntWeight for W8 {
-    type Acc = i32;
+impl Mac for W8 {
+    type X = i16;
+    type Wd = i32;
+    type A = i32;
     const BYTES: usize = 1;
+    #[inline(always)]
+    fn decode(b: &[u8]) -> i32 {
+        b[0] as i8 as i32
+    }
+    #[inline(always)]
+    fn mac(acc: &mut i32, x: i16, w: i32) {
+        *acc += x as i32 * w;
+    }
+}
+
+impl IntWeight for W8 {
     #[inline(always)]
     fn mul(a: i16, w: &[u8]) -> i32 {
         a as i32 * w[0] as i8 as i32
     }
     fn from_i64(b: i64) -> i32 {
         b as i32
-    }
-    #[inline(always)]
-    fn decode(b: &[u8]) -> i32 {
-        b[0] as i8 as i32
-    }
-    #[inline(always)]
-    fn widen(p: i32) -> i32 {
-        p
     }
     fn pick<'a, const B: usize>(
         _: &'a mut [[i64; MAX_WIDTH]; B],
@@ -217,31 +222,13 @@ impl IntWeight for W8 {
     }
 }
 
-/// The [`Mac`] of an integer weight type: i16 inputs, i32 products.
-pub struct MacInt<W>(core::marker::PhantomData<W>);
-
-impl<W: IntWeight> Mac for MacInt<W> {
-    type X = i16;
-    type Wd = i32;
-    type A = W::Acc;
-    const BYTES: usize = W::BYTES;
-    #[inline(always)]
-    fn decode(b: &[u8]) -> i32 {
-        W::decode(b)
-    }
-    #[inline(always)]
-    fn mac(acc: &mut W::Acc, x: i16, w: i32) {
-        *acc += W::widen(x as i32 * w);
-    }
-}
-
 /// `out[s][c] = clamp(requantised acc[s][c], lo, hi)` for the first `n`
 /// samples and every output of `l`: the portable requantiser.
 #[inline]
 pub fn requant_rows<W: IntWeight>(
     l: &Layer<'_>,
     n: usize,
-    acc: &[[W::Acc; MAX_WIDTH]],
+    acc: &[[W::A; MAX_WIDTH]],
     out: &mut [[i16; MAX_WIDTH]],
     (lo, hi): (i16, i16),
 ) {

@@ -30,7 +30,7 @@ mod vnni;
 use crate::features::FeatureGrid;
 use crate::fixed::sin_turns_q15;
 use crate::format::{Layer, MAX_WIDTH};
-use crate::layer::{accumulate, requant_rows, Input, IntWeight, MacInt, W16, W8};
+use crate::layer::{accumulate, requant_rows, Input, IntWeight, W16, W8};
 
 /// Whether the AVX2 int8 kernels are built (and AVX-512 VNNI is not).
 const AVX2_ONLY: bool = cfg!(all(
@@ -51,8 +51,8 @@ pub trait IntKernel: IntWeight + Sized {
     /// [`crate::layer::TILE_C`] wide (or any width if
     /// [`IntKernel::WIDE_TAKES_NARROW`]); the portable kernel by default.
     #[inline]
-    fn accumulate_wide<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[Self::Acc; MAX_WIDTH]]) {
-        accumulate::<MacInt<Self>, N>(l, 0, x, acc);
+    fn accumulate_wide<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[Self::A; MAX_WIDTH]]) {
+        accumulate::<Self, N>(l, 0, x, acc);
     }
     /// `out[s][c] = clamp(requantised acc[s][c], lo, hi)` for the first `n`
     /// samples and every output of `l`; the portable loop by default.
@@ -60,7 +60,7 @@ pub trait IntKernel: IntWeight + Sized {
     fn requant_rows(
         l: &Layer<'_>,
         n: usize,
-        acc: &[[Self::Acc; MAX_WIDTH]],
+        acc: &[[Self::A; MAX_WIDTH]],
         out: &mut [[i16; MAX_WIDTH]],
         bounds: (i16, i16),
     ) {
@@ -82,7 +82,7 @@ impl IntKernel for W8 {
         {
             vnni::accumulate_i8(l, x, acc);
             let od = l.out_dim as usize;
-            accumulate::<MacInt<W8>, N>(l, od - od % crate::layer::TILE_C, x, acc);
+            accumulate::<W8, N>(l, od - od % crate::layer::TILE_C, x, acc);
         }
         #[cfg(all(
             target_arch = "x86_64",
@@ -91,7 +91,7 @@ impl IntKernel for W8 {
         ))]
         avx2::accumulate_i8(l, x, acc);
         #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-        accumulate::<MacInt<W8>, N>(l, 0, x, acc);
+        accumulate::<W8, N>(l, 0, x, acc);
     }
     #[inline]
     fn requant_rows(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], b: (i16, i16)) {

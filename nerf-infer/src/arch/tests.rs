@@ -9,7 +9,7 @@ use std::vec::Vec;
 use super::*;
 use crate::features::geometric_resolutions;
 use crate::fixed::{Requant, NPOS_FRAC};
-use crate::layer::{accumulate, requant_rows, Input, MacInt};
+use crate::layer::{accumulate, requant_rows, Input};
 
 /// `$test`: for every case of `$cases`, `$kernel(&case)` equals
 /// `$reference(&case)`.
@@ -127,7 +127,7 @@ fn layer_with(
 }
 
 fn layer_reference(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
-    layer_with(c, |l, x, acc| accumulate::<MacInt<W8>, MAX_WIDTH>(l, 0, x, acc))
+    layer_with(c, |l, x, acc| accumulate::<W8, MAX_WIDTH>(l, 0, x, acc))
 }
 
 fn layer_selected(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
@@ -144,7 +144,7 @@ fn layer_avx2(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
 fn layer_vnni(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
     layer_with(c, |l, x, acc| {
         vnni::accumulate_i8(l, x, acc);
-        accumulate::<MacInt<W8>, MAX_WIDTH>(l, c.od - c.od % crate::layer::TILE_C, x, acc)
+        accumulate::<W8, MAX_WIDTH>(l, c.od - c.od % crate::layer::TILE_C, x, acc)
     })
 }
 

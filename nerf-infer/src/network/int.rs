@@ -136,7 +136,7 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
             return;
         }
         for c in 0..od {
-            let mut acc: W::Acc = W::from_i64(read_i32(l.bias, c) as i64);
+            let mut acc: W::A = W::from_i64(read_i32(l.bias, c) as i64);
             for (j, &a) in dir[..nd].iter().enumerate() {
                 let k = ((w + j) * od + c) * W::BYTES;
                 acc += W::mul(a, &l.weights[k..k + W::BYTES]);
@@ -169,7 +169,7 @@ pub fn check_i8_headroom(net: &Network<'_>) -> Result<()> {
 
 /// `acc[s][c] += Σ_j input[s][j] · W[row0 + j][c]` (integer weights, exact).
 #[inline]
-fn accumulate_int<W: IntKernel, const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[W::Acc; MAX_WIDTH]]) {
+fn accumulate_int<W: IntKernel, const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[W::A; MAX_WIDTH]]) {
     let Input { rows: input, row0, width: in_dim, n } = x;
     let od = l.out_dim as usize;
     // x86 only: on a Cortex-M the unrolled loop costs 6 KiB of flash for 1 %
@@ -178,7 +178,7 @@ fn accumulate_int<W: IntKernel, const N: usize>(l: &Layer<'_>, x: Input<'_, i16,
         // the density head: contiguous weights, a dot product that vectorises
         let w = &l.weights[row0 * W::BYTES..(row0 + in_dim) * W::BYTES];
         for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
-            let mut sum = W::Acc::default();
+            let mut sum = W::A::default();
             for (&x, w) in x[..in_dim].iter().zip(w.chunks_exact(W::BYTES)) {
                 sum += W::mul(x, w);
             }
@@ -190,7 +190,7 @@ fn accumulate_int<W: IntKernel, const N: usize>(l: &Layer<'_>, x: Input<'_, i16,
         // the colour head: one dot product per output
         for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
             for c in 0..od {
-                let mut sum = W::Acc::default();
+                let mut sum = W::A::default();
                 for j in 0..in_dim {
                     let k = ((row0 + j) * od + c) * W::BYTES;
                     sum += W::mul(x[j], &l.weights[k..k + W::BYTES]);
@@ -204,7 +204,7 @@ fn accumulate_int<W: IntKernel, const N: usize>(l: &Layer<'_>, x: Input<'_, i16,
 }
 
 /// `acc[s][c] = bias[c]`, or the per-ray view accumulator when given.
-fn init_int<W: IntKernel>(l: &Layer<'_>, view: Option<&[i64; MAX_WIDTH]>, n: usize, acc: &mut [[W::Acc; MAX_WIDTH]]) {
+fn init_int<W: IntKernel>(l: &Layer<'_>, view: Option<&[i64; MAX_WIDTH]>, n: usize, acc: &mut [[W::A; MAX_WIDTH]]) {
     let od = l.out_dim as usize;
     let Some((first, rest)) = acc[..n].split_first_mut() else {
         return;
@@ -276,7 +276,7 @@ mod tests {
                             *x = if next() % 2 == 0 { 0 } else { (next() % 4096) as i16 - 2048 };
                         }
                     }
-                    let mut acc = [[W::Acc::default(); MAX_WIDTH]; 8];
+                    let mut acc = [[W::A::default(); MAX_WIDTH]; 8];
                     accumulate_int::<W, MAX_WIDTH>(&l, Input { rows: &input, row0, width: in_dim, n }, &mut acc);
                     for s in 0..8 {
                         for c in 0..od {
