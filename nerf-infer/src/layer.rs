@@ -76,15 +76,30 @@ pub struct Input<'i, X, const N: usize> {
 /// samples. Inputs that are zero for the whole tile (ReLU) are skipped. Per
 /// output the sum runs over `j` in ascending order, so results do not depend
 /// on the tiling.
-#[inline]
+#[inline(always)]
 pub fn accumulate<M: Mac, const N: usize>(
     l: &Layer<'_>,
     c_start: usize,
     x: Input<'_, M::X, N>,
     out: &mut [[M::A; MAX_WIDTH]],
 ) {
-    let Input { rows: input, row0, width: in_dim, n } = x;
-    let (weights, od) = (l.weights, l.out_dim as usize);
+    tiles::<M, N>(l.weights, l.out_dim as usize, c_start, x.row0, x.rows, x.width, x.n, out);
+}
+
+/// [`accumulate`] on the layer's weight bytes with `od` outputs per row
+/// (the loop as the compiler sees it best: every operand a scalar).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn tiles<M: Mac, const N: usize>(
+    weights: &[u8],
+    od: usize,
+    c_start: usize,
+    row0: usize,
+    input: &[[M::X; N]],
+    in_dim: usize,
+    n: usize,
+    out: &mut [[M::A; MAX_WIDTH]],
+) {
     let zero = M::X::default();
     let mut s0 = 0;
     while s0 < n {
