@@ -183,7 +183,7 @@ impl Dataset {
     }
 }
 
-/// Options of [`load`].
+/// Options of [`load`](super::load).
 #[derive(Clone, Copy, Debug)]
 pub struct LoadOptions {
     /// Layout (or auto-detect).
