@@ -86,8 +86,7 @@ pub fn accumulate<M: Mac, const N: usize>(
     tiles::<M, N>(l.weights, l.out_dim as usize, c_start, x.row0, x.rows, x.width, x.n, out);
 }
 
-/// [`accumulate`] on the layer's weight bytes with `od` outputs per row
-/// (the loop as the compiler sees it best: every operand a scalar).
+/// [`accumulate`] on the layer's weight bytes with `od` outputs per row.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn tiles<M: Mac, const N: usize>(
