@@ -157,7 +157,7 @@ fn tiles<M: Mac, const N: usize>(
 /// inputs and exact i32 products, whose accumulator holds exact sums (i64
 /// for int16 weights; i32 for int8 weights, overflow excluded when a
 /// renderer is made).
-pub trait IntWeight: Mac<X = i16, Wd = i32, A: core::ops::AddAssign + Into<i64>> {
+pub trait IntWeight: Mac<X = i16, A: core::ops::AddAssign + Into<i64>> {
     /// `a · w` in the accumulator type (`w` is the weight's bytes).
     fn mul(a: i16, w: &[u8]) -> Self::A;
     /// A bias or partial sum (checked at load to fit the accumulator).
@@ -176,16 +176,23 @@ pub struct W8;
 
 impl Mac for W16 {
     type X = i16;
-    type Wd = i32;
+    type Wd = i16;
     type A = i64;
     const BYTES: usize = 2;
     #[inline(always)]
-    fn decode(b: &[u8]) -> i32 {
-        i16::from_le_bytes([b[0], b[1]]) as i32
+    fn decode(b: &[u8]) -> i16 {
+        i16::from_le_bytes([b[0], b[1]])
     }
     #[inline(always)]
-    fn mac(acc: &mut i64, x: i16, w: i32) {
-        *acc += (x as i32 * w) as i64;
+    fn mac(acc: &mut i64, x: i16, w: i16) {
+        // exact either way; the product's width picks the instruction:
+        // `smlalbb` (16 × 16 + 64) from the 32-bit product on DSP cores,
+        // `smlal` (32 × 32 + 64) from the 64-bit one elsewhere
+        if cfg!(arm_dsp) {
+            *acc += (x as i32 * w as i32) as i64;
+        } else {
+            *acc += x as i64 * w as i64;
+        }
     }
 }
 

@@ -284,7 +284,7 @@ mod tests {
                             if s < n {
                                 for j in 0..in_dim {
                                     let k = ((row0 + j) * od + c) * W::BYTES;
-                                    want += input[s][j] as i64 * W::decode(&weights[k..]) as i64;
+                                    want += input[s][j] as i64 * W::mul(1, &weights[k..]).into();
                                 }
                             }
                             assert_eq!(acc[s][c].into(), want, "in {in_dim} out {od} n {n} s {s} c {c}");
