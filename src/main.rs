@@ -43,6 +43,8 @@ enum Command {
     Tradeoff(cmd::tradeoff::Args),
     /// Describe a model file.
     Info(cmd::info::Args),
+    /// Extract the density surface as a coloured triangle mesh (PLY or OBJ); print its area, volume and closure.
+    Mesh(cmd::mesh::Args),
     /// Generate the built-in scene as Blender, LLFF and COLMAP datasets (and a 360° capture with a background).
     Scene(cmd::scene::Args),
     /// The whole path on the built-in scene in a few minutes.
@@ -74,6 +76,7 @@ fn dispatch(command: Command) -> cmd::CmdResult {
             cmd::info::run(a)
         }
         Command::Tradeoff(a) => cmd::tradeoff::run(a),
+        Command::Mesh(a) => cmd::mesh::run(a),
         Command::Fit(a) => cmd::fit::run(a),
         Command::Scene(a) => cmd::scene::run(a),
         Command::Demo(a) => cmd::demo::run(a),

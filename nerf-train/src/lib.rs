@@ -18,6 +18,7 @@ pub mod eval;
 pub mod export;
 pub mod gemm;
 pub mod grid;
+pub mod mesh;
 pub mod metrics;
 pub mod mlp;
 pub mod path;

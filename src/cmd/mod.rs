@@ -5,6 +5,7 @@ pub mod eval;
 pub mod export;
 pub mod fit;
 pub mod info;
+pub mod mesh;
 pub mod render;
 pub mod runlog;
 pub mod scene;

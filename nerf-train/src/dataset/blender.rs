@@ -157,7 +157,7 @@ fn load_frames(
         }
         .map_err(|_| DataError::new(path, format!("{what}: invalid intrinsics")))?;
         let name = super::types::stem(&img);
-        views.push(View { name, camera, rgb, lens: Lens::Pinhole });
+        views.push(View { name, file: img, camera, rgb, lens: Lens::Pinhole });
     }
     Ok(views)
 }

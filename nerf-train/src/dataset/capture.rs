@@ -127,7 +127,7 @@ pub fn build(
         let camera = Camera::new(w, h, fx as f32, fy as f32, cx as f32, cy as f32, c2w)
             .map_err(|_| DataError::new(&v.image, "invalid camera (intrinsics or pose)"))?;
         let lens = if opts.lens { v.lens } else { Lens::Pinhole };
-        views.push(View { name: stem(&v.image), camera, rgb, lens });
+        views.push(View { name: stem(&v.image), file: v.image.clone(), camera, rgb, lens });
     }
     if views.is_empty() {
         return Err(DataError::new(path, format!("no images in the {} split", opts.split.name())));

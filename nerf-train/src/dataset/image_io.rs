@@ -54,6 +54,28 @@ pub fn load_rgb(path: &Path, downscale: u32, white_bg: bool) -> Result<(u32, u32
     Ok((ow, oh, out))
 }
 
+/// Loads an image's alpha channel in `[0, 1]` (1 for an image without
+/// one), averaged over `n × n` blocks as [`load_rgb`] averages colour.
+/// Returns (width, height, alpha).
+pub fn load_alpha(path: &Path, downscale: u32) -> Result<(u32, u32, Vec<f32>), DataError> {
+    let img = read_upright(path)?.to_rgba32f();
+    let (w, h) = img.dimensions();
+    let n = downscale.max(1);
+    let (ow, oh) = (w / n, h / n);
+    if ow == 0 || oh == 0 {
+        return Err(DataError::new(path, format!("image {w}x{h} is smaller than the downscale factor {n}")));
+    }
+    let inv = 1.0 / (n * n) as f32;
+    let mut out = vec![0f32; (ow * oh) as usize];
+    for y in 0..oh {
+        for x in 0..ow {
+            let sum: f32 = (0..n * n).map(|k| img.get_pixel(x * n + k % n, y * n + k / n).0[3]).sum();
+            out[(y * ow + x) as usize] = sum * inv;
+        }
+    }
+    Ok((ow, oh, out))
+}
+
 /// Writes RGB in `[0, 1]` as an 8-bit PNG, atomically (temp file + rename).
 pub fn save_png_rgb(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<(), DataError> {
     let mut buf = image::RgbImage::new(width, height);

@@ -67,6 +67,8 @@ pub enum Format {
 pub struct View {
     /// Image file stem, for reports.
     pub name: String,
+    /// The image file the pixels were read from.
+    pub file: PathBuf,
     /// Camera at the loaded (downscaled) resolution.
     pub camera: Camera,
     /// Pixels row-major, `camera.width × camera.height`.

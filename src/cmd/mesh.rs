@@ -1,0 +1,126 @@
+//! `nerf mesh`: the model's density surface as a triangle mesh (PLY or
+//! OBJ) with vertex colours, its area, volume and closure, and optionally
+//! the agreement of its silhouette with a capture's alpha masks.
+
+use super::{decode, load_split, num_in, progress, read_model, refuse_same_file, with_threads, write_atomic};
+use super::{CaptureArgs, CmdResult, SplitArg};
+use nerf_train::dataset::load_alpha;
+use nerf_train::mesh::silhouette::{iou, silhouette};
+use nerf_train::mesh::{extract, sample_density, write, Mesh, MeshOptions, MeshStats};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `nerf mesh`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Model file (.nerf): f32, int16 or int8 (the mesh follows the network the renderer runs).
+    pub(crate) model: PathBuf,
+    /// Output mesh: `.ply` (binary) or `.obj` (text), by extension.
+    #[arg(long)]
+    pub(crate) out: PathBuf,
+    /// Lattice cells per axis over the scene's bounds; memory grows as its cube (256: 68 MB).
+    #[arg(long, default_value_t = 256, value_name = "2..=1024", value_parser = num_in(2usize, 1024))]
+    pub(crate) resolution: usize,
+    /// Density of the surface, per world unit (a ray crossing d world units of it loses 1 − exp(−σ·d) of its
+    /// light).
+    #[arg(long, default_value_t = 25.0, value_name = "σ > 0")]
+    pub(crate) threshold: f32,
+    /// No vertex colours (faster; the model's colour branch is not run).
+    #[arg(long)]
+    pub(crate) no_colours: bool,
+    /// Compare the mesh's silhouette with the alpha masks of this capture's views (RGBA images: Blender
+    /// layout): prints the intersection over union per view and its mean.
+    #[arg(long, value_name = "DATA")]
+    pub(crate) masks: Option<PathBuf>,
+    /// The split of --masks to compare with.
+    #[arg(long, value_enum, default_value_t = SplitArg::Test, requires = "masks")]
+    pub(crate) split: SplitArg,
+    #[command(flatten)]
+    pub(crate) capture: CaptureArgs,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
+    pub(crate) threads: usize,
+}
+
+/// What `nerf mesh` prints (one JSON object).
+#[derive(serde::Serialize)]
+struct Report {
+    mesh: PathBuf,
+    resolution: usize,
+    threshold: f32,
+    #[serde(flatten)]
+    stats: MeshStats,
+    closed: bool,
+    silhouette_iou: Option<f64>,
+    silhouette_iou_per_view: Option<Vec<f64>>,
+}
+
+enum Kind {
+    Ply,
+    Obj,
+}
+
+fn kind(out: &Path) -> Result<Kind, String> {
+    match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("ply") => Ok(Kind::Ply),
+        Some("obj") => Ok(Kind::Obj),
+        _ => Err(format!("--out {}: the file name must end in .ply or .obj", out.display())),
+    }
+}
+
+/// Runs `nerf mesh`.
+pub fn run(a: Args) -> CmdResult {
+    let kind = kind(&a.out)?;
+    refuse_same_file(&a.out, "--out", &a.model)?;
+    if !(a.threshold.is_finite() && a.threshold > 0.0) {
+        return Err(format!("--threshold {}: must be a positive density", a.threshold));
+    }
+    let bytes = read_model(&a.model)?;
+    let m = decode(&a.model, &bytes)?;
+    let opts = MeshOptions { resolution: a.resolution, threshold: a.threshold, colours: !a.no_colours };
+    let mesh = with_threads(a.threads, || -> Result<Mesh, String> {
+        let pb = progress(a.resolution as u64 + 1, "density {bar:40} {pos}/{len} planes {elapsed}/{eta}");
+        let density = sample_density(&m, a.resolution, &|_| pb.inc(1));
+        pb.finish_and_clear();
+        eprintln!("extracting the surface{}", if opts.colours { " and its colours" } else { "" });
+        extract(&m, &density, opts).map_err(|e| format!("{}: {e}", a.model.display()))
+    })??;
+    let stats = mesh.stats();
+    let file = match kind {
+        Kind::Ply => write::ply(&mesh),
+        Kind::Obj => write::obj(&mesh),
+    };
+    write_atomic(&a.out, &file)?;
+    let per_view = match &a.masks {
+        Some(dir) => Some(with_threads(a.threads, || compare(&mesh, dir, &a, &m))??),
+        None => None,
+    };
+    let report = Report {
+        mesh: a.out.clone(),
+        resolution: a.resolution,
+        threshold: a.threshold,
+        stats,
+        closed: stats.open_edges == 0,
+        silhouette_iou: per_view.as_ref().map(|v| v.iter().sum::<f64>() / v.len().max(1) as f64),
+        silhouette_iou_per_view: per_view,
+    };
+    println!("{}", serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?);
+    Ok(())
+}
+
+/// IoU of the mesh's silhouette with each view's alpha mask (alpha > ½).
+fn compare(mesh: &Mesh, dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Result<Vec<f64>, String> {
+    use rayon::prelude::*;
+    let capture = a.capture.clone().for_model(m, &a.model)?;
+    let data = load_split(dir, a.split.into(), capture.downscale_for(m), capture)?;
+    data.views
+        .par_iter()
+        .map(|v| {
+            let (w, h, alpha) = load_alpha(&v.file, data.downscale).map_err(|e| e.to_string())?;
+            if (w, h) != (v.camera.width, v.camera.height) {
+                return Err(format!("{}: alpha mask {w}x{h} but camera {}x{}", v.file.display(), v.camera.width, v.camera.height));
+            }
+            let mask: Vec<bool> = alpha.iter().map(|&x| x > 0.5).collect();
+            Ok(iou(&silhouette(mesh, &v.camera), &mask))
+        })
+        .collect()
+}
