@@ -45,6 +45,8 @@ enum Command {
     Info(cmd::info::Args),
     /// Extract the density surface as a coloured triangle mesh (PLY or OBJ); print its area, volume and closure.
     Mesh(cmd::mesh::Args),
+    /// Write a static web page that renders the model in the browser (WebAssembly), with orbit, zoom and timing.
+    Web(cmd::web::Args),
     /// Generate the built-in scene as Blender, LLFF and COLMAP datasets (and a 360° capture with a background).
     Scene(cmd::scene::Args),
     /// The whole path on the built-in scene in a few minutes.
@@ -77,6 +79,7 @@ fn dispatch(command: Command) -> cmd::CmdResult {
         }
         Command::Tradeoff(a) => cmd::tradeoff::run(a),
         Command::Mesh(a) => cmd::mesh::run(a),
+        Command::Web(a) => cmd::web::run(a),
         Command::Fit(a) => cmd::fit::run(a),
         Command::Scene(a) => cmd::scene::run(a),
         Command::Demo(a) => cmd::demo::run(a),

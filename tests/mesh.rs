@@ -135,7 +135,12 @@ fn mesh_files_hold_what_their_headers_say() {
     let obj = String::from_utf8(write::obj(&mesh)).unwrap();
     assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), nv);
     assert_eq!(obj.lines().filter(|l| l.starts_with("f ")).count(), nf);
-    let max_index = obj.lines().filter(|l| l.starts_with("f ")).flat_map(|l| l[2..].split(' ')).map(|t| t.parse::<usize>().unwrap()).max();
+    let max_index = obj
+        .lines()
+        .filter(|l| l.starts_with("f "))
+        .flat_map(|l| l[2..].split(' '))
+        .map(|t| t.parse::<usize>().unwrap())
+        .max();
     assert_eq!(max_index, Some(nv), "1-based indices up to the vertex count");
 }
 

@@ -23,6 +23,14 @@ pub struct Pixel {
     pub depth: f32,
 }
 
+/// A colour value in `[0, 1]` as an 8-bit value: clamped, then rounded
+/// half up (`⌊255·v + ½⌋`); NaN gives 0. What image files and the browser
+/// viewer store.
+#[inline]
+pub fn to_u8(v: f32) -> u8 {
+    (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+}
+
 /// A rendered pixel from the fixed-point path.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PixelFixed {

@@ -149,39 +149,66 @@ pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::S
     out
 }
 
-/// A camera on a path around the scene, `turn` (fraction of the path)
-/// along it. Scenes seen from all around (Blender, fitted captures, whose
-/// up is +z): at 30° elevation on a circle around the bounds' centre at
-/// the middle of the near..far range (unbounded scenes, whose bounds hold
-/// the cameras: at 0.45 of the bounds' smaller horizontal extent), looking
-/// at the centre, field of view
-/// 0.69 rad as lego's. Forward-facing (NDC) scenes: a small circle in the
-/// image plane of the capture's average pose, looking down −z with the
-/// capture's field of view (LLFF's spiral without the depth motion).
-pub fn orbit_camera(scene: &Scene, turn: f32, width: u32, height: u32) -> nerf_infer::Camera {
-    let az = turn * std::f32::consts::TAU;
+/// The path [`orbit_camera`] follows around a scene.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Orbit {
+    /// `circle`: around `centre` at `elevation`, looking at it, up +z;
+    /// `spiral` (forward-facing scenes): the camera at
+    /// `(radius·cos a, ½·radius·sin a, 0)` looking down −z.
+    pub kind: &'static str,
+    /// The point looked at, world units.
+    pub centre: [f32; 3],
+    /// Distance from the centre (circle) or the spiral's radius, world units.
+    pub radius: f32,
+    /// Elevation above the xy plane, radians.
+    pub elevation: f32,
+    /// Horizontal field of view, radians.
+    pub fov_x: f32,
+}
+
+/// The orbit of `scene`. Scenes seen from all around (Blender, fitted
+/// captures, whose up is +z): at 30° elevation on a circle around the
+/// bounds' centre at the middle of the near..far range (unbounded scenes,
+/// whose bounds hold the cameras: at 0.45 of the bounds' smaller
+/// horizontal extent), looking at the centre, field of view 0.69 rad as
+/// lego's. Forward-facing (NDC) scenes: a small circle in the image plane
+/// of the capture's average pose, looking down −z with the capture's
+/// field of view (LLFF's spiral without the depth motion).
+pub fn orbit(scene: &Scene) -> Orbit {
     if let Some(n) = scene.ndc {
         // the capture is normalised so its nearest depth is 1/0.75: move by a tenth of it
-        let r = 0.1;
-        let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
-        let fov = 2.0 * (0.5 * n.width / n.focal).atan();
-        return nerf_infer::Camera::from_fov(width, height, fov, m).expect("spiral camera is rigid");
+        let fov_x = 2.0 * (0.5 * n.width / n.focal).atan();
+        return Orbit { kind: "spiral", centre: [0.0; 3], radius: 0.1, elevation: 0.0, fov_x };
     }
     let lo = glam::Vec3::from(scene.bounds_min);
     let hi = glam::Vec3::from(scene.bounds_max);
-    let centre = 0.5 * (lo + hi);
     // an unbounded scene's bounds hold the capture's cameras: orbit inside them
     let radius = match scene.unbounded {
         Some(_) => 0.45 * (hi - lo).x.min((hi - lo).y),
         None => 0.5 * (scene.near + scene.far),
     };
-    let el = 30f32.to_radians();
-    let eye = centre + radius * glam::Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+    let centre = (0.5 * (lo + hi)).to_array();
+    Orbit { kind: "circle", centre, radius, elevation: 30f32.to_radians(), fov_x: 0.691_111_2 }
+}
+
+/// A camera on the scene's [`orbit`], `turn` (fraction of the path)
+/// along it, `width × height` pixels.
+pub fn orbit_camera(scene: &Scene, turn: f32, width: u32, height: u32) -> nerf_infer::Camera {
+    let az = turn * std::f32::consts::TAU;
+    let o = orbit(scene);
+    if scene.ndc.is_some() {
+        let r = o.radius;
+        let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
+        return nerf_infer::Camera::from_fov(width, height, o.fov_x, m).expect("spiral camera is rigid");
+    }
+    let centre = glam::Vec3::from(o.centre);
+    let el = o.elevation;
+    let eye = centre + o.radius * glam::Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
     let mut m = crate::dataset::synthetic::look_at(eye - centre);
     for (r, c) in m.iter_mut().zip(eye.to_array()) {
         r[3] = c;
     }
-    nerf_infer::Camera::from_fov(width, height, 0.691_111_2, m).expect("orbit camera is rigid")
+    nerf_infer::Camera::from_fov(width, height, o.fov_x, m).expect("orbit camera is rigid")
 }
 
 #[cfg(test)]

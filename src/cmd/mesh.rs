@@ -110,14 +110,19 @@ pub fn run(a: Args) -> CmdResult {
 /// IoU of the mesh's silhouette with each view's alpha mask (alpha > ½).
 fn compare(mesh: &Mesh, dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Result<Vec<f64>, String> {
     use rayon::prelude::*;
-    let capture = a.capture.clone().for_model(m, &a.model)?;
+    let capture = a.capture.for_model(m, &a.model)?;
     let data = load_split(dir, a.split.into(), capture.downscale_for(m), capture)?;
     data.views
         .par_iter()
         .map(|v| {
             let (w, h, alpha) = load_alpha(&v.file, data.downscale).map_err(|e| e.to_string())?;
             if (w, h) != (v.camera.width, v.camera.height) {
-                return Err(format!("{}: alpha mask {w}x{h} but camera {}x{}", v.file.display(), v.camera.width, v.camera.height));
+                return Err(format!(
+                    "{}: alpha mask {w}x{h} but camera {}x{}",
+                    v.file.display(),
+                    v.camera.width,
+                    v.camera.height
+                ));
             }
             let mask: Vec<bool> = alpha.iter().map(|&x| x > 0.5).collect();
             Ok(iou(&silhouette(mesh, &v.camera), &mask))

@@ -11,6 +11,7 @@ pub mod runlog;
 pub mod scene;
 pub mod tradeoff;
 pub mod train;
+pub mod web;
 
 use nerf_infer::format::Framing;
 use nerf_train::dataset::{self, Dataset, Format, LoadOptions, SceneKind, Split};

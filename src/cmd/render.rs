@@ -187,7 +187,7 @@ const MAX_GIF_BYTES: u64 = 4_000_000_000;
 fn gif_frame(r: &Rendered) -> image::RgbaImage {
     let mut img = image::RgbaImage::new(r.width, r.height);
     for (p, c) in img.pixels_mut().zip(&r.rgb) {
-        let q = c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+        let q = c.map(nerf_infer::composite::to_u8);
         p.0 = [q[0], q[1], q[2], 255];
     }
     img

@@ -80,7 +80,7 @@ pub fn load_alpha(path: &Path, downscale: u32) -> Result<(u32, u32, Vec<f32>), D
 pub fn save_png_rgb(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<(), DataError> {
     let mut buf = image::RgbImage::new(width, height);
     for (p, c) in buf.pixels_mut().zip(rgb) {
-        p.0 = c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+        p.0 = c.map(nerf_infer::composite::to_u8);
     }
     crate::atomic::write_png(path, &buf).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
 }

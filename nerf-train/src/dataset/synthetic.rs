@@ -156,7 +156,7 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> DataError + '_ {
 fn save_rgba(path: &Path, w: u32, h: u32, px: &[[f32; 4]]) -> Result<(), DataError> {
     let mut img = image::RgbaImage::new(w, h);
     for (p, c) in img.pixels_mut().zip(px) {
-        p.0 = c.map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+        p.0 = c.map(nerf_infer::composite::to_u8);
     }
     crate::atomic::write_png(path, &img).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
 }
@@ -343,7 +343,7 @@ pub fn write_colmap(dir: &Path, spec: SceneSpec, format: ColmapText, with_room: 
                     None => Vec3::ZERO,
                 };
             }
-            p.0 = (acc / 4.0).to_array().map(|v| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+            p.0 = (acc / 4.0).to_array().map(nerf_infer::composite::to_u8);
         }
         let name = format!("img_{k:03}.jpg");
         let path = img_dir.join(&name);

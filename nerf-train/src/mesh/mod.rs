@@ -186,7 +186,7 @@ fn vertex_colours(m: &Model<'_>, mesh: &Mesh) -> Vec<[u8; 3]> {
         .map(|(p, nrm)| {
             let u = core::array::from_fn(|k| (2.0 * p[k] - lo[k] - hi[k]) / (hi[k] - lo[k]));
             let dir = if *nrm == [0.0; 3] { [0.0, 0.0, -1.0] } else { nrm.map(|c| -c) };
-            density::colour(m, u, dir).map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)
+            density::colour(m, u, dir).map(nerf_infer::composite::to_u8)
         })
         .collect()
 }
@@ -202,7 +202,11 @@ impl Mesh {
             let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
             let c = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
             area += 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-            let q = [p[1][1] * p[2][2] - p[1][2] * p[2][1], p[1][2] * p[2][0] - p[1][0] * p[2][2], p[1][0] * p[2][1] - p[1][1] * p[2][0]];
+            let q = [
+                p[1][1] * p[2][2] - p[1][2] * p[2][1],
+                p[1][2] * p[2][0] - p[1][0] * p[2][2],
+                p[1][0] * p[2][1] - p[1][1] * p[2][0],
+            ];
             volume += (p[0][0] * q[0] + p[0][1] * q[1] + p[0][2] * q[2]) / 6.0;
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);

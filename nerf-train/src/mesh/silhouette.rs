@@ -39,7 +39,8 @@ pub fn silhouette(mesh: &Mesh, camera: &Camera) -> Vec<bool> {
             for x in x0..=x1 as usize {
                 let p = [x as f32 + 0.5, y as f32 + 0.5];
                 let (e0, e1, e2) = (edge_fn(b, c, p), edge_fn(c, a, p), edge_fn(a, b, p));
-                let inside = if area > 0.0 { e0 >= 0.0 && e1 >= 0.0 && e2 >= 0.0 } else { e0 <= 0.0 && e1 <= 0.0 && e2 <= 0.0 };
+                let inside =
+                    if area > 0.0 { e0 >= 0.0 && e1 >= 0.0 && e2 >= 0.0 } else { e0 <= 0.0 && e1 <= 0.0 && e2 <= 0.0 };
                 cover[y * w + x] |= inside;
             }
         }

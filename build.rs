@@ -1,0 +1,47 @@
+//! Builds the browser viewer's WebAssembly module (`nerf-web` for
+//! `wasm32-unknown-unknown`, release, stripped) so that `nerf web` can
+//! write it next to the page. Without that target installed, the `nerf`
+//! binary is built without the viewer and `nerf web` says how to add it.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn main() {
+    println!("cargo::rustc-check-cfg=cfg(web_viewer)");
+    for p in ["nerf-web/src", "nerf-web/Cargo.toml", "nerf-infer/src", "nerf-infer/Cargo.toml", "nerf-infer/build.rs"] {
+        println!("cargo::rerun-if-changed={p}");
+    }
+    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let cargo = std::env::var_os("CARGO").expect("cargo sets CARGO");
+    let rustc = std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
+    let sysroot = Command::new(&rustc).args(["--print", "sysroot"]).output().ok();
+    let installed = sysroot
+        .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()))
+        .is_some_and(|s| s.join("lib/rustlib/wasm32-unknown-unknown").is_dir());
+    if !installed {
+        println!(
+            "cargo::warning=the wasm32-unknown-unknown target is not installed: `nerf web` is left out \
+             (rustup target add wasm32-unknown-unknown, then rebuild)"
+        );
+        return;
+    }
+    let target_dir = out.join("web");
+    let mut cmd = Command::new(cargo);
+    cmd.args(["build", "--release", "--quiet", "-p", "nerf-web", "--target", "wasm32-unknown-unknown"])
+        .arg("--target-dir")
+        .arg(&target_dir)
+        .env("CARGO_PROFILE_RELEASE_DEBUG", "false")
+        .env("CARGO_PROFILE_RELEASE_STRIP", "true")
+        .env("CARGO_PROFILE_RELEASE_CODEGEN_UNITS", "1");
+    // the host build's flags (target-cpu=native, a linter as rustc wrapper) are not the module's
+    for v in
+        ["RUSTFLAGS", "CARGO_ENCODED_RUSTFLAGS", "RUSTC_WORKSPACE_WRAPPER", "CARGO_TARGET_DIR", "CARGO_BUILD_TARGET"]
+    {
+        cmd.env_remove(v);
+    }
+    let status = cmd.status().expect("run cargo for the WebAssembly module");
+    assert!(status.success(), "building nerf-web for wasm32-unknown-unknown failed");
+    let wasm = target_dir.join("wasm32-unknown-unknown/release/nerf_web.wasm");
+    std::fs::copy(&wasm, out.join("nerf_web.wasm")).expect("copy the WebAssembly module");
+    println!("cargo::rustc-cfg=web_viewer");
+}
