@@ -9,7 +9,7 @@ use nerf_infer::{Model, RenderOptions};
 use nerf_train::eval::render_view;
 use nerf_train::export::{quantise, random_model, OwnedModel};
 use nerf_train::mesh::silhouette::{iou, silhouette};
-use nerf_train::mesh::{extract, sample_density, write, MeshOptions};
+use nerf_train::mesh::{extract, sample_density, write, Mesh, MeshOptions};
 use nerf_train::path::orbit_camera;
 use support::cli::{fails, ok, s, tmp};
 use support::{small_config, unit_scene};
@@ -164,4 +164,47 @@ fn the_command_writes_the_mesh_and_refuses_what_it_cannot_do() {
     assert!(e.contains("is the input file"), "{e}");
     let e = fails(&["mesh", s(&model), "--out", s(&out), "--resolution", "1"]);
     assert!(e.contains("--resolution"), "{e}");
+}
+
+/// A closed tetrahedron (4 triangles) and a closed octahedron (8), apart.
+fn two_pieces() -> Mesh {
+    let mut m = Mesh::default();
+    let tet = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    m.positions.extend(tet.map(|p: [f32; 3]| [p[0] + 5.0, p[1], p[2]]));
+    m.triangles.extend([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
+    let o = 4;
+    m.positions.extend([
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ]);
+    for (a, b) in [(0, 2), (2, 1), (1, 3), (3, 0)] {
+        m.triangles.push([o + a, o + b, o + 4]);
+        m.triangles.push([o + b, o + a, o + 5]);
+    }
+    m.colours = (0..m.positions.len()).map(|i| [i as u8; 3]).collect();
+    m
+}
+
+#[test]
+fn small_pieces_are_dropped_whole() {
+    let m = two_pieces();
+    let st = m.stats();
+    assert_eq!((st.triangles, st.open_edges), (12, 0));
+    assert!((st.volume - (1.0 / 6.0 + 4.0 / 3.0)).abs() < 1e-6, "both outward: {}", st.volume);
+    let mut keep = m.clone();
+    assert_eq!(keep.drop_small_pieces(0.5), 0, "4 ≥ 0.5 · 8");
+    assert_eq!(keep.triangles, m.triangles);
+    let mut big = m.clone();
+    assert_eq!(big.drop_small_pieces(0.6), 1, "4 < 0.6 · 8");
+    let st = big.stats();
+    assert_eq!((st.vertices, st.triangles, st.open_edges), (6, 8, 0));
+    assert!((st.volume - 4.0 / 3.0).abs() < 1e-6);
+    // the octahedron's vertices keep their colours
+    let mut colours = big.colours.clone();
+    colours.sort();
+    assert_eq!(colours, (4..10).map(|i| [i as u8; 3]).collect::<Vec<_>>());
 }

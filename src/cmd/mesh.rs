@@ -24,6 +24,10 @@ pub struct Args {
     /// light).
     #[arg(long, default_value_t = 25.0, value_name = "σ > 0")]
     pub(crate) threshold: f32,
+    /// Keep only the connected pieces with at least this fraction of the largest piece's triangles (0 keeps
+    /// everything, 1 the largest piece): drops density the training left floating in empty space.
+    #[arg(long, default_value_t = 0.1, value_name = "0..=1", value_parser = num_in(0.0f64, 1.0))]
+    pub(crate) min_piece: f64,
     /// No vertex colours (faster; the model's colour branch is not run).
     #[arg(long)]
     pub(crate) no_colours: bool,
@@ -50,6 +54,7 @@ struct Report {
     #[serde(flatten)]
     stats: MeshStats,
     closed: bool,
+    pieces_dropped: usize,
     silhouette_iou: Option<f64>,
     silhouette_iou_per_view: Option<Vec<f64>>,
 }
@@ -77,12 +82,14 @@ pub fn run(a: Args) -> CmdResult {
     let bytes = read_model(&a.model)?;
     let m = decode(&a.model, &bytes)?;
     let opts = MeshOptions { resolution: a.resolution, threshold: a.threshold, colours: !a.no_colours };
-    let mesh = with_threads(a.threads, || -> Result<Mesh, String> {
+    let (mesh, dropped) = with_threads(a.threads, || -> Result<(Mesh, usize), String> {
         let pb = progress(a.resolution as u64 + 1, "density {bar:40} {pos}/{len} planes {elapsed}/{eta}");
         let density = sample_density(&m, a.resolution, &|_| pb.inc(1));
         pb.finish_and_clear();
         eprintln!("extracting the surface{}", if opts.colours { " and its colours" } else { "" });
-        extract(&m, &density, opts).map_err(|e| format!("{}: {e}", a.model.display()))
+        let mut mesh = extract(&m, &density, opts).map_err(|e| format!("{}: {e}", a.model.display()))?;
+        let dropped = mesh.drop_small_pieces(a.min_piece);
+        Ok((mesh, dropped))
     })??;
     let stats = mesh.stats();
     let file = match kind {
@@ -100,6 +107,7 @@ pub fn run(a: Args) -> CmdResult {
         threshold: a.threshold,
         stats,
         closed: stats.open_edges == 0,
+        pieces_dropped: dropped,
         silhouette_iou: per_view.as_ref().map(|v| v.iter().sum::<f64>() / v.len().max(1) as f64),
         silhouette_iou_per_view: per_view,
     };

@@ -191,7 +191,65 @@ fn vertex_colours(m: &Model<'_>, mesh: &Mesh) -> Vec<[u8; 3]> {
         .collect()
 }
 
+/// Root of `i` in the union-find forest `parent`, halving the path.
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let up = parent[parent[i as usize] as usize];
+        parent[i as usize] = up;
+        i = up;
+    }
+    i
+}
+
 impl Mesh {
+    /// Drops the connected pieces (triangles joined through shared
+    /// vertices) with fewer than `min_fraction` of the largest piece's
+    /// triangles: density the training left floating in empty space.
+    /// Whole pieces go, so a closed mesh stays closed. Returns the pieces
+    /// dropped.
+    pub fn drop_small_pieces(&mut self, min_fraction: f64) -> usize {
+        let mut parent: Vec<u32> = (0..self.positions.len() as u32).collect();
+        for t in &self.triangles {
+            let a = find(&mut parent, t[0]);
+            for &v in &t[1..] {
+                let b = find(&mut parent, v);
+                if a != b {
+                    parent[b as usize] = a;
+                }
+            }
+        }
+        let mut count: HashMap<u32, usize> = HashMap::new();
+        let roots: Vec<u32> = self.triangles.iter().map(|t| find(&mut parent, t[0])).collect();
+        for &r in &roots {
+            *count.entry(r).or_insert(0) += 1;
+        }
+        let largest = count.values().copied().max().unwrap_or(0);
+        let keep = |r: &u32| count[r] as f64 >= min_fraction * largest as f64;
+        let dropped = count.keys().filter(|r| !keep(r)).count();
+        if dropped == 0 {
+            return 0;
+        }
+        let mut new_index = vec![u32::MAX; self.positions.len()];
+        let (mut positions, mut colours, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
+        for (t, r) in self.triangles.iter().zip(&roots) {
+            if !keep(r) {
+                continue;
+            }
+            triangles.push(t.map(|v| {
+                if new_index[v as usize] == u32::MAX {
+                    new_index[v as usize] = positions.len() as u32;
+                    positions.push(self.positions[v as usize]);
+                    if let Some(c) = self.colours.get(v as usize) {
+                        colours.push(*c);
+                    }
+                }
+                new_index[v as usize]
+            }));
+        }
+        (self.positions, self.colours, self.triangles) = (positions, colours, triangles);
+        dropped
+    }
+
     /// Area, volume and open edges.
     pub fn stats(&self) -> MeshStats {
         let (mut area, mut volume) = (0f64, 0f64);
