@@ -10,7 +10,8 @@
 //!
 //! Calls, in order: [`nerf_alloc`] a buffer for the model file and write
 //! it there; [`nerf_load`] it; write the camera into [`nerf_camera_ptr`]
-//! and [`nerf_set_camera`]; [`nerf_render`] rectangles. A call that fails
+//! and [`nerf_set_camera`]; [`nerf_render`] rectangles
+//! ([`nerf_set_early_stop`] trades exactness for speed). A call that fails
 //! returns 0 (or a null pointer) and leaves a message at
 //! [`nerf_error_ptr`] / [`nerf_error_len`].
 
@@ -27,6 +28,7 @@ enum Active {
 /// Everything the module holds between calls.
 #[derive(Default)]
 struct State {
+    model: Option<&'static Model<'static>>,
     active: Option<Active>,
     camera: Option<Camera>,
     camera_in: [f32; 16],
@@ -55,8 +57,9 @@ pub extern "C" fn nerf_alloc(len: usize) -> *mut u8 {
 
 /// Decodes the model in the buffer `ptr` (from [`nerf_alloc`] with
 /// `len`) and makes its renderer (f32 models: the f32 path; int16 and
-/// int8: the fixed-point path) with the model's own sample counts.
-/// Returns 1 (f32), 2 (fixed point) or 0 (not a valid model).
+/// int8: the fixed-point path) with the model's own sample counts and no
+/// early termination, as `nerf render`. Returns 1 (f32), 2 (fixed point)
+/// or 0 (not a valid model).
 ///
 /// # Safety
 /// `ptr` and `len` are a buffer [`nerf_alloc`] returned, filled, and not
@@ -70,21 +73,35 @@ pub unsafe extern "C" fn nerf_load(ptr: *mut u8, len: usize) -> u32 {
             Ok(m) => Box::leak(Box::new(m)),
             Err(e) => return fail(s, format!("model: {e}")),
         };
-        let opts = RenderOptions::from_model(model);
-        let active = if model.scheme().is_fixed() {
-            RendererFixed::new(model, opts).map(|r| Active::Fixed(r, Box::default()))
-        } else {
-            RendererF32::new(model, opts).map(|r| Active::F32(r, Box::default()))
-        };
-        match active {
-            Ok(a) => {
-                let kind = if matches!(a, Active::F32(..)) { 1 } else { 2 };
-                s.active = Some(a);
-                kind
-            }
-            Err(e) => fail(s, format!("renderer: {e}")),
-        }
+        s.model = Some(model);
+        renderer(s, 0.0)
     })
+}
+
+/// Makes the loaded model's renderer with early termination at
+/// transmittance `early_stop` (`[0, 1)`; 0 renders every sample). Returns
+/// as [`nerf_load`].
+#[no_mangle]
+pub extern "C" fn nerf_set_early_stop(early_stop: f32) -> u32 {
+    STATE.with_borrow_mut(|s| renderer(s, early_stop))
+}
+
+fn renderer(s: &mut State, early_stop: f32) -> u32 {
+    let Some(model) = s.model else { return fail(s, "no model") };
+    let opts = RenderOptions { early_stop, ..RenderOptions::from_model(model) };
+    let active = if model.scheme().is_fixed() {
+        RendererFixed::new(model, opts).map(|r| Active::Fixed(r, Box::default()))
+    } else {
+        RendererF32::new(model, opts).map(|r| Active::F32(r, Box::default()))
+    };
+    match active {
+        Ok(a) => {
+            let kind = if matches!(a, Active::F32(..)) { 1 } else { 2 };
+            s.active = Some(a);
+            kind
+        }
+        Err(e) => fail(s, format!("renderer: {e}")),
+    }
 }
 
 /// Where the caller writes the camera before [`nerf_set_camera`]: 16 f32,
