@@ -10,8 +10,28 @@ use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use support::cli::{fails, ok, s, tmp};
 
-fn model(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(name)
+/// The models the page is checked on: the workspace's int8 and f32 models
+/// of the built-in scene (4×64 networks, coarse and fine), and an int8
+/// model with a feature grid and odd layer widths (45 inputs, a 16-wide
+/// view layer, 3 colours), random weights, written into `dir`.
+fn models(dir: &Path) -> Vec<PathBuf> {
+    use nerf_train::config::TrainConfig;
+    use nerf_train::export::{quantise, random_model};
+    let cfg = TrainConfig {
+        n_fine: 0,
+        feature_levels: 3,
+        feature_log2_table: 9,
+        feature_min_res: 2,
+        feature_max_res: 40,
+        ..support::small_config()
+    };
+    let f32_bytes = random_model(&cfg, support::unit_scene(), 7, 4.0).to_bytes().unwrap();
+    let m = nerf_infer::Model::from_bytes(&f32_bytes).unwrap();
+    let int8 = quantise(&m, nerf_infer::Scheme::I8).unwrap().to_bytes().unwrap();
+    let features = dir.join("features_int8.nerf");
+    std::fs::write(&features, int8).unwrap();
+    let shipped = |name: &str| Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(name);
+    vec![shipped("scene_int8.nerf"), shipped("scene.nerf"), features]
 }
 
 /// The RGB bytes (row-major from the top row) of the one PNG `nerf render
@@ -69,9 +89,10 @@ fn module_frame(model: &Path, view: &serde_json::Value) -> Vec<u8> {
 
 #[test]
 fn the_module_renders_the_hosts_pixels_and_the_folder_holds_the_page() {
-    for name in ["scene_int8.nerf", "scene.nerf"] {
+    let models_dir = tmp("web-models");
+    for m in models(&models_dir) {
+        let name = m.file_name().unwrap().to_str().unwrap();
         let dir = tmp(&format!("web-{name}"));
-        let m = model(name);
         let out = dir.join("page");
         ok(&["web", s(&m), "--out", s(&out)]);
         for f in ["index.html", "nerf_web.wasm", "model.nerf", "view.json"] {
@@ -165,9 +186,10 @@ fn chromium_check(url: &str, profile: &Path) -> serde_json::Value {
 #[test]
 #[ignore = "needs Chromium (Debian's chromium package); .ci/run installs it and runs this test"]
 fn the_page_in_headless_chromium_renders_the_hosts_frame() {
-    for name in ["scene_int8.nerf", "scene.nerf"] {
+    let models_dir = tmp("web-chromium-models");
+    for m in models(&models_dir) {
+        let name = m.file_name().unwrap().to_str().unwrap();
         let dir = tmp(&format!("web-chromium-{name}"));
-        let m = model(name);
         let page = dir.join("page");
         ok(&["web", s(&m), "--out", s(&page)]);
         let (_, host_crc) = host_frame(&m, &dir);

@@ -3,16 +3,19 @@
 //! Each kernel here implements a contract that a portable reference in the
 //! crate also implements, bit for bit:
 //!
-//! | contract | portable reference | x86-64 AVX2 | x86-64 AVX-512 VNNI |
-//! |---|---|---|---|
-//! | int8 dense layer (`acc += x·W`) | [`crate::layer::accumulate`] | `avx2::accumulate_i8` | `vnni::accumulate_i8` (32-wide tiles) |
-//! | requantisation of i32 accumulators | [`crate::layer::requant_rows`] | `avx2::requant_i32` | (portable) |
-//! | sine of phases, Q15 | [`crate::fixed::sin_turns_q15`] | `avx2::sin_turns_q15_x8` | (AVX2) |
-//! | width-2 feature-grid lookups | [`FeatureGrid::encode_fixed`] | `avx2::features_w2` | (AVX2) |
+//! | contract | portable reference | x86-64 AVX2 | x86-64 AVX-512 VNNI | wasm32 SIMD128 |
+//! |---|---|---|---|---|
+//! | int8 dense layer (`acc += x·W`) | [`crate::layer::accumulate`] | `avx2::accumulate_i8` | `vnni::accumulate_i8` (32-wide tiles) | `wasm::accumulate_i8` |
+//! | requantisation of i32 accumulators | [`crate::layer::requant_rows`] | `avx2::requant_i32` | (portable) | (portable) |
+//! | sine of phases, Q15 | [`crate::fixed::sin_turns_q15`] | `avx2::sin_turns_q15_x8` | (AVX2) | (portable) |
+//! | width-2 feature-grid lookups | [`FeatureGrid::encode_fixed`] | `avx2::features_w2` | (AVX2) | (portable) |
 //!
 //! The choice is made at compile time from the target features the build
 //! enables (`-C target-cpu=native`, or `x86-64-v3` for AVX2); without them
-//! every contract runs its portable reference, as on Cortex-M and wasm32.
+//! every contract runs its portable reference, as on Cortex-M. wasm32 with
+//! `simd128` (which the browser viewer is built with) has its own int8
+//! layer; its tests run in the browser (`tests/web.rs`: the page's frames
+//! against the host's, bit for bit), the others here.
 //! Portable code never calls into this module's submodules; the rest of the
 //! crate calls the functions and the [`IntKernel`] trait below. The tests at
 //! the end run every implementation built against its reference.
@@ -26,6 +29,8 @@
 mod avx2;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
 mod vnni;
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+mod wasm;
 
 use crate::features::FeatureGrid;
 use crate::fixed::sin_turns_q15;
@@ -38,6 +43,9 @@ const AVX2_ONLY: bool = cfg!(all(
     target_feature = "avx2",
     not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
 ));
+
+/// Whether the wasm SIMD128 int8 kernel is built.
+const WASM_SIMD: bool = cfg!(all(target_arch = "wasm32", target_feature = "simd128"));
 
 /// The dense-layer kernels of an integer weight type, as built for this
 /// target.
@@ -75,7 +83,7 @@ impl IntKernel for W16 {}
 /// rest), else AVX2 `vpmaddwd` 8 outputs at a time (a short last group
 /// padded), else portable.
 impl IntKernel for W8 {
-    const WIDE_TAKES_NARROW: bool = AVX2_ONLY;
+    const WIDE_TAKES_NARROW: bool = AVX2_ONLY || WASM_SIMD;
     #[inline]
     fn accumulate_wide<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[i32; MAX_WIDTH]]) {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
@@ -90,7 +98,12 @@ impl IntKernel for W8 {
             not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
         ))]
         avx2::accumulate_i8(l, x, acc);
-        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+        #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+        wasm::accumulate_i8(l, x, acc);
+        #[cfg(not(any(
+            all(target_arch = "x86_64", target_feature = "avx2"),
+            all(target_arch = "wasm32", target_feature = "simd128")
+        )))]
         accumulate::<W8, N>(l, 0, x, acc);
     }
     #[inline]

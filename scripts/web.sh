@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# The browser viewer's figures for one model: writes its page with
+# `nerf web`, serves it on 127.0.0.1, opens `index.html?check=1` in headless
+# Chromium and prints the page's JSON (CRC-32 of the first orbit frame at
+# 64x64, µs per ray of that frame without early termination, and the
+# milliseconds of one 100x100 frame as the viewer draws it, early
+# termination at 1e-3), then the CRC-32 of `nerf render --orbit 1 --size 64`.
+#
+#   scripts/web.sh [MODEL]      (default: models/scene_int8.nerf)
+set -euo pipefail
+model=$(realpath "${1:-models/scene_int8.nerf}")
+cd "$(dirname "$0")/.."
+command -v chromium >/dev/null || { echo "needs chromium (apt-get install chromium)" >&2; exit 1; }
+command -v python3 >/dev/null || { echo "needs python3 (its http.server)" >&2; exit 1; }
+cargo build --release --quiet
+work=$(mktemp -d)
+port=$((20000 + RANDOM % 20000))
+python3 -m http.server "$port" --bind 127.0.0.1 -d "$work/page" >/dev/null 2>&1 &
+server=$!
+trap 'kill $server 2>/dev/null; rm -rf "$work"' EXIT
+target/release/nerf web "$model" --out "$work/page" 2>/dev/null
+sleep 1
+timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 \
+  --user-data-dir="$work/profile" "http://127.0.0.1:$port/index.html?check=1" 2>&1 \
+  | grep -m1 -o 'nerf-check {[^}]*}' | sed 's/^nerf-check //' || true   # grep ends Chromium's pipe
+target/release/nerf render "$model" --orbit 1 --size 64 --out "$work/host" >/dev/null 2>&1
+python3 - "$work/host" <<'PY'
+import os, sys, zlib, struct
+d = sys.argv[1]
+png = open(os.path.join(d, [f for f in os.listdir(d) if f.endswith("_000.png")][0]), "rb").read()
+# 8-bit RGB PNG: inflate the IDAT stream and undo each row's filter
+pos, idat, w, h = 8, b"", 0, 0
+while pos < len(png):
+    n, kind = struct.unpack(">I4s", png[pos:pos + 8])
+    data = png[pos + 8:pos + 8 + n]
+    if kind == b"IHDR":
+        w, h = struct.unpack(">II", data[:8])
+    elif kind == b"IDAT":
+        idat += data
+    pos += 12 + n
+raw, stride, out, prev = zlib.decompress(idat), 3 * w, bytearray(), bytearray(3 * w)
+for y in range(h):
+    f, row = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+    for i in range(stride):
+        a = row[i - 3] if i >= 3 else 0
+        b, c = prev[i], (prev[i - 3] if i >= 3 else 0)
+        p = a + b - c
+        pred = [0, a, b, (a + b) // 2, a if abs(p - a) <= abs(p - b) and abs(p - a) <= abs(p - c) else (b if abs(p - b) <= abs(p - c) else c)][f]
+        row[i] = (row[i] + pred) & 0xFF
+    out += row
+    prev = row
+print('{"host_crc32": %d}' % zlib.crc32(bytes(out)))
+PY
