@@ -51,6 +51,7 @@ struct Report {
     mesh: PathBuf,
     resolution: usize,
     threshold: f32,
+    min_piece: f64,
     #[serde(flatten)]
     stats: MeshStats,
     closed: bool,
@@ -105,6 +106,7 @@ pub fn run(a: Args) -> CmdResult {
         mesh: a.out.clone(),
         resolution: a.resolution,
         threshold: a.threshold,
+        min_piece: a.min_piece,
         stats,
         closed: stats.open_edges == 0,
         pieces_dropped: dropped,
