@@ -253,9 +253,11 @@ pub fn requant_rows<W: IntWeight>(
     out: &mut [[i16; MAX_WIDTH]],
     (lo, hi): (i16, i16),
 ) {
-    for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
-        for c in 0..l.out_dim as usize {
-            o[c] = l.requant(c).apply(a[c].into()).clamp(lo as i64, hi as i64) as i16;
+    // output-major: each channel's multiplier and shift are read once
+    for c in 0..l.out_dim as usize {
+        let r = l.requant(c);
+        for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
+            o[c] = r.apply(a[c].into()).clamp(lo as i64, hi as i64) as i16;
         }
     }
 }

@@ -1,7 +1,7 @@
 //! A triangle mesh of a model's density surface: the density sampled on a
 //! lattice over the scene's bounds ([`density`]), the level set
 //! `σ = threshold` extracted by marching tetrahedra ([`tetra`]), vertex
-//! colours from the model, PLY and OBJ output ([`write`]), and the
+//! colours from the model, PLY and OBJ output ([`mod@write`]), and the
 //! silhouette of the mesh from a camera ([`silhouette`]).
 
 pub mod density;
