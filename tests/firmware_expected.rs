@@ -17,8 +17,12 @@ fn firmware_dir() -> PathBuf {
 }
 
 fn render(model_file: &str) -> Vec<PixelFixed> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(model_file);
-    let blob = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    render_file(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(model_file))
+}
+
+/// The host's fixed-point render of the view's tile of the model at `path`.
+fn render_file(path: &Path) -> Vec<PixelFixed> {
+    let blob = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let model = Model::from_bytes(&blob).unwrap();
     let renderer = RendererFixed::new(&model, RenderOptions::from_model(&model)).unwrap();
     let camera = Camera::from_fov(view::WIDTH, view::HEIGHT, view::FOV_X, view::POSE).unwrap();
@@ -35,17 +39,23 @@ fn expected_source() -> String {
          //! The host's fixed-point render of `view::TILE`: (r, g, b, opacity) in Q15, depth in Q16, row-major.\n",
     );
     for (ident, file) in [("INT8", "scene_int8.nerf"), ("INT16", "scene_int16.nerf")] {
-        let px = render(file);
-        writeln!(src, "\n/// `models/{file}`.").unwrap();
+        constants(&mut src, ident, &format!("models/{file}"), &render(file));
+    }
+    src
+}
+
+/// `IDENT` (the tile's pixels) and `IDENT_CHECKSUM` of `px`, the render of `what`.
+fn constants(src: &mut String, ident: &str, what: &str, px: &[PixelFixed]) {
+    {
+        writeln!(src, "\n/// `{what}`.").unwrap();
         writeln!(src, "pub const {ident}: [(u16, u16, u16, u16, i32); {}] = [", view::PIXELS).unwrap();
-        for p in &px {
+        for p in px {
             writeln!(src, "    ({}, {}, {}, {}, {}),", p.rgb[0], p.rgb[1], p.rgb[2], p.opacity, p.depth).unwrap();
         }
         writeln!(src, "];").unwrap();
         writeln!(src, "/// `view::checksum` of [`{ident}`].").unwrap();
-        writeln!(src, "pub const {ident}_CHECKSUM: u32 = 0x{:08x};", view::checksum(&px)).unwrap();
+        writeln!(src, "pub const {ident}_CHECKSUM: u32 = 0x{:08x};", view::checksum(px)).unwrap();
     }
-    src
 }
 
 #[test]
@@ -73,4 +83,15 @@ fn firmware_tile_is_not_trivial() {
 #[ignore = "writes examples/cortex-m/src/expected.rs; run on purpose"]
 fn bless() {
     std::fs::write(firmware_dir().join("src/expected.rs"), expected_source()).unwrap();
+}
+
+#[test]
+#[ignore = "examples/cortex-m/run --model runs it: the host's render of NERF_FIRMWARE_MODEL into NERF_FIRMWARE_EXPECTED"]
+fn expected_for_model() {
+    let model = PathBuf::from(std::env::var("NERF_FIRMWARE_MODEL").expect("NERF_FIRMWARE_MODEL: a model file"));
+    let out =
+        PathBuf::from(std::env::var("NERF_FIRMWARE_EXPECTED").expect("NERF_FIRMWARE_EXPECTED: the file to write"));
+    let mut src = String::from("// The host's fixed-point render of `view::TILE` for `run --model`.\n");
+    constants(&mut src, "MODEL", &model.display().to_string(), &render_file(&model));
+    std::fs::write(&out, src).unwrap_or_else(|e| panic!("{}: {e}", out.display()));
 }

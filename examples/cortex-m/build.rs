@@ -1,6 +1,8 @@
 //! Picks the board's memory map by target: `thumbv7m-none-eabi` runs on the
 //! lm3s6965evb (Cortex-M3), `thumbv7em-none-eabihf` on the mps2-an386
-//! (Cortex-M4F).
+//! (Cortex-M4F). With `NERF_MODEL` (a model file) and `NERF_MODEL_EXPECTED`
+//! (the host's render of the tile, as `run --model` writes it), the
+//! firmware renders that model instead of the shipped ones (`cfg(user_model)`).
 
 use std::{env, fs, path::PathBuf};
 
@@ -17,4 +19,15 @@ fn main() {
     println!("cargo:rustc-env=NERF_BOARD={board}");
     println!("cargo:rerun-if-changed=memory-{board}.x");
     println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo::rustc-check-cfg=cfg(user_model)");
+    println!("cargo:rerun-if-env-changed=NERF_MODEL");
+    println!("cargo:rerun-if-env-changed=NERF_MODEL_EXPECTED");
+    if let (Ok(model), Ok(expected)) = (env::var("NERF_MODEL"), env::var("NERF_MODEL_EXPECTED")) {
+        fs::copy(&model, out.join("user_model.nerf")).unwrap_or_else(|e| panic!("NERF_MODEL {model}: {e}"));
+        fs::copy(&expected, out.join("user_expected.rs"))
+            .unwrap_or_else(|e| panic!("NERF_MODEL_EXPECTED {expected}: {e}"));
+        println!("cargo:rerun-if-changed={model}");
+        println!("cargo:rerun-if-changed={expected}");
+        println!("cargo:rustc-cfg=user_model");
+    }
 }

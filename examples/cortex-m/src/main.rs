@@ -1,5 +1,6 @@
 //! Firmware example: embeds the shipped built-in-scene models (int8 and
-//! int16 weights, kept in flash by `include_bytes!`), renders one tile of a
+//! int16 weights, kept in flash by `include_bytes!`; or the model given to
+//! `run --model`), renders one tile of a
 //! fixed view with `nerf-infer`'s integer-only path, prints the cost and a
 //! few pixels over semihosting, and exits with status 0 only if every pixel
 //! equals the host's render of the same tile bit for bit (`expected.rs`).
@@ -21,12 +22,33 @@ use cortex_m_semihosting::{debug, hprintln};
 use nerf_infer::{render_tile, Camera, Model, PixelFixed, RayRenderer, RenderOptions, RendererFixed, ScratchFixed};
 use panic_semihosting as _;
 
+#[cfg(not(user_model))]
 mod expected;
+/// The host's render of the tile for the model `run --model` gave.
+#[cfg(user_model)]
+mod expected {
+    include!(concat!(env!("OUT_DIR"), "/user_expected.rs"));
+}
 mod view;
 
-/// The models, in flash: `Model::from_bytes` borrows, it never copies.
-static MODEL_INT8: &[u8] = include_bytes!("../../../models/scene_int8.nerf");
-static MODEL_INT16: &[u8] = include_bytes!("../../../models/scene_int16.nerf");
+/// A model in flash (`Model::from_bytes` borrows, it never copies), its
+/// name, and the host's render of the tile: pixels and checksum.
+type Case = (&'static str, &'static [u8], &'static [(u16, u16, u16, u16, i32); view::PIXELS], u32);
+
+/// The shipped models of the built-in scene.
+#[cfg(not(user_model))]
+static MODELS: [Case; 2] = [
+    ("int8", include_bytes!("../../../models/scene_int8.nerf"), &expected::INT8, expected::INT8_CHECKSUM),
+    ("int16", include_bytes!("../../../models/scene_int16.nerf"), &expected::INT16, expected::INT16_CHECKSUM),
+];
+/// The model `run --model` gave.
+#[cfg(user_model)]
+static MODELS: [Case; 1] = [(
+    "model",
+    include_bytes!(concat!(env!("OUT_DIR"), "/user_model.nerf")),
+    &expected::MODEL,
+    expected::MODEL_CHECKSUM,
+)];
 
 /// Samples evaluated together: 4 keeps the scratch under 24 KiB.
 const BLOCK: usize = 4;
@@ -243,15 +265,16 @@ fn main() -> ! {
         clock.ticks
     );
     let mut scratch = ScratchFixed::<BLOCK>::default();
-    let ok8 = run("int8", MODEL_INT8, &expected::INT8, expected::INT8_CHECKSUM, &clock, &mut scratch);
-    let ok16 = run("int16", MODEL_INT16, &expected::INT16, expected::INT16_CHECKSUM, &clock, &mut scratch);
+    let mut ok = true;
+    for (name, blob, want, sum) in &MODELS {
+        ok &= run(name, blob, want, *sum, &clock, &mut scratch);
+    }
     hprintln!(
         "ram: stack high-water {} bytes (scratch {} bytes of it); flash: models {} bytes",
         stack_high_water(),
         core::mem::size_of::<ScratchFixed<BLOCK>>(),
-        MODEL_INT8.len() + MODEL_INT16.len()
+        MODELS.iter().map(|m| m.1.len()).sum::<usize>()
     );
-    let ok = ok8 && ok16;
     hprintln!("{}", if ok { "PASS: bit-exact with the host" } else { "FAIL" });
     debug::exit(if ok { debug::EXIT_SUCCESS } else { debug::EXIT_FAILURE });
     #[allow(clippy::empty_loop)]
