@@ -215,6 +215,32 @@ fn info_into_a_closed_pipe_ends_without_a_panic() {
 }
 
 #[test]
+fn fit_within_a_byte_budget_keeps_the_most_accurate_model_that_fits_and_says_what_it_gave_up() {
+    let d = tmp("fit-bytes");
+    let data = blender_scene(&d, 16, 6);
+    let run = d.join("fit");
+    let max = 40_000;
+    let out = ok(&["fit", "--data", s(&data), "--max-bytes", &max.to_string(), "--minutes", "0.002", "--out", s(&run)]);
+    // a 64³ occupancy grid alone is 32 KiB: the wider candidates coarsen it, the feature grid shrinks its table
+    assert!(out.contains("after giving up occupancy grid 64^3 -> 32^3"), "{out}");
+    assert!(out.contains("feature table 2^15 -> 2^"), "{out}");
+    assert!(out.contains("fit: not training 6x96: it does not fit --max-bytes 40000"), "{out}");
+    let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 5, "every candidate that fits, once (no sample search without a target): {csv}");
+    assert!(rows.iter().all(|r| r[7].parse::<usize>().unwrap() <= max), "{csv}");
+    let best = rows.iter().max_by(|a, b| a[4].parse::<f64>().unwrap().total_cmp(&b[4].parse().unwrap())).unwrap();
+    assert!(out.contains(&format!("fit: chose {} at", best[0])), "the most accurate: {out}\n{csv}");
+    let fixed = std::fs::read(run.join("model_fixed.nerf")).unwrap();
+    assert!(fixed.len() <= max, "{} bytes", fixed.len());
+    // a budget nothing fits: one line, and no model
+    let e =
+        fails(&["fit", "--data", s(&data), "--max-bytes", "2000", "--minutes", "0.002", "--out", s(&d.join("none"))]);
+    assert!(e.contains("no candidate fits --max-bytes 2000"), "{e}");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
 fn fit_keeps_the_cheapest_candidate_that_reaches_the_target_and_tables_what_it_tried() {
     let d = tmp("fit");
     let data = blender_scene(&d, 16, 6);

@@ -9,11 +9,19 @@
 //! the one with the fewest µs per ray (fixed point, one core) is kept, with
 //! its fewest samples as the model's default. Writes the table of what it
 //! tried.
+//!
+//! With `--max-bytes`, a device's flash budget: each candidate is first
+//! made to fit it (its model file's size is known before training: a
+//! model with random weights of the same shape is exported), the feature
+//! table halved, then the occupancy grid coarsened, as far as needed; a
+//! candidate that cannot fit is skipped. Without `--target-psnr` the most
+//! accurate candidate that fits is kept; with it, the fastest that reaches
+//! the target. What each candidate gave up to fit is printed and tabled.
 
 use super::{create_dir, eval, num_in, train, write_atomic, CaptureArgs, CmdResult, FixedBits, SplitArg, WeightBits};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::Split;
-use nerf_train::export::{quantise, OwnedModel};
+use nerf_train::export::{quantise, random_model, OwnedModel};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nerf fit`.
@@ -24,9 +32,13 @@ pub struct Args {
     data: PathBuf,
     #[command(flatten)]
     capture: CaptureArgs,
-    /// PSNR (dB) the fixed-point render must reach on the validation views.
-    #[arg(long, value_name = "1.0..=99.0", value_parser = num_in(1.0f64, 99.0))]
-    target_psnr: f64,
+    /// PSNR (dB) the fixed-point render must reach on the validation views (required without --max-bytes).
+    #[arg(long, value_name = "1.0..=99.0", value_parser = num_in(1.0f64, 99.0), required_unless_present = "max_bytes")]
+    target_psnr: Option<f64>,
+    /// Largest fixed-point model file in bytes (a device's flash for the model): candidates are shrunk to fit
+    /// or skipped; without --target-psnr the most accurate that fits is kept.
+    #[arg(long, value_name = "1024..", value_parser = num_in(1024usize, usize::MAX))]
+    max_bytes: Option<usize>,
     /// Training minutes per candidate.
     #[arg(long, default_value_t = 10.0, value_name = "0.001..=100000.0", value_parser = num_in(0.001f64, 100_000.0))]
     minutes: f64,
@@ -96,6 +108,8 @@ struct Row {
     us_per_ray: f64,
     samples_per_ray: f64,
     bytes: usize,
+    /// What the candidate gave up to fit `--max-bytes` ("; "-separated).
+    gave_up: String,
 }
 
 /// `nerf eval` of `model` on the validation views, with `coarse` samples
@@ -167,6 +181,7 @@ fn score_row(
         us_per_ray: rq.us_per_ray,
         samples_per_ray: rq.samples_per_ray,
         bytes,
+        gave_up: String::new(),
     })
 }
 
@@ -188,14 +203,14 @@ fn with_coarse(model: &Path, coarse: u16, out: &Path) -> Result<(), String> {
 fn tables(rows: &[Row], bits: FixedBits) -> (String, String) {
     let bits = WeightBits::from(bits).bits();
     let mut csv = String::from(
-        "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample,coarse_samples\n",
+        "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample,coarse_samples,gave_up\n",
     );
     let mut md = format!(
-        "| candidate | coarse samples | MAC/sample | cost/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| candidate | coarse samples | MAC/sample | cost/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes | to fit --max-bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n"
     );
     for r in rows {
         csv += &format!(
-            "{},{},{},{:.3},{:.3},{:.2},{:.2},{},{},{}\n",
+            "{},{},{},{:.3},{:.3},{:.2},{:.2},{},{},{},{}\n",
             r.name,
             r.macs,
             r.steps,
@@ -205,10 +220,11 @@ fn tables(rows: &[Row], bits: FixedBits) -> (String, String) {
             r.samples_per_ray,
             r.bytes,
             r.cost,
-            r.coarse
+            r.coarse,
+            r.gave_up
         );
         md += &format!(
-            "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} |\n",
+            "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} | {} |\n",
             r.name,
             r.coarse,
             r.macs,
@@ -218,7 +234,8 @@ fn tables(rows: &[Row], bits: FixedBits) -> (String, String) {
             r.psnr_fixed,
             r.us_per_ray,
             r.samples_per_ray,
-            r.bytes
+            r.bytes,
+            r.gave_up
         );
     }
     (csv, md)
@@ -244,9 +261,9 @@ fn fewest_samples(
     let dir = a.out.join(name);
     let mut best = (first.coarse, first.us_per_ray);
     for k in fewer_samples(first.coarse) {
-        let row = score_row(a, name, cfg, &dir, k, first.steps, first.bytes)?;
+        let row = Row { gave_up: first.gave_up.clone(), ..score_row(a, name, cfg, &dir, k, first.steps, first.bytes)? };
         report(a, &row);
-        let reached = row.psnr_fixed >= a.target_psnr;
+        let reached = a.target_psnr.is_some_and(|t| row.psnr_fixed >= t);
         let us = row.us_per_ray;
         rows.push(row);
         save(a, rows)?;
@@ -277,6 +294,52 @@ fn save(a: &Args, rows: &[Row]) -> CmdResult {
     write_atomic(&a.out.join("fit.md"), md.as_bytes())
 }
 
+/// The fixed-point model file's size for configuration `cfg` on `scene`:
+/// a model of that shape with random weights, exported as `nerf fit`
+/// exports a trained one.
+fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedBits) -> Result<usize, String> {
+    let f = random_model(cfg, scene, 0, 1.0).to_bytes().map_err(|e| e.to_string())?;
+    let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
+    let q = quantise(&m, WeightBits::from(bits).scheme())?;
+    Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
+}
+
+/// `cfg` shrunk until its model fits `max` bytes: the feature table
+/// halved (down to 2⁸ entries per level), then the occupancy grid
+/// coarsened (down to 16³). Returns the configuration, what it gave up,
+/// and its size; `Err` with the smallest size if it cannot fit.
+fn fit_budget(
+    cfg: &TrainConfig,
+    scene: nerf_infer::format::Scene,
+    bits: FixedBits,
+    max: usize,
+) -> Result<(TrainConfig, Vec<String>, usize), String> {
+    let mut c = cfg.clone();
+    let mut bytes = model_bytes(&c, scene, bits)?;
+    while bytes > max && c.feature_levels > 0 && c.feature_log2_table > 8 {
+        c.feature_log2_table -= 1;
+        bytes = model_bytes(&c, scene, bits)?;
+    }
+    while bytes > max && c.grid_res > 16 {
+        c.grid_res /= 2;
+        bytes = model_bytes(&c, scene, bits)?;
+    }
+    if bytes > max {
+        return Err(format!("{bytes} bytes at its smallest"));
+    }
+    let mut gave = Vec::new();
+    if c.feature_log2_table != cfg.feature_log2_table {
+        gave.push(format!(
+            "feature table 2^{} -> 2^{} entries per level",
+            cfg.feature_log2_table, c.feature_log2_table
+        ));
+    }
+    if c.grid_res != cfg.grid_res {
+        gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid_res, c.grid_res));
+    }
+    Ok((c, gave, bytes))
+}
+
 /// Runs `nerf fit`.
 pub fn run(a: Args) -> CmdResult {
     // everything checked before the first candidate trains
@@ -287,6 +350,7 @@ pub fn run(a: Args) -> CmdResult {
     let (downscale, capture) = (a.capture.downscale.unwrap_or(1), a.capture);
     let data = super::load_split(&a.data, Split::Train, downscale, capture)?;
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
+    let scene = data.scene;
     drop(data);
     super::load_split(&a.data, Split::Val, downscale, capture)
         .map_err(|e| format!("{e} (nerf fit scores candidates on the validation views)"))?;
@@ -294,7 +358,24 @@ pub fn run(a: Args) -> CmdResult {
     let mut rows = Vec::new();
     // per candidate that reached the target: name, samples, µs/ray, cost per ray
     let mut reached: Vec<(&'static str, u16, f64, usize)> = Vec::new();
+    // without a target: name, samples, PSNR, µs/ray of every candidate trained
+    let mut accurate: Vec<(&'static str, u16, f64, f64)> = Vec::new();
     for (name, cfg) in candidates() {
+        let (cfg, gave_up) = match a.max_bytes {
+            None => (cfg, Vec::new()),
+            Some(max) => match fit_budget(&cfg, scene, a.bits, max) {
+                Ok((c, gave, bytes)) => {
+                    let what =
+                        if gave.is_empty() { String::new() } else { format!(" after giving up {}", gave.join(", ")) };
+                    out!("fit: {name} fits --max-bytes {max}: {bytes} bytes{what}");
+                    (c, gave)
+                }
+                Err(e) => {
+                    out!("fit: not training {name}: it does not fit --max-bytes {max} ({e})");
+                    continue;
+                }
+            },
+        };
         let least = cost_per_ray(&cfg, cfg.n_coarse.div_ceil(3));
         if let Some(best) = reached.iter().map(|r| r.3).min() {
             if least >= best {
@@ -303,9 +384,19 @@ pub fn run(a: Args) -> CmdResult {
             }
         }
         out!("fit: training {name} ({} MAC/sample, cost {}) for {} min", macs(&cfg), cost(&cfg), a.minutes);
-        let row = try_one(&a, name, &cfg)?;
+        let row = Row { gave_up: gave_up.join("; "), ..try_one(&a, name, &cfg)? };
         report(&a, &row);
-        let ok = row.psnr_fixed >= a.target_psnr;
+        if let Some(max) = a.max_bytes.filter(|&m| row.bytes > m) {
+            // the trained model came out larger than its random-weight twin (not expected: kept out of the choice)
+            out!("fit: {name} is {} bytes after training, over --max-bytes {max}; not kept", row.bytes);
+            rows.push(row);
+            save(&a, &rows)?;
+            continue;
+        }
+        let ok = a.target_psnr.is_some_and(|t| row.psnr_fixed >= t);
+        if a.target_psnr.is_none() {
+            accurate.push((name, row.coarse, row.psnr_fixed, row.us_per_ray));
+        }
         rows.push(row);
         save(&a, &rows)?;
         if ok {
@@ -315,22 +406,37 @@ pub fn run(a: Args) -> CmdResult {
         }
     }
     out!("{}", tables(&rows, a.bits).1);
+    let Some(target) = a.target_psnr else {
+        // --max-bytes alone: the most accurate candidate that fits
+        let Some(&(name, coarse, psnr, us)) = accurate.iter().max_by(|x, y| x.2.total_cmp(&y.2)) else {
+            return Err(format!("no candidate fits --max-bytes {}", a.max_bytes.unwrap_or(0)));
+        };
+        return keep(&a, name, coarse, &format!("{psnr:.2} dB, {us:.1} µs/ray"), &rows);
+    };
     // the lowest measured µs per ray of the fixed-point render
     let Some(&(name, coarse, us, _)) = reached.iter().min_by(|x, y| x.2.total_cmp(&y.2)) else {
         let best = rows.iter().map(|r| r.psnr_fixed).fold(f64::NEG_INFINITY, f64::max);
         return Err(format!(
             "no candidate reached {:.2} dB in {} min (best {best:.2} dB); table in {}",
-            a.target_psnr,
+            target,
             a.minutes,
             a.out.join("fit.md").display()
         ));
     };
+    keep(&a, name, coarse, &format!("{us:.1} µs/ray"), &rows)
+}
+
+/// Writes candidate `name` at `coarse` samples per ray as the fit's
+/// models and says what was chosen (`why`) and what it gave up.
+fn keep(a: &Args, name: &str, coarse: u16, why: &str, rows: &[Row]) -> CmdResult {
     let dir = a.out.join(name);
     for f in ["model.nerf", "model_fixed.nerf"] {
         with_coarse(&dir.join(f), coarse, &a.out.join(f))?;
     }
+    let gave = rows.iter().find(|r| r.name == name).map(|r| r.gave_up.clone()).unwrap_or_default();
+    let gave = if gave.is_empty() { String::new() } else { format!("; to fit --max-bytes it gave up {gave}") };
     out!(
-        "fit: chose {name} at {coarse} samples per ray ({us:.1} µs/ray); wrote {} and {}",
+        "fit: chose {name} at {coarse} samples per ray ({why}){gave}; wrote {} and {}",
         a.out.join("model.nerf").display(),
         a.out.join("model_fixed.nerf").display()
     );
