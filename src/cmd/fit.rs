@@ -296,9 +296,20 @@ fn save(a: &Args, rows: &[Row]) -> CmdResult {
 
 /// The fixed-point model file's size for configuration `cfg` on `scene`:
 /// a model of that shape with random weights, exported as `nerf fit`
-/// exports a trained one.
+/// exports a trained one (an upper bound: training can only prune).
 fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedBits) -> Result<usize, String> {
-    let f = random_model(cfg, scene, 0, 1.0).to_bytes().map_err(|e| e.to_string())?;
+    let mut twin = random_model(cfg, scene, 0, 1.0);
+    // the records a trained model may carry, at their largest (varints): the size is then an upper bound
+    twin.meta.iterations = u32::MAX;
+    twin.meta.train_downscale = u16::MAX;
+    twin.capture = Some(nerf_infer::format::Capture {
+        holdout: 100_000,
+        views: u32::MAX,
+        held_out_crc: u32::MAX,
+        framing: nerf_infer::format::Framing::Unbounded,
+        lens: true,
+    });
+    let f = twin.to_bytes().map_err(|e| e.to_string())?;
     let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
     let q = quantise(&m, WeightBits::from(bits).scheme())?;
     Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
@@ -307,13 +318,14 @@ fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedB
 /// `cfg` shrunk until its model fits `max` bytes: the feature table
 /// halved (down to 2⁸ entries per level), then the occupancy grid
 /// coarsened (down to 16³). Returns the configuration, what it gave up,
-/// and its size; `Err` with the smallest size if it cannot fit.
+/// and its size, or (`Ok(Err)`) the smallest size if it cannot fit.
+#[allow(clippy::type_complexity)]
 fn fit_budget(
     cfg: &TrainConfig,
     scene: nerf_infer::format::Scene,
     bits: FixedBits,
     max: usize,
-) -> Result<(TrainConfig, Vec<String>, usize), String> {
+) -> Result<Result<(TrainConfig, Vec<String>, usize), usize>, String> {
     let mut c = cfg.clone();
     let mut bytes = model_bytes(&c, scene, bits)?;
     while bytes > max && c.feature_levels > 0 && c.feature_log2_table > 8 {
@@ -325,7 +337,7 @@ fn fit_budget(
         bytes = model_bytes(&c, scene, bits)?;
     }
     if bytes > max {
-        return Err(format!("{bytes} bytes at its smallest"));
+        return Ok(Err(bytes));
     }
     let mut gave = Vec::new();
     if c.feature_log2_table != cfg.feature_log2_table {
@@ -337,7 +349,7 @@ fn fit_budget(
     if c.grid_res != cfg.grid_res {
         gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid_res, c.grid_res));
     }
-    Ok((c, gave, bytes))
+    Ok(Ok((c, gave, bytes)))
 }
 
 /// Runs `nerf fit`.
@@ -363,15 +375,15 @@ pub fn run(a: Args) -> CmdResult {
     for (name, cfg) in candidates() {
         let (cfg, gave_up) = match a.max_bytes {
             None => (cfg, Vec::new()),
-            Some(max) => match fit_budget(&cfg, scene, a.bits, max) {
+            Some(max) => match fit_budget(&cfg, scene, a.bits, max).map_err(|e| format!("{name}: {e}"))? {
                 Ok((c, gave, bytes)) => {
                     let what =
                         if gave.is_empty() { String::new() } else { format!(" after giving up {}", gave.join(", ")) };
                     out!("fit: {name} fits --max-bytes {max}: {bytes} bytes{what}");
                     (c, gave)
                 }
-                Err(e) => {
-                    out!("fit: not training {name}: it does not fit --max-bytes {max} ({e})");
+                Err(smallest) => {
+                    out!("fit: not training {name}: it does not fit --max-bytes {max} ({smallest} bytes at its smallest)");
                     continue;
                 }
             },
