@@ -38,6 +38,18 @@ fn int8_golden_pixels_are_bit_exact() {
     check::<2>(include_bytes!("data/golden8.nerf"), &expected::GOLDEN8);
 }
 
+/// An int8 model with the 16-bit parts of format version 6 (the view
+/// layer's direction rows, the colour head).
+#[test]
+fn int8_golden_pixels_with_16_bit_parts_are_bit_exact() {
+    let blob = include_bytes!("data/golden8_precise.nerf");
+    assert_eq!(u16::from_le_bytes([blob[4], blob[5]]), 6);
+    check::<8>(blob, &expected::GOLDEN8_PRECISE);
+    check::<1>(blob, &expected::GOLDEN8_PRECISE);
+    // and they change pixels: the model without them renders others
+    assert_ne!(expected::GOLDEN8_PRECISE, expected::GOLDEN8);
+}
+
 fn render_with<const B: usize>(blob: &[u8], early_stop: f32) -> [PixelFixed; 256] {
     let model = Model::from_bytes(blob).unwrap();
     let opts = RenderOptions { early_stop, ..RenderOptions::from_model(&model) };
@@ -53,7 +65,12 @@ fn render_with<const B: usize>(blob: &[u8], early_stop: f32) -> [PixelFixed; 256
 /// firmware build with one-sample blocks renders what the host renders.
 #[test]
 fn early_termination_does_not_depend_on_the_block_size() {
-    for blob in [&include_bytes!("data/golden.nerf")[..], &include_bytes!("data/golden8.nerf")[..]] {
+    let blobs = [
+        &include_bytes!("data/golden.nerf")[..],
+        include_bytes!("data/golden8.nerf"),
+        include_bytes!("data/golden8_precise.nerf"),
+    ];
+    for blob in blobs {
         let one = render_with::<1>(blob, 0.05);
         assert_eq!(one, render_with::<3>(blob, 0.05));
         assert_eq!(one, render_with::<8>(blob, 0.05));

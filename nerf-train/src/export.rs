@@ -13,6 +13,13 @@
 //! the density head, `S[c]·2¹²` for the colour head) becomes a Q0.31
 //! multiplier and a shift. The `2²⁹` bias bound keeps int8 layers with up
 //! to 355 inputs inside i32: `355·127·2¹⁵ + 2²⁹ < 2³¹`.
+//!
+//! Two parts of an int8 network are also written at 16 bits (format
+//! version 6): the view layer's direction rows, `round(W'/S · 2⁸)`, summed
+//! once per ray, so the 256× finer step costs nothing per sample (their
+//! weights are small beside the feature rows', which set `S`, and 8 bits
+//! left them a few steps each); and the colour head, quantised as in an
+//! int16 model (3 outputs, evaluated only for samples with weight).
 
 use crate::mlp::Mlp;
 use crate::train::Trainer;
@@ -51,6 +58,53 @@ pub struct OwnedNetwork {
     pub act_bits: u8,
     /// Layers.
     pub layers: Vec<OwnedLayer>,
+    /// The parts kept at 16 bits (format version 6).
+    pub precise: Option<OwnedPrecise>,
+}
+
+/// A network's 16-bit parts, owned (see [`format::PreciseNet`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct OwnedPrecise {
+    /// The view layer's direction rows, i16 LE (empty: none).
+    pub view_dirs: Vec<u8>,
+    /// The colour head with i16 weights.
+    pub colour: Option<OwnedLayer>,
+}
+
+impl OwnedLayer {
+    fn view(&self) -> Layer<'_> {
+        Layer {
+            in_dim: self.in_dim,
+            out_dim: self.out_dim,
+            act_max: self.act_max,
+            weights: &self.weights,
+            bias: &self.bias,
+            scales: &self.scales,
+            requant: &self.requant,
+        }
+    }
+
+    fn from_view(l: &Layer<'_>) -> Self {
+        OwnedLayer {
+            in_dim: l.in_dim,
+            out_dim: l.out_dim,
+            act_max: l.act_max,
+            weights: l.weights.to_vec(),
+            bias: l.bias.to_vec(),
+            scales: l.scales.to_vec(),
+            requant: l.requant.to_vec(),
+        }
+    }
+}
+
+impl OwnedPrecise {
+    fn view(&self) -> format::PreciseNet<'_> {
+        format::PreciseNet { view_dirs: &self.view_dirs, colour: self.colour.as_ref().map(OwnedLayer::view) }
+    }
+
+    fn from_view(p: &format::PreciseNet<'_>) -> Self {
+        Self { view_dirs: p.view_dirs.to_vec(), colour: p.colour.as_ref().map(OwnedLayer::from_view) }
+    }
 }
 
 /// A model owning its tensors; [`OwnedModel::to_bytes`] writes the file.
@@ -94,34 +148,16 @@ impl OwnedNetwork {
     fn view(&self) -> Network<'_> {
         let mut layers = heapless::Vec::new();
         for l in &self.layers {
-            let _ = layers.push(Layer {
-                in_dim: l.in_dim,
-                out_dim: l.out_dim,
-                act_max: l.act_max,
-                weights: &l.weights,
-                bias: &l.bias,
-                scales: &l.scales,
-                requant: &l.requant,
-            });
+            let _ = layers.push(l.view());
         }
-        Network { scheme: self.scheme, act_bits: self.act_bits, layers }
+        let precise = self.precise.as_ref().map(OwnedPrecise::view);
+        Network { scheme: self.scheme, act_bits: self.act_bits, layers, precise }
     }
 
     fn from_view(n: &Network<'_>) -> Self {
-        let layers = n
-            .layers
-            .iter()
-            .map(|l| OwnedLayer {
-                in_dim: l.in_dim,
-                out_dim: l.out_dim,
-                act_max: l.act_max,
-                weights: l.weights.to_vec(),
-                bias: l.bias.to_vec(),
-                scales: l.scales.to_vec(),
-                requant: l.requant.to_vec(),
-            })
-            .collect();
-        Self { scheme: n.scheme, act_bits: n.act_bits, layers }
+        let layers = n.layers.iter().map(OwnedLayer::from_view).collect();
+        let precise = n.precise.as_ref().map(OwnedPrecise::from_view);
+        Self { scheme: n.scheme, act_bits: n.act_bits, layers, precise }
     }
 }
 
@@ -143,6 +179,10 @@ impl OwnedModel {
             features: self.features.as_ref().map(|(f, t)| with_table(f, t)),
             capture: self.capture,
             unbounded: self.scene.unbounded,
+            precise: self.coarse.precise.as_ref().map(|p| format::Precise {
+                coarse: p.view(),
+                fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()).map(OwnedPrecise::view),
+            }),
         };
         format::to_bytes(&m)
     }
@@ -184,7 +224,7 @@ pub fn f32_network(mlp: &Mlp, params: &[f32], act_max: &[f32]) -> OwnedNetwork {
             requant: Vec::new(),
         })
         .collect();
-    OwnedNetwork { scheme: Scheme::F32, act_bits: 32, layers }
+    OwnedNetwork { scheme: Scheme::F32, act_bits: 32, layers, precise: None }
 }
 
 /// Fractional bits for raw coordinates whose magnitude reaches `max_abs`
@@ -393,62 +433,118 @@ fn quantise_network(
         (Scheme::F32, _) => return Err("quantise to int16 or int8".into()),
         _ => return Err(format!("{act_bits}-bit activations need int8 weights")),
     };
-    let mut layers = Vec::new();
+    let t = &m.topology;
+    let (view, colour) = (t.view_dependent.then(|| sigma_layer(t) + 2), net.layers.len() - 1);
+    let (mut layers, mut precise) = (Vec::new(), OwnedPrecise::default());
     for (i, l) in net.layers.iter().enumerate() {
-        let (cols, target) = layer_scales(&m.topology, &m.encoding, net, i, act_bits, grid_frac);
-        let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
-        debug_assert_eq!(cols.len(), din);
+        let (cols, target) = layer_scales(t, &m.encoding, net, i, act_bits, grid_frac);
+        debug_assert_eq!(cols.len(), l.in_dim as usize);
         if let Some(bad) = cols.iter().chain(&[target]).find(|v| !v.is_finite() || **v <= 0.0) {
             return Err(format!(
                 "layer {i}: activation range is not finite or not positive (scale {bad}): the model's calibration \
                  saw non-finite activations; retrain or export at 32 bits"
             ));
         }
-        let qmax = if eight_bit.contains(&i) { 127.0 } else { qmax };
-        let mut q = vec![0i32; din * dout];
-        let (mut bias, mut scales, mut requant) = (Vec::new(), Vec::new(), Vec::new());
-        for c in 0..dout {
-            let w = |j: usize| read_f32(l.weights, j * dout + c) as f64 * cols[j];
-            let b = read_f32(l.bias, c) as f64;
-            let amax = (0..din).map(|j| w(j).abs()).fold(0.0, f64::max);
-            let mut s = (amax / qmax).max(b.abs() / 2f64.powi(29));
-            if s == 0.0 {
-                s = 1.0;
-            }
-            let s = s as f32 as f64; // stored as f32: quantise against the stored value
-            for j in 0..din {
-                q[j * dout + c] = (w(j) / s).round().clamp(-qmax, qmax) as i32;
-            }
-            bias.extend(((b / s).round() as i32).to_le_bytes());
-            scales.extend((s as f32).to_le_bytes());
-            // A channel with no weights and no bias outputs exactly 0; one
-            // whose calibrated output range is far below a weight step
-            // saturates (the largest factor), one far above it rounds to 0.
-            let factor = if amax == 0.0 && b == 0.0 { 0.0 } else { s * target };
-            let r = Requant::from_f64(factor).unwrap_or(if factor > 1.0 {
-                Requant { multiplier: i32::MAX, shift: Requant::MIN_SHIFT }
-            } else {
-                Requant { multiplier: 0, shift: 0 }
-            });
-            debug_assert!(r.is_valid(), "layer {i} channel {c}: {r:?}");
-            requant.extend(r.multiplier.to_le_bytes());
-            requant.extend(r.shift.to_le_bytes());
+        // int8 precision, as in the int8 model: 8-bit steps plus the 16-bit
+        // parts (the view layer's direction rows, a 16-bit colour head)
+        let eight = qmax == 127.0 || eight_bit.contains(&i);
+        let q = quantise_layer(l, &cols, target, if eight { 127.0 } else { 32767.0 });
+        if eight && i == colour {
+            precise.colour = Some(quantise_layer(l, &cols, target, 32767.0).to_layer(2));
         }
-        let weights = match scheme {
-            Scheme::I16 => q.iter().flat_map(|&v| (v as i16).to_le_bytes()).collect(),
-            _ => q.iter().map(|&v| v as i8 as u8).collect(),
-        };
-        layers.push(OwnedLayer {
-            in_dim: l.in_dim,
-            out_dim: l.out_dim,
-            act_max: l.act_max,
-            weights,
-            bias,
-            scales,
-            requant,
-        });
+        if eight && Some(i) == view {
+            precise.view_dirs = fine_rows(l, &cols, &q, m.encoding.dir_dim());
+        }
+        layers.push(q.to_layer(scheme.weight_bytes()));
     }
-    Ok(OwnedNetwork { scheme, act_bits, layers })
+    let any = !precise.view_dirs.is_empty() || precise.colour.is_some();
+    Ok(OwnedNetwork { scheme, act_bits, layers, precise: any.then_some(precise) })
+}
+
+/// A layer quantised with `±qmax` steps per output channel, before its
+/// weights are written at a width.
+struct Quantised {
+    in_dim: u16,
+    out_dim: u16,
+    act_max: f32,
+    /// Weights in steps, input-major.
+    q: Vec<i32>,
+    /// Per-channel step `S[c]` (as stored, f32).
+    steps: Vec<f64>,
+    bias: Vec<u8>,
+    requant: Vec<u8>,
+}
+
+impl Quantised {
+    /// The layer with `bytes`-wide weights (1: i8, 2: i16).
+    fn to_layer(&self, bytes: usize) -> OwnedLayer {
+        let weights = match bytes {
+            2 => self.q.iter().flat_map(|&v| (v as i16).to_le_bytes()).collect(),
+            _ => self.q.iter().map(|&v| v as i8 as u8).collect(),
+        };
+        OwnedLayer {
+            in_dim: self.in_dim,
+            out_dim: self.out_dim,
+            act_max: self.act_max,
+            weights,
+            bias: self.bias.clone(),
+            scales: f32_bytes(self.steps.iter().map(|&s| s as f32)),
+            requant: self.requant.clone(),
+        }
+    }
+}
+
+/// Quantises f32 layer `l` whose input `j` has scale `cols[j]` and whose
+/// output is wanted in units of `1/target`, with `±qmax` steps per output
+/// channel (see the module documentation).
+fn quantise_layer(l: &Layer<'_>, cols: &[f64], target: f64, qmax: f64) -> Quantised {
+    let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
+    let mut q = vec![0i32; din * dout];
+    let (mut bias, mut steps, mut requant) = (Vec::new(), Vec::new(), Vec::new());
+    for c in 0..dout {
+        let w = |j: usize| read_f32(l.weights, j * dout + c) as f64 * cols[j];
+        let b = read_f32(l.bias, c) as f64;
+        let amax = (0..din).map(|j| w(j).abs()).fold(0.0, f64::max);
+        let mut s = (amax / qmax).max(b.abs() / 2f64.powi(29));
+        if s == 0.0 {
+            s = 1.0;
+        }
+        let s = s as f32 as f64; // stored as f32: quantise against the stored value
+        for j in 0..din {
+            q[j * dout + c] = (w(j) / s).round().clamp(-qmax, qmax) as i32;
+        }
+        bias.extend(((b / s).round() as i32).to_le_bytes());
+        steps.push(s);
+        // A channel with no weights and no bias outputs exactly 0; one
+        // whose calibrated output range is far below a weight step
+        // saturates (the largest factor), one far above it rounds to 0.
+        let factor = if amax == 0.0 && b == 0.0 { 0.0 } else { s * target };
+        let r = Requant::from_f64(factor).unwrap_or(if factor > 1.0 {
+            Requant { multiplier: i32::MAX, shift: Requant::MIN_SHIFT }
+        } else {
+            Requant { multiplier: 0, shift: 0 }
+        });
+        debug_assert!(r.is_valid(), "channel {c}: {r:?}");
+        requant.extend(r.multiplier.to_le_bytes());
+        requant.extend(r.shift.to_le_bytes());
+    }
+    Quantised { in_dim: l.in_dim, out_dim: l.out_dim, act_max: l.act_max, q, steps, bias, requant }
+}
+
+/// The last `nd` rows of view layer `l` (the direction's) at 16 bits, in
+/// 2^−SHIFT steps of `q`'s channel steps ([`format::PreciseNet`]), i16 LE.
+fn fine_rows(l: &Layer<'_>, cols: &[f64], q: &Quantised, nd: usize) -> Vec<u8> {
+    let (din, dout) = (l.in_dim as usize, l.out_dim as usize);
+    let mut rows = vec![0i16; nd * dout];
+    for c in 0..dout {
+        let step = q.steps[c] / f64::from(1u32 << format::PreciseNet::SHIFT);
+        for k in 0..nd {
+            let j = din - nd + k;
+            let w = read_f32(l.weights, j * dout + c) as f64 * cols[j];
+            rows[k * dout + c] = (w / step).round().clamp(-32767.0, 32767.0) as i16;
+        }
+    }
+    rows.iter().flat_map(|v| v.to_le_bytes()).collect()
 }
 
 /// Quantises an f32 model to `scheme` (int16 or int8 weights, 16-bit

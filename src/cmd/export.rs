@@ -22,11 +22,13 @@ pub struct Args {
     /// space sampled, nothing occupied lost.
     #[arg(long)]
     pub(crate) grid_res: Option<u16>,
-    /// With `--bits 16`: round these layers' weights to int8 precision
-    /// (comma-separated indices in file order: trunk layers, density head,
-    /// then the feature, view and colour layers; `nerf info --json` lists
-    /// them), to find which layers 8-bit weights cost PSNR. Listing every
-    /// layer renders exactly as `--bits 8` does.
+    /// With `--bits 16`: round these layers' weights to the int8 export's
+    /// precision (comma-separated indices in file order: trunk layers,
+    /// density head, then the feature, view and colour layers; `nerf info
+    /// --json` lists them), to find which layers 8-bit weights cost PSNR.
+    /// The int8 export keeps the view layer's direction rows and the colour
+    /// head at 16 bits, and so does this. Listing every layer renders
+    /// exactly as `--bits 8` does.
     #[arg(long, value_delimiter = ',')]
     int8_layers: Vec<usize>,
     /// Set the model's default stratified samples per ray (2..=256; what a

@@ -57,6 +57,10 @@ pub fn run(a: Args) -> CmdResult {
         })),
         "coarse": net(&m.coarse),
         "fine": m.fine.as_ref().map(net),
+        "precise": m.coarse.precise.map(|p| serde_json::json!({
+            "view_dirs_bytes": p.view_dirs.len(), "colour_head": p.colour.is_some(),
+            "bytes": p.bytes() + m.fine.as_ref().and_then(|f| f.precise).map_or(0, |p| p.bytes()),
+        })),
     });
     if a.json {
         println!("{info}");
@@ -142,6 +146,16 @@ pub fn run(a: Args) -> CmdResult {
             c.framing,
             if c.lens { "applied" } else { "ignored" }
         );
+    }
+    if let Some(p) = m.coarse.precise {
+        let parts: Vec<&str> = [
+            (!p.view_dirs.is_empty()).then_some("the view layer's direction rows"),
+            p.colour.map(|_| "the colour head"),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        println!("  at 16 bits: {} ({} bytes)", parts.join(" and "), info["precise"]["bytes"]);
     }
     println!("  parameters: {} per network", info["coarse"]["parameters"]);
     println!("  pruning: {}", pruning(&m));

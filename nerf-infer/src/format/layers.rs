@@ -1,6 +1,6 @@
 //! A network's dense layers as stored, and the shapes a topology implies.
 
-use super::records::{Encoding, Scheme, Topology};
+use super::records::{Encoding, PreciseNet, Scheme, Topology};
 use crate::fixed::Requant;
 use crate::limits::MAX_LAYERS;
 use crate::tensor::{read_f32, read_i32};
@@ -67,6 +67,11 @@ pub struct Network<'a> {
     /// The layers, in the order documented above.
     #[serde(borrow)]
     pub layers: heapless::Vec<Layer<'a>, MAX_LAYERS>,
+    /// The parts kept at 16 bits ([`PreciseNet`], format version 6). Not
+    /// stored here: set from [`Model::precise`](super::Model::precise) when
+    /// a model is decoded.
+    #[serde(skip)]
+    pub precise: Option<PreciseNet<'a>>,
 }
 
 /// Index of the density head.

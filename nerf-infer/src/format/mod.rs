@@ -1,11 +1,11 @@
-//! The model file format (versions 1 to 5). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 6). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–5)  |
+//! | 4      | 2    | format version, u16 little-endian (1–6)  |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
@@ -13,8 +13,10 @@
 //! Version 2 appends one field, the optional occupancy grid; version 3
 //! another, the optional learned feature grid ([`FeatureGrid`]); version 4
 //! the optional record of the training capture's split ([`Capture`]);
-//! version 5 unbounded space ([`Unbounded`]). A model is written as the
-//! oldest version that holds it (not unbounded: 4; no capture record
+//! version 5 unbounded space ([`Unbounded`]); version 6 the parts of an
+//! int8 model kept at 16 bits ([`Precise`]). A model is written as the
+//! oldest version that holds it (no 16-bit parts: 5; not
+//! unbounded either: 4; no capture record
 //! either: 3; no feature grid either: 2; no occupancy grid and no pruned
 //! layer either: 1), byte for byte what earlier builds wrote, so older readers
 //! keep reading it.
@@ -32,7 +34,8 @@ pub use header::crc32;
 use header::{check_header, Padded};
 pub use layers::{expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network};
 pub use records::{
-    CameraConvention, Capture, Encoding, Framing, Meta, Ndc, Samples, Scene, Scheme, Topology, Unbounded,
+    CameraConvention, Capture, Encoding, Framing, Meta, Ndc, Precise, PreciseNet, Samples, Scene, Scheme, Topology,
+    Unbounded,
 };
 
 use crate::error::{Error, Result};
@@ -42,9 +45,10 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::limits::{
     FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_FEATURES, FORMAT_VERSION_NO_GRID,
-    FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
+    FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS,
+    MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
 };
-pub use crate::tensor::{read_f32, read_i32};
+pub use crate::tensor::{read_f32, read_i16, read_i32};
 
 /// A decoded model, borrowing its tensors from the blob.
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -79,6 +83,10 @@ pub struct Model<'a> {
     pub capture: Option<Capture>,
     /// Unbounded space (format version 5), the same as `scene.unbounded`.
     pub unbounded: Option<Unbounded>,
+    /// The parts of the networks kept at 16 bits (format version 6), the
+    /// same as each network's `precise`.
+    #[serde(borrow)]
+    pub precise: Option<Precise<'a>>,
 }
 
 impl<'a> Model<'a> {
@@ -91,6 +99,12 @@ impl<'a> Model<'a> {
         de.finalize().map_err(|_| Error::Decode)?;
         model.encoding.grid_dim = model.features.as_ref().map_or(0, |f| f.dim() as u8);
         model.scene.unbounded = model.unbounded;
+        if let Some(p) = model.precise {
+            model.coarse.precise = Some(p.coarse);
+            if let Some(f) = &mut model.fine {
+                f.precise = p.fine;
+            }
+        }
         model.validate()?;
         if version == FORMAT_VERSION_NO_GRID && model.is_pruned() {
             return Err(Error::InvalidTopology("pruned layers need format version 2"));
@@ -116,7 +130,8 @@ impl<'a> Model<'a> {
             .any(|n| n.layers.iter().enumerate().any(|(i, l)| l.out_dim as usize != expected_shape(t, e, i).1))
     }
 
-    /// Tensor bytes the model would have without pruning.
+    /// Tensor bytes the model would have without pruning (16-bit parts
+    /// included).
     pub fn unpruned_tensor_bytes(&self) -> usize {
         let (t, e) = (&self.topology, &self.encoding);
         let per_layer = |n: &Network<'_>, i: usize| {
@@ -124,18 +139,28 @@ impl<'a> Model<'a> {
             let b = n.scheme.weight_bytes();
             din * dout * b + 4 * dout + if n.scheme.is_fixed() { 12 * dout } else { 0 }
         };
+        // 16-bit parts at the topology's widths
+        let precise = |n: &Network<'_>| {
+            n.precise.map_or(0, |p| {
+                let (din, _) = expected_shape(t, e, n.layers.len() - 1);
+                let dirs = if p.view_dirs.is_empty() { 0 } else { e.dir_dim() * t.view_width as usize * 2 };
+                dirs + p.colour.map_or(0, |_| din * 3 * 2 + 3 * 16)
+            })
+        };
         core::iter::once(&self.coarse)
             .chain(self.fine.as_ref())
-            .map(|n| (0..n.layers.len()).map(|i| per_layer(n, i)).sum::<usize>())
+            .map(|n| (0..n.layers.len()).map(|i| per_layer(n, i)).sum::<usize>() + precise(n))
             .sum()
     }
 
-    /// The format version this model is written as: 5 with unbounded
-    /// space, 4 with a capture record, 3 with a feature grid, 2 with an
-    /// occupancy grid or pruned layers, else 1.
+    /// The format version this model is written as: 6 with 16-bit parts,
+    /// 5 with unbounded space, 4 with a capture record, 3
+    /// with a feature grid, 2 with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.unbounded.is_some() {
+        if self.precise.is_some() {
             FORMAT_VERSION
+        } else if self.unbounded.is_some() {
+            FORMAT_VERSION_NO_PRECISE
         } else if self.capture.is_some() {
             FORMAT_VERSION_NO_UNBOUNDED
         } else if self.features.is_some() {
@@ -157,13 +182,20 @@ impl<'a> Model<'a> {
         self.features.as_ref().map_or(0, |f| f.table.len())
     }
 
-    /// Total bytes of all tensors (weights, biases, scales, requant).
+    /// Total bytes of all tensors (weights, biases, scales, requant, and the
+    /// 16-bit parts).
     pub fn tensor_bytes(&self) -> usize {
         core::iter::once(&self.coarse)
             .chain(self.fine.as_ref())
             .flat_map(|n| n.layers.iter())
             .map(|l| l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len())
-            .sum()
+            .sum::<usize>()
+            + self
+                .precise
+                .iter()
+                .flat_map(|p| core::iter::once(p.coarse).chain(p.fine))
+                .map(|p| p.bytes())
+                .sum::<usize>()
     }
 }
 
@@ -226,6 +258,39 @@ mod tests {
         assert_eq!(Model::from_bytes(&bytes).unwrap(), m);
         m.capture = Some(Capture { holdout: 0, ..c });
         assert!(matches!(Model::from_bytes(&encode(&m).unwrap()), Err(Error::InvalidScene(_))));
+    }
+
+    /// 16-bit parts make a version-6 file that re-encodes byte for byte;
+    /// parts of the wrong shape, in an f32 model, or differing between the
+    /// model and its networks are refused.
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn precise_parts_are_version_6_and_checked() {
+        let blob = include_bytes!("../../tests/data/golden8_precise.nerf");
+        let m = Model::from_bytes(blob).unwrap();
+        assert_eq!(m.format_version(), 6);
+        assert_eq!(to_bytes(&m).unwrap(), blob);
+        let p = m.precise.unwrap();
+        assert_eq!(m.coarse.precise, Some(p.coarse));
+        assert!(!p.coarse.view_dirs.is_empty() && p.coarse.colour.is_some());
+        let refused = |m: &Model<'_>| Model::from_bytes(&encode(m).unwrap()).unwrap_err();
+        // direction rows one element short
+        let short = &p.coarse.view_dirs[..p.coarse.view_dirs.len() - 2];
+        let mut bad = m.clone();
+        bad.precise = Some(Precise { coarse: PreciseNet { view_dirs: short, ..p.coarse }, ..p });
+        assert!(matches!(refused(&bad), Error::TensorLength(_)));
+        // a colour head of the wrong width
+        let mut narrow = p.coarse.colour.unwrap();
+        narrow.in_dim -= 1;
+        bad.precise = Some(Precise { coarse: PreciseNet { colour: Some(narrow), ..p.coarse }, ..p });
+        assert!(matches!(refused(&bad), Error::LayerShape(_)));
+        // a fine network's parts missing
+        bad.precise = Some(Precise { fine: None, ..p });
+        assert!(matches!(refused(&bad), Error::InvalidTopology(_)));
+        // an f32 model
+        let mut f = m.clone();
+        f.coarse.scheme = Scheme::F32;
+        assert!(matches!(f.validate(), Err(Error::InvalidTopology(s)) if s.contains("f32")));
     }
 
     /// Without the `feature-grid` feature a model with a feature grid is

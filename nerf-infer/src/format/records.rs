@@ -1,6 +1,7 @@
 //! The model's records: scheme, scene, encoding, topology, samples,
 //! provenance and the training capture's split.
 
+use super::layers::Layer;
 use serde::{Deserialize, Serialize};
 
 /// Numeric scheme of a network's weights.
@@ -88,6 +89,51 @@ pub struct Unbounded {
     /// spacing turns from even in `t` to even in `1/t`: a sample at `s ∈
     /// [0, 1)` sits at `t = 2Ts` below `s = 1/2` and at `T/(2(1 − s))` above.
     pub linear_until: f32,
+}
+
+/// The parts of an integer model's networks kept at 16 bits (format
+/// version 6): the two where 8-bit weights cost the most PSNR and the
+/// least time at 16 bits.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct Precise<'a> {
+    /// The coarse network's.
+    #[serde(borrow)]
+    pub coarse: PreciseNet<'a>,
+    /// The fine network's, present iff the model has a fine network.
+    #[serde(borrow)]
+    pub fine: Option<PreciseNet<'a>>,
+}
+
+/// One network's 16-bit parts ([`Precise`]).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct PreciseNet<'a> {
+    /// The view layer's direction rows, `dir_dim × out_dim` i16 LE,
+    /// input-major, or empty (the layer's own rows then). The direction is
+    /// the same for every sample of a ray, so these rows are summed once
+    /// per ray: row `j` of channel `c` holds `w[j][c]` in steps of
+    /// 2^−[`PreciseNet::SHIFT`] of the layer's weight step, and the per-ray
+    /// start of channel `c`'s sum is `bias[c] + round(Σ_j γ(d)[j] · w[j][c]
+    /// / 2^SHIFT)` (ties up). The layer's own tensor still holds the rows at
+    /// its precision; renderers of version 6 read these instead.
+    #[serde(borrow)]
+    pub view_dirs: &'a [u8],
+    /// The colour head with i16 weights (its own bias, scales and
+    /// requantisation, quantised as in an int16 model), used instead of the
+    /// network's last layer; `None`: that layer.
+    #[serde(borrow)]
+    pub colour: Option<Layer<'a>>,
+}
+
+impl PreciseNet<'_> {
+    /// Fraction bits of the stored direction rows below the layer's weight
+    /// step: 8, so int8 rows (±127 steps) become ±32512.
+    pub const SHIFT: u32 = 8;
+
+    /// Tensor bytes held.
+    pub fn bytes(&self) -> usize {
+        self.view_dirs.len()
+            + self.colour.map_or(0, |l| l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len())
+    }
 }
 
 /// Positional encoding parameters (NeRF eq. 4): per coordinate p,

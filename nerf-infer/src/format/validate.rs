@@ -82,12 +82,59 @@ impl Model<'_> {
         if self.capture.is_some_and(|c| c.holdout == 0 || c.holdout > Capture::MAX_HOLDOUT || c.views == 0) {
             return Err(Error::InvalidScene("capture record: holdout outside 1..=100000 or no views"));
         }
+        self.validate_precise()?;
         self.validate_network(&self.coarse)?;
         if let Some(f) = &self.fine {
             if f.scheme != self.coarse.scheme {
                 return Err(Error::MixedScheme(0));
             }
             self.validate_network(f)?;
+        }
+        Ok(())
+    }
+
+    /// The 16-bit parts: only in integer models, the same in the model and
+    /// in its networks, each of its network's shapes.
+    fn validate_precise(&self) -> Result<()> {
+        let nets = core::iter::once(&self.coarse).chain(self.fine.as_ref());
+        let Some(p) = self.precise else {
+            if nets.into_iter().any(|n| n.precise.is_some()) {
+                return Err(Error::InvalidTopology("a network has 16-bit parts the model does not"));
+            }
+            return Ok(());
+        };
+        if !self.scheme().is_fixed() {
+            return Err(Error::InvalidTopology("16-bit parts in an f32 model"));
+        }
+        if self.coarse.precise != Some(p.coarse) || self.fine.as_ref().map(|f| f.precise) != p.fine.map(Some) {
+            return Err(Error::InvalidTopology("the networks' 16-bit parts differ from the model's"));
+        }
+        for n in nets {
+            let (Some(pn), Some(last)) = (n.precise, n.layers.last()) else { continue };
+            let t = &self.topology;
+            let vi = sigma_layer(t) + 2;
+            if !pn.view_dirs.is_empty() {
+                let od = n.layers.get(vi).filter(|_| t.view_dependent).map_or(0, |l| l.out_dim as usize);
+                if pn.view_dirs.len() != self.encoding.dir_dim() * od * 2 {
+                    return Err(Error::TensorLength(vi as u8));
+                }
+            }
+            if let Some(c) = pn.colour {
+                let ci = n.layers.len() as u8 - 1;
+                let din = last.in_dim as usize;
+                if c.in_dim != last.in_dim || c.out_dim != 3 {
+                    return Err(Error::LayerShape(ci));
+                }
+                let lengths = [c.weights.len(), c.bias.len(), c.scales.len(), c.requant.len()];
+                if lengths != [din * 3 * 2, 12, 12, 24] {
+                    return Err(Error::TensorLength(ci));
+                }
+                if !(c.act_max.is_finite() && c.act_max >= 0.0)
+                    || (0..3).any(|k| !(c.scale(k).is_finite() && c.scale(k) > 0.0 && c.requant(k).is_valid()))
+                {
+                    return Err(Error::InvalidScale(ci));
+                }
+            }
         }
         Ok(())
     }

@@ -84,9 +84,13 @@ pub trait LayerKernel<N: Numbers> {
         acc: &mut N::Acc<B>,
         sigma: &mut [N::Sigma; B],
     );
-    /// The colour head (then the sigmoid) on the first `dim` values of `input`.
+    /// The colour head (then the sigmoid) on the first `dim` values of
+    /// `input`: `l`, or `head16` when given (the 16-bit colour head of an
+    /// integer model of format 6, [`crate::format::PreciseNet`]).
+    #[allow(clippy::too_many_arguments)]
     fn rgb_head<const B: usize>(
         l: &Layer<'_>,
+        head16: Option<&Layer<'_>>,
         input: &[[N::X; MAX_WIDTH]],
         dim: usize,
         n: usize,
@@ -95,6 +99,15 @@ pub trait LayerKernel<N: Numbers> {
     );
     /// `view[c] = bias[c] + Σ_j dir[j] · W[w + j][c]` into `acc`: the
     /// direction's part of the view layer `l` (the first `w` rows are the
-    /// feature layer's).
-    fn fold_view<const B: usize>(l: &Layer<'_>, dir: &[N::X; ENC_MAX], nd: usize, w: usize, acc: &mut N::Acc<B>);
+    /// feature layer's), or with `rows16` non-empty (integer models of
+    /// format 6) `bias[c] + round(Σ_j dir[j] · rows16[j][c] / 2^8)`
+    /// ([`crate::format::PreciseNet`]).
+    fn fold_view<const B: usize>(
+        l: &Layer<'_>,
+        rows16: &[u8],
+        dir: &[N::X; ENC_MAX],
+        nd: usize,
+        w: usize,
+        acc: &mut N::Acc<B>,
+    );
 }

@@ -122,6 +122,7 @@ impl LayerKernel<F32> for F32 {
 
     fn rgb_head<const B: usize>(
         l: &Layer<'_>,
+        _head16: Option<&Layer<'_>>,
         input: &[[f32; MAX_WIDTH]],
         dim: usize,
         n: usize,
@@ -139,7 +140,15 @@ impl LayerKernel<F32> for F32 {
         }
     }
 
-    fn fold_view<const B: usize>(l: &Layer<'_>, dir: &[f32; ENC_MAX], nd: usize, w: usize, acc: &mut ViewBias) {
+    /// `rows16` is empty: f32 models carry no 16-bit parts (validated).
+    fn fold_view<const B: usize>(
+        l: &Layer<'_>,
+        _rows16: &[u8],
+        dir: &[f32; ENC_MAX],
+        nd: usize,
+        w: usize,
+        acc: &mut ViewBias,
+    ) {
         let (od, view) = (l.out_dim as usize, &mut acc.0);
         for c in 0..od {
             view[c] = read_f32(l.bias, c);

@@ -8,8 +8,8 @@ use crate::arch::IntKernel;
 use crate::encoding::encode_fixed;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, sigmoid_q12_q15};
-use crate::format::{read_i32, Layer, Model, Network, Scheme};
-use crate::layer::{Input, TILE_C};
+use crate::format::{read_i16, read_i32, sigma_layer, Layer, Model, Network, PreciseNet, Scheme};
+use crate::layer::{Input, TILE_C, W16};
 use crate::limits::MAX_WIDTH;
 
 /// The accumulators of a fixed-point block: i64 rows for int16 weights,
@@ -104,12 +104,16 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
 
     fn rgb_head<const B: usize>(
         l: &Layer<'_>,
+        head16: Option<&Layer<'_>>,
         input: &[[i16; MAX_WIDTH]],
         dim: usize,
         n: usize,
         acc: &mut FixedAcc<B>,
         rgb: &mut [[u16; 3]; B],
     ) {
+        if let Some(l16) = head16 {
+            return <W16 as LayerKernel<Fixed>>::rgb_head(l16, None, input, dim, n, acc, rgb);
+        }
         let acc = W::pick(&mut acc.a64, &mut acc.a32);
         init_int::<W>(l, None, n, acc);
         accumulate_int::<W, MAX_WIDTH>(l, Input { rows: input, row0: 0, width: dim, n }, acc);
@@ -121,9 +125,28 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
         }
     }
 
-    fn fold_view<const B: usize>(l: &Layer<'_>, dir: &[i16; ENC_MAX], nd: usize, w: usize, acc: &mut FixedAcc<B>) {
+    fn fold_view<const B: usize>(
+        l: &Layer<'_>,
+        rows16: &[u8],
+        dir: &[i16; ENC_MAX],
+        nd: usize,
+        w: usize,
+        acc: &mut FixedAcc<B>,
+    ) {
         let od = l.out_dim as usize;
         let FixedAcc { a64, a32, view } = acc;
+        if !rows16.is_empty() {
+            // 16-bit direction rows (format 6) in 2^-SHIFT weight steps
+            let rows = Layer { in_dim: nd as u16, weights: rows16, ..*l };
+            let dir = Input { rows: core::slice::from_ref(dir), row0: 0, width: nd, n: 1 };
+            a64[0][..od].fill(0);
+            accumulate_int::<W16, ENC_MAX>(&rows, dir, a64);
+            let half = 1i64 << (PreciseNet::SHIFT - 1);
+            for (c, (v, &a)) in view[..od].iter_mut().zip(&a64[0][..od]).enumerate() {
+                *v = read_i32(l.bias, c) as i64 + ((a + half) >> PreciseNet::SHIFT);
+            }
+            return;
+        }
         if cfg!(target_arch = "x86_64") {
             // the layer kernel on one sample, rows w.. (the SIMD one where
             // built; kept off the Cortex-M for flash)
@@ -146,18 +169,34 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
     }
 }
 
-/// Checks that no int8 layer can overflow its i32 accumulator:
-/// `Σⱼ |W[j][c]| · 32768 + |bias[c]| ≤ i32::MAX` for every output `c`.
-pub fn check_i8_headroom(net: &Network<'_>) -> Result<()> {
+/// Checks that no int8 layer of `net` (a network of `model`) can overflow
+/// its i32 accumulator: `Σⱼ |W[j][c]| · 32768 + |bias[c]| ≤ i32::MAX` for
+/// every output `c`, the view layer's 16-bit direction rows (when the
+/// model has them) counting `|w16| · 2^(15 − SHIFT)` each and 1 for their
+/// rounding.
+pub fn check_i8_headroom(model: &Model<'_>, net: &Network<'_>) -> Result<()> {
     if net.scheme != Scheme::I8 {
         return Ok(());
     }
+    let t = &model.topology;
+    let nd = model.encoding.dir_dim();
     for (i, l) in net.layers.iter().enumerate() {
         let od = l.out_dim as usize;
+        let din = l.in_dim as usize;
+        let rows16 = net.precise.map_or(&[][..], |p| p.view_dirs);
+        let rows16 = (t.view_dependent && i == sigma_layer(t) + 2 && !rows16.is_empty()).then_some(rows16);
+        let narrow = if rows16.is_some() { din - nd } else { din };
         for c in 0..od {
             let mut sum = (read_i32(l.bias, c) as i64).abs();
-            for j in 0..l.in_dim as usize {
+            for j in 0..narrow {
                 sum += ((l.weights[j * od + c] as i8 as i64).abs()) << 15;
+            }
+            if let Some(rows16) = rows16 {
+                for j in 0..nd {
+                    let w = read_i16(rows16, j * od + c) as i64;
+                    sum += w.abs() << (15 - PreciseNet::SHIFT);
+                }
+                sum += 1;
             }
             if sum > i32::MAX as i64 {
                 return Err(Error::InvalidScale(i as u8));

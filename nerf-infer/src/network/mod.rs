@@ -92,7 +92,8 @@ impl<N: Numbers, const B: usize> Block<N, B> {
         let mut dir = [N::X::default(); ENC_MAX];
         let nd = N::encode_dir(model, viewdir, &mut dir);
         let w = l.in_dim as usize - nd; // the feature layer's width
-        K::fold_view::<B>(l, &dir, nd, w, &mut self.acc);
+        let rows16 = net.precise.map_or(&[][..], |p| p.view_dirs);
+        K::fold_view::<B>(l, rows16, &dir, nd, w, &mut self.acc);
     }
 
     /// The trunk and density head at positions `pos` (≤ `B`): fills
@@ -142,6 +143,7 @@ impl<N: Numbers, const B: usize> Block<N, B> {
         } else {
             (w, &layers[si + 1])
         };
-        K::rgb_head::<B>(head, trunk, dim, n, acc, rgb);
+        let head16 = net.precise.and_then(|p| p.colour);
+        K::rgb_head::<B>(head, head16.as_ref(), trunk, dim, n, acc, rgb);
     }
 }

@@ -82,9 +82,9 @@ impl NumericPath for Fixed {
         if !model.scheme().is_fixed() {
             return Err(Error::WrongNumericPath);
         }
-        check_i8_headroom(&model.coarse)?;
+        check_i8_headroom(model, &model.coarse)?;
         if let Some(f) = &model.fine {
-            check_i8_headroom(f)?;
+            check_i8_headroom(model, f)?;
         }
         Ok(())
     }
