@@ -9,7 +9,7 @@ use crate::encoding::encode_fixed;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, sigmoid_q12_q15};
 use crate::format::{read_i16, read_i32, sigma_layer, Layer, Model, Network, PreciseNet, Scheme};
-use crate::layer::{Input, TILE_C, W16};
+use crate::layer::{Input, TILE_C};
 use crate::limits::MAX_WIDTH;
 
 /// The accumulators of a fixed-point block: i64 rows for int16 weights,
@@ -111,18 +111,23 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
         acc: &mut FixedAcc<B>,
         rgb: &mut [[u16; 3]; B],
     ) {
-        if let Some(l16) = head16 {
-            return <W16 as LayerKernel<Fixed>>::rgb_head(l16, None, input, dim, n, acc, rgb);
-        }
-        let acc = W::pick(&mut acc.a64, &mut acc.a32);
-        init_int::<W>(l, None, n, acc);
-        accumulate_int::<W, MAX_WIDTH>(l, Input { rows: input, row0: 0, width: dim, n }, acc);
-        for c in 0..3 {
-            let r = l.requant(c);
-            for s in 0..n {
-                rgb[s][c] = sigmoid_q12_q15(sat_i32(r.apply(acc[s][c].into())));
+        let mut sums = [[0i64; 3]; B];
+        let head = match head16 {
+            Some(l16) => {
+                head16_sums(l16, &input[..n], dim, &mut sums);
+                l16
             }
-        }
+            None => {
+                let acc = W::pick(&mut acc.a64, &mut acc.a32);
+                init_int::<W>(l, None, n, acc);
+                accumulate_int::<W, MAX_WIDTH>(l, Input { rows: input, row0: 0, width: dim, n }, acc);
+                for (s, a) in sums.iter_mut().zip(acc.iter()) {
+                    *s = [a[0].into(), a[1].into(), a[2].into()];
+                }
+                l
+            }
+        };
+        rgb_from_sums(head, &sums[..n], rgb);
     }
 
     fn fold_view<const B: usize>(
@@ -136,16 +141,7 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
         let od = l.out_dim as usize;
         let FixedAcc { a64, a32, view } = acc;
         if !rows16.is_empty() {
-            // 16-bit direction rows (format 6) in 2^-SHIFT weight steps
-            let rows = Layer { in_dim: nd as u16, weights: rows16, ..*l };
-            let dir = Input { rows: core::slice::from_ref(dir), row0: 0, width: nd, n: 1 };
-            a64[0][..od].fill(0);
-            accumulate_int::<W16, ENC_MAX>(&rows, dir, a64);
-            let half = 1i64 << (PreciseNet::SHIFT - 1);
-            for (c, (v, &a)) in view[..od].iter_mut().zip(&a64[0][..od]).enumerate() {
-                *v = read_i32(l.bias, c) as i64 + ((a + half) >> PreciseNet::SHIFT);
-            }
-            return;
+            return fold_rows16(l, rows16, &dir[..nd], view);
         }
         if cfg!(target_arch = "x86_64") {
             // the layer kernel on one sample, rows w.. (the SIMD one where
@@ -167,6 +163,64 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
             view[c] = acc.into();
         }
     }
+}
+
+/// `view[c] = bias[c] + round(Σ_j dir[j] · rows16[j][c] / 2^SHIFT)`: the
+/// direction's part of view layer `l` from its 16-bit rows (format 6). One
+/// copy for both weight widths (a Cortex-M's flash); the outputs are
+/// contiguous, so the sums vectorise.
+#[inline(never)]
+fn fold_rows16(l: &Layer<'_>, rows16: &[u8], dir: &[i16], view: &mut [i64; MAX_WIDTH]) {
+    let od = l.out_dim as usize;
+    let sums = &mut view[..od];
+    sums.fill(0);
+    for (&x, row) in dir.iter().zip(rows16.chunks_exact(2 * od)) {
+        for (a, w) in sums.iter_mut().zip(row.chunks_exact(2)) {
+            // an i16 · i16 product fits i32 (at most 2³⁰)
+            *a += (x as i32 * i16::from_le_bytes([w[0], w[1]]) as i32) as i64;
+        }
+    }
+    let half = 1i64 << (PreciseNet::SHIFT - 1);
+    for (c, v) in sums.iter_mut().enumerate() {
+        *v = read_i32(l.bias, c) as i64 + ((*v + half) >> PreciseNet::SHIFT);
+    }
+}
+
+/// The colour head's sums of an int8 model's 16-bit head (format 6) on
+/// the first `dim` values of each input row: `bias[c] + Σ_j x[j]·w[j][c]`
+/// in i64, the three outputs in one pass over the weights. A plain loop
+/// out of line (the int16 kernel inlined into the int8 path would cost a
+/// Cortex-M 4 KiB of flash).
+#[inline(never)]
+fn head16_sums(l: &Layer<'_>, input: &[[i16; MAX_WIDTH]], dim: usize, sums: &mut [[i64; 3]]) {
+    for (x, acc) in input.iter().zip(sums.iter_mut()) {
+        *acc = [0, 1, 2].map(|c| read_i32(l.bias, c) as i64);
+        for (&v, w) in x[..dim].iter().zip(l.weights.chunks_exact(6)) {
+            for (c, a) in acc.iter_mut().enumerate() {
+                // an i16 · i16 product fits i32 (at most 2³⁰)
+                *a += (v as i32 * i16::from_le_bytes([w[2 * c], w[2 * c + 1]]) as i32) as i64;
+            }
+        }
+    }
+}
+
+/// The colour of each sample from its colour-head sums: requantised to a
+/// Q12 logit, then the sigmoid (Q15).
+fn rgb_from_sums(l: &Layer<'_>, sums: &[[i64; 3]], rgb: &mut [[u16; 3]]) {
+    for c in 0..3 {
+        let r = l.requant(c);
+        for (s, out) in sums.iter().zip(rgb.iter_mut()) {
+            out[c] = colour_q15(r, s[c]);
+        }
+    }
+}
+
+/// One colour channel: `sum` requantised by `r`, then the sigmoid. Out of
+/// line: a loop over three channels would otherwise hold three copies (a
+/// Cortex-M's flash), and a division dominates its time anyway.
+#[inline(never)]
+fn colour_q15(r: crate::fixed::Requant, sum: i64) -> u16 {
+    sigmoid_q12_q15(sat_i32(r.apply(sum)))
 }
 
 /// Checks that no int8 layer of `net` (a network of `model`) can overflow
