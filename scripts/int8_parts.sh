@@ -51,7 +51,8 @@ for c in "${revs[@]}"; do
   valgrind --tool=callgrind --callgrind-out-file="$out" --toggle-collect='*render_view*' "$work/nerf-v3-$c" eval \
     "$work/int8-$c.nerf" --data "$root/lego" --split val --downscale 40 --threads 1 --early-stop 1e-3 \
     > /dev/null 2>&1
-  ir=$(callgrind_annotate "$out" 2>/dev/null | grep -m1 'PROGRAM TOTALS' | awk '{gsub(",", "", $1); print $1}')
+  callgrind_annotate "$out" > "$out.txt" 2>/dev/null
+  ir=$(awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1; exit}' "$out.txt")
   bytes=$(stat -c %s "$work/int8-$c.nerf")
   version=$(od -An -tu2 -j4 -N2 "$work/int8-$c.nerf" | tr -d ' ')
   e="$work/eval-$c-1.json"
