@@ -4,7 +4,8 @@
 # Chromium and prints the page's JSON (CRC-32 of the first orbit frame at
 # 64x64, µs per ray of that frame without early termination, and the
 # milliseconds of one 100x100 frame as the viewer draws it, early
-# termination at 1e-3), then the CRC-32 of `nerf render --orbit 1 --size 64`.
+# termination at 1e-3: over its workers, one per core, and on one thread),
+# then the CRC-32 of `nerf render --orbit 1 --size 64`.
 #
 #   scripts/web.sh [MODEL]      (default: models/scene_int8.nerf)
 set -euo pipefail

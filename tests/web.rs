@@ -204,10 +204,16 @@ fn the_page_in_headless_chromium_renders_the_hosts_frame() {
         assert_eq!(result["crc32"].as_u64(), Some(host_crc as u64), "{name}: {result}");
         let us = result["us_per_ray"].as_f64().unwrap();
         assert!(us > 0.0, "{name}: {result}");
+        // the viewer's frame, drawn over its workers
+        let workers = result["workers"].as_u64().unwrap_or(0);
+        let frame_ms = result["frame_ms_100"].as_f64().unwrap_or(-1.0);
+        assert!(workers >= 1 && frame_ms >= 0.0, "{name}: {result}");
         eprintln!(
             "{name}: CRC-32 {host_crc:08x} as the host's; µs per ray: browser {us:.2}, native {native_us:.2} \
-             (one core), ratio {:.2}",
-            us / native_us
+             (one core), ratio {:.2}; a 100x100 frame in {frame_ms:.1} ms over {workers} workers ({:.1} ms on one \
+             thread)",
+            us / native_us,
+            result["frame_ms_100_one_thread"].as_f64().unwrap_or(-1.0)
         );
     }
 }
