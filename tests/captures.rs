@@ -16,7 +16,7 @@ fn spec() -> SceneSpec {
 }
 
 fn opts(format: Format) -> LoadOptions {
-    LoadOptions { format, downscale: 1, holdout: 4, scene: SceneKind::Auto, lens: true }
+    LoadOptions { format, downscale: 1, holdout: 4, scene: SceneKind::Auto, lens: true, undistort: false }
 }
 
 #[test]
@@ -64,6 +64,13 @@ fn colmap_capture_keeps_each_camera_and_bends_rays_through_its_lens() {
     // ignoring the lens makes every view a pinhole
     let flat = load(&d, Split::Train, LoadOptions { lens: false, ..opts(Format::Auto) }).unwrap();
     assert!(flat.views.iter().all(|v| v.lens == Lens::Pinhole));
+    // undistorting at load too, resampling only the distorted camera's photos
+    let resampled = load(&d, Split::Train, LoadOptions { undistort: true, ..opts(Format::Auto) }).unwrap();
+    for (r, v) in resampled.views.iter().zip(&data.views) {
+        assert_eq!(r.lens, Lens::Pinhole, "{}", r.name);
+        let moved = r.rgb.iter().zip(&v.rgb).any(|(a, b)| (0..3).any(|c| (a[c] - b[c]).abs() > 1e-3));
+        assert_eq!(moved, v.lens != Lens::Pinhole, "{}", r.name);
+    }
 }
 
 #[test]

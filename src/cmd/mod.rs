@@ -191,6 +191,10 @@ pub struct CaptureArgs {
     /// so: implied).
     #[arg(long)]
     pub ignore_distortion: bool,
+    /// Resample each distorted photo once at load to the pinhole photo of the same intrinsics (bilinear, edges
+    /// repeated, as COLMAP's image_undistorter) instead of bending its rays through the lens.
+    #[arg(long, conflicts_with = "ignore_distortion")]
+    pub undistort: bool,
 }
 
 /// The hold-out `--llffhold` defaults to.
@@ -200,10 +204,12 @@ impl CaptureArgs {
     /// The flags as a run's checkpoint records them (`--resume` compares them).
     pub fn describe(&self) -> String {
         format!(
-            "--llffhold {} CaptureArgs {{ scene: {:?}, ignore_distortion: {} }}",
+            "--llffhold {} CaptureArgs {{ scene: {:?}, ignore_distortion: {}{} }}",
             self.llffhold.unwrap_or(DEFAULT_HOLDOUT),
             self.scene.unwrap_or_default(),
-            self.ignore_distortion
+            self.ignore_distortion,
+            // absent from runs made before the flag, so that they resume
+            if self.undistort { ", undistort: true" } else { "" }
         )
     }
 
@@ -280,6 +286,7 @@ pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs
         holdout,
         scene: capture.scene.unwrap_or_default().into(),
         lens: !capture.ignore_distortion,
+        undistort: capture.undistort,
     };
     let data = dataset::load(dir, split, opts).map_err(|e| e.to_string())?;
     for n in &data.notes {

@@ -188,7 +188,14 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
     } else {
         None
     };
-    let copts = |select| CaptureOptions { split, select, downscale: opts.downscale, kind: opts.scene, lens: opts.lens };
+    let copts = |select| CaptureOptions {
+        split,
+        select,
+        downscale: opts.downscale,
+        kind: opts.scene,
+        lens: opts.lens,
+        undistort: opts.undistort,
+    };
     let mut data = if !select_all {
         build(&path, &views, &[], fixed, copts(Selection::Holdout(opts.holdout)))?
     } else if split == Split::Train {

@@ -61,6 +61,9 @@ pub struct CaptureOptions {
     pub kind: SceneKind,
     /// Bend rays by each view's lens (false: treat every photo as a pinhole).
     pub lens: bool,
+    /// With `lens`: resample each distorted photo to a pinhole photo once
+    /// instead ([`super::lens::undistort_image`]).
+    pub undistort: bool,
 }
 
 /// Builds the split `opts.split` of a capture. `all` holds every view in
@@ -126,7 +129,12 @@ pub fn build(
         let [cx, cy] = [k.centre[0] / sx, k.centre[1] / sy];
         let camera = Camera::new(w, h, fx as f32, fy as f32, cx as f32, cy as f32, c2w)
             .map_err(|_| DataError::new(&v.image, "invalid camera (intrinsics or pose)"))?;
-        let lens = if opts.lens { v.lens } else { Lens::Pinhole };
+        let (mut rgb, mut lens) = (rgb, if opts.lens { v.lens } else { Lens::Pinhole });
+        if opts.undistort && lens != Lens::Pinhole {
+            let px = super::lens::Pixels { fx, fy, cx, cy };
+            rgb = super::lens::undistort_image(&rgb, w as usize, h as usize, px, lens);
+            lens = Lens::Pinhole;
+        }
         views.push(View { name: stem(&v.image), file: v.image.clone(), camera, rgb, lens });
     }
     if views.is_empty() {

@@ -110,6 +110,7 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         downscale: opts.downscale,
         kind: opts.scene,
         lens: opts.lens,
+        undistort: opts.undistort,
     };
     let mut data = build(&model_dir, &views, &points, None, copts)?;
     let registered: HashSet<&str> = images.iter().map(|im| im.name.as_str()).collect();

@@ -198,11 +198,14 @@ pub struct LoadOptions {
     pub scene: SceneKind,
     /// Bend rays by the photos' lens distortion (COLMAP, instant-ngp); false treats them as pinholes.
     pub lens: bool,
+    /// With `lens`: resample each distorted photo to a pinhole photo once at
+    /// load instead of bending its rays.
+    pub undistort: bool,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        Self { format: Format::Auto, downscale: 1, holdout: 8, scene: SceneKind::Auto, lens: true }
+        Self { format: Format::Auto, downscale: 1, holdout: 8, scene: SceneKind::Auto, lens: true, undistort: false }
     }
 }
 
