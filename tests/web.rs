@@ -183,11 +183,16 @@ fn chromium_check(url: &str, profile: &Path) -> serde_json::Value {
     }
 }
 
+/// With `NERF_WEB_MODEL=FILE`, that model is checked (and timed) after
+/// the others: `NERF_WEB_MODEL=lego_int8.nerf cargo test --release --test
+/// web -- --ignored --nocapture` gives its browser/native ratio.
 #[test]
 #[ignore = "needs Chromium (Debian's chromium package); .ci/run installs it and runs this test"]
 fn the_page_in_headless_chromium_renders_the_hosts_frame() {
     let models_dir = tmp("web-chromium-models");
-    for m in models(&models_dir) {
+    let mut all = models(&models_dir);
+    all.extend(std::env::var_os("NERF_WEB_MODEL").map(PathBuf::from));
+    for m in all {
         let name = m.file_name().unwrap().to_str().unwrap();
         let dir = tmp(&format!("web-chromium-{name}"));
         let page = dir.join("page");
