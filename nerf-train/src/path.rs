@@ -1,7 +1,7 @@
 //! Camera paths for videos: an orbit fitted to the scene, the capture's
-//! own trajectory smoothed, and
-//! nerfstudio's `camera_path.json` (its rendered camera list), read and
-//! written, so a path made here can be edited elsewhere and rendered again.
+//! own trajectory smoothed, and nerfstudio's `camera_path.json` (its
+//! rendered camera list, read and written, so a path made here can be
+//! edited elsewhere and rendered again; or its keyframes, interpolated).
 //!
 //! Poses are camera-to-world in the model's frame (OpenGL axes, as
 //! nerfstudio's), fields of view in degrees.
@@ -10,6 +10,9 @@ use glam::{Mat3, Quat, Vec3};
 use nerf_infer::format::Scene;
 use nerf_infer::Camera;
 use std::path::Path;
+
+pub mod keyframes;
+use keyframes::Keyframe;
 
 /// `n ≥ 1` cameras along the trajectory of `cams` (in capture order),
 /// smoothed: positions and orientations are Gaussian-weighted means over
@@ -77,11 +80,14 @@ pub fn to_camera_path(cams: &[Camera], fps: f32) -> serde_json::Value {
     })
 }
 
-/// The cameras of a nerfstudio `camera_path.json` at `path` (its rendered
-/// list `camera_path`: `camera_to_world` as 16 or 12 numbers row-major,
-/// `fov` the vertical field of view in degrees, `aspect` width/height),
-/// `width` pixels across (the height from each camera's aspect ratio).
-/// Errors name the file and the camera.
+/// The cameras of a nerfstudio `camera_path.json` at `path`, `width`
+/// pixels across (the height from each camera's aspect ratio). Its
+/// rendered list `camera_path` when it has one (`camera_to_world` as 16 or
+/// 12 numbers row-major, `fov` the vertical field of view in degrees,
+/// `aspect` width/height); otherwise its `keyframes` (`matrix`, 16 numbers
+/// row-major, or column-major as nerfstudio's first viewer wrote them;
+/// `fov`; `aspect`), interpolated over `fps · seconds` frames as nerfstudio
+/// does ([`keyframes::interpolate`]). Errors name the file and the camera.
 pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> {
     let bad = |m: String| format!("{}: {m}", path.display());
     let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
@@ -89,46 +95,104 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
     if let Some(t) = v.get("camera_type").and_then(|t| t.as_str()).filter(|t| *t != "perspective") {
         return Err(bad(format!("camera_type {t} is not supported (perspective is)")));
     }
-    let list = v
-        .get("camera_path")
-        .and_then(|l| l.as_array())
-        .ok_or_else(|| bad("no camera_path list (keyframes alone are not read: export the rendered path)".into()))?;
-    if list.is_empty() || list.len() > 100_000 {
-        return Err(bad(format!("camera_path holds {} cameras (1 to 100000 are rendered)", list.len())));
-    }
     let default_aspect = match (v.get("render_width"), v.get("render_height")) {
         (Some(w), Some(h)) => w.as_f64().zip(h.as_f64()).map(|(w, h)| w / h),
         _ => None,
     };
-    list.iter()
+    let list = |key: &str| v.get(key).and_then(|l| l.as_array()).filter(|l| !l.is_empty());
+    let (cams, keyed) = match (list("camera_path"), list("keyframes")) {
+        (Some(l), _) => (l, false),
+        (None, Some(l)) => (l, true),
+        (None, None) => return Err(bad("neither a camera_path list nor keyframes".into())),
+    };
+    if cams.len() > 100_000 {
+        return Err(bad(format!("{} cameras listed (at most 100000 are rendered)", cams.len())));
+    }
+    let what = if keyed { "keyframe" } else { "camera" };
+    let parsed = cams
+        .iter()
         .enumerate()
         .map(|(i, c)| {
-            let m: Vec<f64> = c
-                .get("camera_to_world")
-                .and_then(|m| serde_json::from_value(m.clone()).ok())
-                .ok_or_else(|| bad(format!("camera {i}: camera_to_world missing or not a list of numbers")))?;
+            let bad = |m: String| bad(format!("{what} {i}: {m}"));
+            let m = matrix(c.get(if keyed { "matrix" } else { "camera_to_world" }))
+                .ok_or_else(|| bad("its matrix is missing or not a list of numbers".into()))?;
             if m.len() != 16 && m.len() != 12 {
-                return Err(bad(format!("camera {i}: camera_to_world has {} numbers (16 or 12)", m.len())));
+                return Err(bad(format!("its matrix has {} numbers (16 or 12)", m.len())));
             }
+            let m = if keyed && m.len() == 16 { row_major(m) } else { m };
             let fov = c.get("fov").and_then(|f| f.as_f64()).unwrap_or(50.0);
             let aspect = c.get("aspect").and_then(|a| a.as_f64()).or(default_aspect).unwrap_or(1.0);
             let ok = (1.0..179.0).contains(&fov) && aspect.is_finite() && (0.01..100.0).contains(&aspect);
             if !ok {
-                return Err(bad(format!("camera {i}: fov {fov}° or aspect {aspect} out of range")));
+                return Err(bad(format!("fov {fov}° or aspect {aspect} out of range")));
             }
-            let height = ((width as f64 / aspect).round() as u32).clamp(1, 16_384);
-            let f = 0.5 * height as f64 / (0.5 * fov.to_radians()).tan();
             let mut c2w = [[0f32; 4]; 3];
             for (r, row) in c2w.iter_mut().enumerate() {
                 for (k, v) in row.iter_mut().enumerate() {
                     *v = m[r * 4 + k] as f32;
                 }
             }
-            let (w, h) = (width as f32, height as f32);
-            Camera::new(width, height, f as f32, f as f32, w / 2.0, h / 2.0, c2w)
-                .map_err(|_| bad(format!("camera {i}: not finite, or the rotation is not rigid")))
+            let cam = perspective(width, fov as f32, aspect as f32, c2w)
+                .ok_or_else(|| bad("not finite, or the rotation is not rigid".into()))?;
+            Ok((cam, fov as f32, aspect as f32))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    if !keyed {
+        return Ok(parsed.into_iter().map(|p| p.0).collect());
+    }
+    let number = |k: &str| v.get(k).and_then(|x| x.as_f64());
+    let fps = number("fps").unwrap_or(24.0);
+    let seconds = number("seconds").unwrap_or(parsed.len() as f64);
+    let frames = (fps * seconds).round();
+    if !(1.0..=100_000.0).contains(&frames) {
+        return Err(bad(format!("fps {fps} × seconds {seconds} gives {frames} frames (1 to 100000 are rendered)")));
+    }
+    let smoothness = number("smoothness_value").unwrap_or(0.5);
+    if !(-1.0..=1.0).contains(&smoothness) {
+        return Err(bad(format!("smoothness_value {smoothness} is out of range (-1 to 1)")));
+    }
+    let cycle = v.get("is_cycle").and_then(|c| c.as_bool()).unwrap_or(false);
+    let timing = keyframes::Timing { frames: frames as usize, smoothness: smoothness as f32, cycle };
+    let keys: Vec<Keyframe> =
+        parsed.iter().map(|(c, fov, _)| Keyframe { rotation: c.rotation, position: c.position, fov: *fov }).collect();
+    let aspect = default_aspect.map_or(parsed[0].2, |a| a as f32);
+    keyframes::interpolate(&keys, timing)
+        .into_iter()
+        .enumerate()
+        .map(|(i, k)| {
+            perspective(width, k.fov, aspect, rows(&k.rotation, k.position))
+                .ok_or_else(|| bad(format!("frame {i} between the keyframes is not a rigid camera")))
         })
         .collect()
+}
+
+/// A matrix as a list of numbers, or as a string holding one (nerfstudio's
+/// first viewer wrote keyframes so).
+fn matrix(m: Option<&serde_json::Value>) -> Option<Vec<f64>> {
+    match m? {
+        serde_json::Value::String(s) => serde_json::from_str(s).ok(),
+        m => serde_json::from_value(m.clone()).ok(),
+    }
+}
+
+/// A 4×4 rigid transform `m` in row-major order: a column-major one (its
+/// translation in numbers 12..15, its last column 0 0 0 1) is transposed.
+fn row_major(m: Vec<f64>) -> Vec<f64> {
+    let zero = |ix: [usize; 3]| ix.iter().all(|&i| m[i].abs() < 1e-9);
+    if zero([3, 7, 11]) && !zero([12, 13, 14]) {
+        (0..16).map(|i| m[(i % 4) * 4 + i / 4]).collect()
+    } else {
+        m
+    }
+}
+
+/// A pinhole camera `width` pixels across with vertical field of view
+/// `fov` degrees and `aspect` = width/height, principal point centred.
+fn perspective(width: u32, fov: f32, aspect: f32, c2w: [[f32; 4]; 3]) -> Option<Camera> {
+    let height = ((width as f32 / aspect).round() as u32).clamp(1, 16_384);
+    let f = 0.5 * height as f32 / (0.5 * fov.to_radians()).tan();
+    let (w, h) = (width as f32, height as f32);
+    Camera::new(width, height, f, f, w / 2.0, h / 2.0, c2w).ok()
 }
 
 /// Rays of `views` cameras on a circle around the scene centre, `size`²
@@ -254,6 +318,59 @@ mod tests {
         std::fs::write(&p, r#"{"camera_path": [{"camera_to_world": [1, 0, 0]}]}"#).unwrap();
         let e = read_camera_path(&p, 40).unwrap_err();
         assert!(e.contains("camera_path.json") && e.contains("camera 0") && e.contains("3 numbers"), "{e}");
+        std::fs::remove_dir_all(&d).ok();
+    }
+
+    #[test]
+    fn keyframes_are_interpolated_whichever_viewer_wrote_them() {
+        let keys: Vec<Camera> = (0..3).map(|i| cam(i as f32, 0.3 * i as f32)).collect();
+        let flat = |c: &Camera, column_major: bool| -> Vec<f32> {
+            let m = rows(&c.rotation, c.position);
+            let r: Vec<f32> = m.iter().flatten().copied().chain([0.0, 0.0, 0.0, 1.0]).collect();
+            if column_major {
+                (0..16).map(|i| r[(i % 4) * 4 + i / 4]).collect()
+            } else {
+                r
+            }
+        };
+        let d = std::env::temp_dir().join(format!("nerf-keyframes-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let p = d.join("camera_path.json");
+        let read = |column_major: bool| {
+            let list: Vec<serde_json::Value> = keys
+                .iter()
+                .map(|c| {
+                    let m = flat(c, column_major);
+                    // nerfstudio's first viewer wrote the matrix as a string, column-major
+                    let m = if column_major { serde_json::json!(format!("{m:?}")) } else { serde_json::json!(m) };
+                    serde_json::json!({ "matrix": m, "fov": 40.0, "aspect": 2.0 })
+                })
+                .collect();
+            let json = serde_json::json!({
+                "keyframes": list, "camera_path": [], "fps": 5, "seconds": 2,
+                "smoothness_value": 0.5, "is_cycle": false, "render_width": 80, "render_height": 40,
+            });
+            std::fs::write(&p, json.to_string()).unwrap();
+            read_camera_path(&p, 40).unwrap()
+        };
+        let (a, b) = (read(false), read(true));
+        assert_eq!(a.len(), 10, "fps × seconds frames");
+        assert_eq!((a[0].width, a[0].height), (40, 20));
+        assert!((a[0].position - keys[0].position).length() < 1e-5);
+        assert!((a[0].rotation.x_axis - keys[0].rotation.x_axis).length() < 1e-5);
+        // frame 5 of 10 is at spline time 1: the middle keyframe
+        assert!((a[5].position - keys[1].position).length() < 1e-5, "{}", a[5].position);
+        for w in a.windows(2) {
+            assert!(w[1].position.x > w[0].position.x, "the path moves forward");
+        }
+        for (x, y) in a.iter().zip(&b) {
+            assert!(
+                (x.position - y.position).length() < 1e-6 && (x.rotation.y_axis - y.rotation.y_axis).length() < 1e-6
+            );
+        }
+        std::fs::write(&p, r#"{"keyframes": [{"matrix": [1, 0]}]}"#).unwrap();
+        let e = read_camera_path(&p, 40).unwrap_err();
+        assert!(e.contains("keyframe 0") && e.contains("2 numbers"), "{e}");
         std::fs::remove_dir_all(&d).ok();
     }
 }

@@ -33,8 +33,9 @@ pub struct Args {
     /// field of view of its first camera.
     #[arg(long, requires = "data", value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
     pub(crate) trajectory: Option<usize>,
-    /// Render the cameras of a nerfstudio camera_path.json (its rendered camera list; poses in the model's frame,
-    /// as the camera_path.json that --orbit and --trajectory write).
+    /// Render the cameras of a nerfstudio camera_path.json: its rendered camera list, or without one its keyframes
+    /// interpolated over fps × seconds frames as nerfstudio does (poses in the model's frame, as the
+    /// camera_path.json that --orbit and --trajectory write).
     #[arg(long)]
     pub(crate) camera_path: Option<PathBuf>,
     /// Image width in pixels of --orbit (square), --trajectory and --camera-path frames.
