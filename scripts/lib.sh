@@ -1,15 +1,21 @@
-# Shared by the measurement scripts: builds the release binary, makes a
-# scratch folder removed on exit, and appends result rows to
-# docs/captures.csv labelled with the date, commit and CPU.
+# Shared by the measurement scripts: builds the release binary (or takes
+# the one NERF_BIN names, to compare two builds), makes a scratch folder
+# removed on exit, and appends result rows to docs/captures.csv labelled
+# with the date, commit (NERF_COMMIT when NERF_BIN is given) and CPU.
+given=${NERF_BIN:+$(realpath "$NERF_BIN")}
 cd "$(dirname "$0")/.."
-cargo build --release --quiet
-bin=target/release/nerf
+if [ -n "$given" ]; then
+  bin=$given
+else
+  cargo build --release --quiet
+  bin=target/release/nerf
+fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 csv=docs/captures.csv
 [ -f "$csv" ] || echo "date,commit,cpu,capture,treatment,minutes,steps,psnr,ssim" > "$csv"
 cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//; s/,//g')
-commit=$(git rev-parse --short HEAD)
+commit=${NERF_COMMIT:-$(git rev-parse --short HEAD)}
 
 # steps RUN_DIR: training steps of the run's model.
 steps() {
