@@ -299,6 +299,23 @@ fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
         let f = format!("frame_{k:03}.png");
         assert_eq!(std::fs::read(a.join(&f)).unwrap(), std::fs::read(b.join(&f)).unwrap(), "{f}");
     }
+    // the same cameras as keyframes alone: 4 frames interpolated, the first at keyframe 0
+    let path: serde_json::Value = serde_json::from_slice(&std::fs::read(a.join("camera_path.json")).unwrap()).unwrap();
+    let keys: Vec<serde_json::Value> = path["camera_path"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| serde_json::json!({ "matrix": c["camera_to_world"], "fov": c["fov"], "aspect": c["aspect"] }))
+        .collect();
+    let keyed = serde_json::json!({ "keyframes": keys, "fps": 4, "seconds": 1, "smoothness_value": 0.5 });
+    let kf = root.join("keyframes.json");
+    std::fs::write(&kf, keyed.to_string()).unwrap();
+    let c = root.join("c");
+    support::cli::ok(&["render", s(&model), "--camera-path", s(&kf), "--size", "20", "--out", s(&c)]);
+    assert!(c.join("frame_003.png").is_file() && !c.join("frame_004.png").exists());
+    let (x, y) = (image::open(a.join("frame_000.png")).unwrap(), image::open(c.join("frame_000.png")).unwrap());
+    let diff: u32 = x.as_bytes().iter().zip(y.as_bytes()).map(|(p, q)| p.abs_diff(*q) as u32).max().unwrap();
+    assert!(x.as_bytes().len() == y.as_bytes().len() && diff <= 2, "keyframe 0 renders as camera 0: {diff}");
     // views loaded in another frame than the model's are refused
     let o = nerf(&["eval", s(&model), "--data", s(&data), "--split", "val", "--scene", "forward"]);
     let e = String::from_utf8_lossy(&o.stderr);
