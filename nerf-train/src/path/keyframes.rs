@@ -128,7 +128,8 @@ mod tests {
 
     #[test]
     fn a_closed_path_passes_through_its_keyframes_and_stays_near_the_circle() {
-        let keys: Vec<Keyframe> = (0..8).map(|k| on_circle(k as f32 * 0.785_398_2, 40.0 + k as f32)).collect();
+        let keys: Vec<Keyframe> =
+            (0..8).map(|k| on_circle(k as f32 * std::f32::consts::FRAC_PI_4, 40.0 + k as f32)).collect();
         let out = interpolate(&keys, Timing { frames: 32, smoothness: 0.0, cycle: true });
         assert_eq!(out.len(), 32);
         for (i, f) in out.iter().enumerate() {
