@@ -160,7 +160,8 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
         .into_iter()
         .enumerate()
         .map(|(i, k)| {
-            perspective(width, k.fov, aspect, rows(&k.rotation, k.position))
+            // the spline may overshoot between keyframes of very different fields of view
+            perspective(width, k.fov.clamp(1.0, 179.0), aspect, rows(&k.rotation, k.position))
                 .ok_or_else(|| bad(format!("frame {i} between the keyframes is not a rigid camera")))
         })
         .collect()
