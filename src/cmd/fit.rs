@@ -12,8 +12,9 @@
 //!
 //! With `--max-bytes`, a device's flash budget: each candidate is first
 //! made to fit it (its model file's size is known before training: a
-//! model with random weights of the same shape is exported), the feature
-//! table halved, then the occupancy grid coarsened, as far as needed; a
+//! model with random weights of the same shape is exported): the feature
+//! table halved down to 2¹⁰ entries per level, the occupancy grid
+//! coarsened down to 32³, then both further, as far as needed; a
 //! candidate that cannot fit is skipped. Without `--target-psnr` the most
 //! accurate candidate that fits is kept; with it, the fastest that reaches
 //! the target. What each candidate gave up to fit is printed and tabled.
@@ -315,10 +316,19 @@ fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedB
     Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
 }
 
-/// `cfg` shrunk until its model fits `max` bytes: the feature table
-/// halved (down to 2⁸ entries per level), then the occupancy grid
-/// coarsened (down to 16³). Returns the configuration, what it gave up,
-/// and its size, or (`Ok(Err)`) the smallest size if it cannot fit.
+/// Feature-table size (log2 entries per level) below which `nerf fit`
+/// coarsens the occupancy grid first: on lego at 64 KiB a 2¹⁰ table with a
+/// 32³ grid reached 28.64 dB in int8 after 10 minutes, where the 64³ grid
+/// with a 2⁸ table fell behind the 4x64 network (docs/RESULTS.md, "On a
+/// Cortex-M").
+pub const TABLE_FLOOR_LOG2: u8 = 10;
+
+/// `cfg` shrunk until its model fits `max` bytes, in this order, each
+/// step only as far as needed: the feature table halved down to 2¹⁰
+/// entries per level ([`TABLE_FLOOR_LOG2`]), the occupancy grid coarsened
+/// down to 32³, the table halved down to 2⁸, the grid coarsened down to
+/// 16³. Returns the configuration, what it gave up, and its size, or
+/// (`Ok(Err)`) the smallest size if it cannot fit.
 #[allow(clippy::type_complexity)]
 fn fit_budget(
     cfg: &TrainConfig,
@@ -328,13 +338,15 @@ fn fit_budget(
 ) -> Result<Result<(TrainConfig, Vec<String>, usize), usize>, String> {
     let mut c = cfg.clone();
     let mut bytes = model_bytes(&c, scene, bits)?;
-    while bytes > max && c.feature_levels > 0 && c.feature_log2_table > 8 {
-        c.feature_log2_table -= 1;
-        bytes = model_bytes(&c, scene, bits)?;
-    }
-    while bytes > max && c.grid_res > 16 {
-        c.grid_res /= 2;
-        bytes = model_bytes(&c, scene, bits)?;
+    for (table_floor, grid_floor) in [(TABLE_FLOOR_LOG2, 32), (8, 16)] {
+        while bytes > max && c.feature_levels > 0 && c.feature_log2_table > table_floor {
+            c.feature_log2_table -= 1;
+            bytes = model_bytes(&c, scene, bits)?;
+        }
+        while bytes > max && c.grid_res > grid_floor {
+            c.grid_res /= 2;
+            bytes = model_bytes(&c, scene, bits)?;
+        }
     }
     if bytes > max {
         return Ok(Err(bytes));
@@ -453,4 +465,39 @@ fn keep(a: &Args, name: &str, coarse: u16, why: &str, rows: &[Row]) -> CmdResult
         a.out.join("model_fixed.nerf").display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nerf_infer::format::{CameraConvention, Scene};
+
+    fn lego_scene() -> Scene {
+        Scene {
+            bounds_min: [-1.5; 3],
+            bounds_max: [1.5; 3],
+            near: 2.0,
+            far: 6.0,
+            white_background: true,
+            convention: CameraConvention::OpenGl,
+            ndc: None,
+            unbounded: None,
+        }
+    }
+
+    #[test]
+    fn a_byte_budget_coarsens_the_occupancy_grid_before_the_feature_table_goes_below_its_floor() {
+        let f = TrainConfig::features();
+        // 64 KiB: a 2^10 table (32 KiB) and a 32^3 grid (4 KiB) fit, a 64^3 grid (32 KiB) beside it does not
+        let (c, gave, bytes) = fit_budget(&f, lego_scene(), FixedBits::I8, 65_536).unwrap().unwrap();
+        assert_eq!((c.feature_log2_table, c.grid_res), (TABLE_FLOOR_LOG2, 32), "{gave:?}");
+        assert!(bytes <= 65_536);
+        assert_eq!(gave, ["feature table 2^15 -> 2^10 entries per level", "occupancy grid 64^3 -> 32^3"]);
+        // a roomy budget gives up nothing; a tight one goes below the floor; the layers alone exceed 4 000 B
+        let (c, gave, _) = fit_budget(&f, lego_scene(), FixedBits::I8, 1 << 20).unwrap().unwrap();
+        assert_eq!((c.feature_log2_table, c.grid_res, gave.len()), (15, 64, 0));
+        let (c, _, bytes) = fit_budget(&f, lego_scene(), FixedBits::I8, 40_000).unwrap().unwrap();
+        assert!(c.feature_log2_table < TABLE_FLOOR_LOG2 && c.grid_res == 32 && bytes <= 40_000, "{c:?}");
+        assert!(fit_budget(&f, lego_scene(), FixedBits::I8, 4_000).unwrap().is_err());
+    }
 }
