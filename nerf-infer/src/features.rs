@@ -55,16 +55,20 @@ impl Corners {
     /// `out = Σ weight[c] · value(entry)` over the 8 corners, where the
     /// level's entries start at `base` and hold `out.len()` values each
     /// (`value(k)`: element `k` of the table). Shared by the f32 kernel and
-    /// the trainer, so both blend in the same order.
+    /// the trainer, so both blend in the same order. `out` holds at most 8
+    /// values (the widths [`FeatureGrid::is_valid`] allows); the sums are
+    /// kept in registers and written once.
     #[inline]
     pub fn blend(&self, base: usize, width: usize, value: impl Fn(usize) -> f32, out: &mut [f32]) {
-        out.fill(0.0);
+        let mut acc = [0.0f32; 8];
+        let n = out.len();
         for k in 0..8 {
             let e = (base + self.entry[k] as usize) * width;
-            for (j, v) in out.iter_mut().enumerate() {
+            for (j, v) in acc[..n].iter_mut().enumerate() {
                 *v += self.weight[k] * value(e + j);
             }
         }
+        out.copy_from_slice(&acc[..n]);
     }
 }
 

@@ -18,6 +18,7 @@ use crate::gemm::{matmul, View};
 use nerf_infer::encoding::encode_f32;
 use nerf_infer::features::{Corners, FeatureGrid};
 use nerf_infer::format::{expected_shape, Encoding, Topology};
+use rayon::prelude::*;
 
 /// Where one layer's tensors sit in the flat parameter vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,13 +51,24 @@ pub struct Mlp {
     pub n_params: usize,
 }
 
+/// The feature-grid part of one chunk's backward pass, for
+/// [`Mlp::scatter_table`]: the corners of each sample and level and the
+/// gradient of the grid values.
+#[derive(Clone, Debug, Default)]
+pub struct GridGrad {
+    corners: Vec<Corners>,
+    dgf: Vec<f32>,
+    s: usize,
+}
+
 /// Forward activations of a chunk, kept for the backward pass.
 #[derive(Clone, Debug, Default)]
 pub struct Acts {
     s: usize,
     r: usize,
     enc: Vec<f32>,
-    /// Feature-grid values per sample (`S × grid_dim`) and their corners
+    /// Feature-grid values per sample (`S × grid_dim`) and their corners,
+    /// level after level (`levels × S`: the scatter reads one level at a time)
     /// (`S × levels`).
     gf: Vec<f32>,
     corners: Vec<Corners>,
@@ -158,12 +170,14 @@ impl Mlp {
         let (w, nl, t) = (f.width as usize, f.levels(), &p[self.table..]);
         let offsets: Vec<usize> = (0..nl).map(|l| f.offset(l)).collect();
         resize(&mut a.gf, pos.len() * nl * w);
-        a.corners.resize(pos.len() * nl, Corners::default());
-        for (i, x) in pos.iter().enumerate() {
-            for l in 0..nl {
+        let n = pos.len();
+        a.corners.resize(n * nl, Corners::default());
+        // level after level: one level's entries stay in cache
+        for l in 0..nl {
+            for (i, x) in pos.iter().enumerate() {
                 let c = f.corners_f32(l, *x);
                 c.blend(offsets[l], w, |k| t[k], &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w]);
-                a.corners[i * nl + l] = c;
+                a.corners[l * n + i] = c;
             }
         }
     }
@@ -171,19 +185,78 @@ impl Mlp {
     /// Scatters `a.dgf` (gradient of the grid values) into the table's gradient.
     fn grid_backward(&self, a: &Acts, g: &mut [f32]) {
         let Some(f) = &self.features else { return };
+        let mut gt = &mut g[self.table..];
+        for l in 0..f.levels() {
+            let (level, rest) = gt.split_at_mut(f.entries(l) * f.width as usize);
+            self.scatter_level(l, &a.corners[l * a.s..(l + 1) * a.s], &a.dgf, level);
+            gt = rest;
+        }
+    }
+
+    /// Adds level `l`'s share of a chunk's grid-value gradient (`dgf`,
+    /// `S × grid_dim`, with the level's `S` corners from the forward pass)
+    /// to `gl`, the gradient of that level's entries (`entries(l) × width`
+    /// values). Consecutive samples in the same cell (a ray's samples in a
+    /// coarse level) are summed first and written once.
+    fn scatter_level(&self, l: usize, corners: &[Corners], dgf: &[f32], gl: &mut [f32]) {
+        let Some(f) = &self.features else { return };
+        // values per entry: at most 8 (`TrainConfig::feature_width`)
+        const W: usize = 8;
         let (w, nl) = (f.width as usize, f.levels());
-        let offsets: Vec<usize> = (0..nl).map(|l| f.offset(l)).collect();
-        let gt = &mut g[self.table..];
-        for (i, c) in a.corners[..a.s * nl].iter().enumerate() {
-            let base = offsets[i % nl];
-            let d = &a.dgf[i * w..(i + 1) * w];
-            for k in 0..8 {
-                let e = (base + c.entry[k] as usize) * w;
-                for j in 0..w {
-                    gt[e + j] += c.weight[k] * d[j];
+        let mut acc = [[0.0f32; W]; 8];
+        let mut cell: Option<[u32; 8]> = None;
+        let mut flush = |entry: &[u32; 8], acc: &mut [[f32; W]; 8]| {
+            for (e, a) in entry.iter().zip(acc.iter_mut()) {
+                let e = *e as usize * w;
+                gl[e..e + w].iter_mut().zip(&a[..w]).for_each(|(g, v)| *g += v);
+                *a = [0.0; W];
+            }
+        };
+        for (i, c) in corners.iter().enumerate() {
+            if cell != Some(c.entry) {
+                if let Some(entry) = &cell {
+                    flush(entry, &mut acc);
                 }
+                cell = Some(c.entry);
+            }
+            let d = &dgf[(i * nl + l) * w..(i * nl + l + 1) * w];
+            for (a, wk) in acc.iter_mut().zip(&c.weight) {
+                a[..w].iter_mut().zip(d).for_each(|(a, d)| *a += wk * d);
             }
         }
+        if let Some(entry) = &cell {
+            flush(entry, &mut acc);
+        }
+    }
+
+    /// Swaps the grid-value gradient of the last [`Mlp::backward_layers`]
+    /// into `out`, for [`Mlp::scatter_table`], and `out`'s buffers into
+    /// `a` for reuse (`out` holds no samples without a feature grid).
+    pub fn swap_grid_grad(&self, a: &mut Acts, out: &mut GridGrad) {
+        std::mem::swap(&mut a.corners, &mut out.corners);
+        std::mem::swap(&mut a.dgf, &mut out.dgf);
+        out.s = if self.features.is_some() { a.s } else { 0 };
+    }
+
+    /// Adds the grid-value gradients of several chunks to `gt`, the
+    /// gradient of the feature grid's table (the parameters from
+    /// [`Mlp::table`] on): one level per task, chunks in the order given,
+    /// so the sums do not depend on the thread count and each task's
+    /// writes stay within one level's entries.
+    pub fn scatter_table(&self, grads: &[GridGrad], gt: &mut [f32]) {
+        let Some(f) = &self.features else { return };
+        let mut levels = Vec::with_capacity(f.levels());
+        let mut rest = gt;
+        for l in 0..f.levels() {
+            let (level, r) = rest.split_at_mut(f.entries(l) * f.width as usize);
+            levels.push((l, level));
+            rest = r;
+        }
+        levels.into_par_iter().for_each(|(l, gl)| {
+            for g in grads {
+                self.scatter_level(l, &g.corners[l * g.s..(l + 1) * g.s], &g.dgf, gl);
+            }
+        });
     }
 
     /// Initial density bias (σ in 1/world units before the ReLU): with the
@@ -307,6 +380,14 @@ impl Mlp {
     /// Backward pass: given `dsigma` (`S`) and `drgb` (`3S`, or empty if the
     /// forward skipped colour), accumulates parameter gradients into `g`.
     pub fn backward(&self, p: &[f32], a: &mut Acts, dsigma: &[f32], drgb: &[f32], g: &mut [f32]) {
+        self.backward_layers(p, a, dsigma, drgb, &mut g[..self.table]);
+        self.grid_backward(a, g);
+    }
+
+    /// [`Mlp::backward`] without the feature grid's table: accumulates the
+    /// layers' gradients into `g` (the first [`Mlp::table`] parameters) and
+    /// leaves the grid values' gradient in `a` ([`Mlp::swap_grid_grad`]).
+    pub fn backward_layers(&self, p: &[f32], a: &mut Acts, dsigma: &[f32], drgb: &[f32], g: &mut [f32]) {
         let (s, r) = (a.s, a.r);
         let pd = self.enc.pos_dim();
         let (gd, fd) = (self.gamma_dim(), self.enc.grid_dim as usize);
@@ -395,7 +476,6 @@ impl Mlp {
         }
         a.dgf = dgf;
         a.dgf_part = dpart;
-        self.grid_backward(a, g);
         a.dh = dh;
         a.dtmp = dtmp;
     }
@@ -539,5 +619,47 @@ mod tests {
         // levels of 1, 2 and 5 cells: 8 and 27 vertices (dense), 216 > 32 (hashed)
         assert_eq!(m.n_params, m.table + (8 + 27 + 32) * 2);
         check_gradients_with(m);
+    }
+
+    #[test]
+    fn the_table_scattered_from_chunks_equals_the_backward_of_each_chunk_in_turn() {
+        let topo = Topology { depth: 2, width: 8, skip_mask: 0, view_dependent: true, view_width: 4 };
+        let f = FeatureGrid {
+            width: 2,
+            log2_table: 6,
+            frac_bits: 0,
+            resolutions: nerf_infer::features::geometric_resolutions(3, 2, 9),
+            table: &[],
+        };
+        let enc = Encoding { pos_freqs: 0, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 6 };
+        let m = Mlp::new(topo, enc).with_features(Some(f));
+        let mut p = m.init(5);
+        for (k, v) in p[m.table..].iter_mut().enumerate() {
+            *v = (k as f32 * 0.3).cos() * 0.4;
+        }
+        let dirs = [[0.0, 0.6, -0.8], [0.8, 0.0, -0.6]];
+        let chunks: Vec<Vec<[f32; 3]>> = (0..3)
+            .map(|c| (0..8).map(|i| [0.11 * i as f32 - 0.4, 0.07 * c as f32 - 0.2, 0.3 - 0.09 * i as f32]).collect())
+            .collect();
+        let ds: Vec<f32> = (0..8).map(|i| 0.2 + i as f32 * 0.1).collect();
+        let dc: Vec<f32> = (0..24).map(|i| (i % 7) as f32 - 3.0).collect();
+        // every chunk's full backward into one gradient, in turn
+        let mut whole = vec![0.0; m.n_params];
+        let (mut layers, mut grads) = (vec![0.0; m.table], Vec::new());
+        let mut a = Acts::default();
+        for pos in &chunks {
+            m.forward(&p, pos, &dirs, true, &mut a);
+            m.backward(&p, &mut a, &ds, &dc, &mut whole);
+            m.forward(&p, pos, &dirs, true, &mut a);
+            m.backward_layers(&p, &mut a, &ds, &dc, &mut layers);
+            let mut gg = GridGrad::default();
+            m.swap_grid_grad(&mut a, &mut gg);
+            grads.push(gg);
+        }
+        let mut table = vec![0.0; m.n_params - m.table];
+        m.scatter_table(&grads, &mut table);
+        assert!(table.iter().filter(|v| **v != 0.0).count() > 20);
+        assert_eq!(&whole[..m.table], &layers[..]);
+        assert_eq!(&whole[m.table..], &table[..]);
     }
 }

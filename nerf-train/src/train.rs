@@ -15,7 +15,7 @@ use crate::adam::Adam;
 use crate::config::TrainConfig;
 use crate::dataset::Dataset;
 use crate::grid::DensityGrid;
-use crate::mlp::{Acts, Mlp};
+use crate::mlp::{Acts, GridGrad, Mlp};
 use crate::rng::Rng;
 use crate::volume::{composite, composite_back, push_deltas, LAST_DELTA};
 use nerf_infer::camera::Ray;
@@ -76,10 +76,11 @@ pub struct Trainer {
     pool: GradPool,
 }
 
-/// Zeroed gradient buffers reused from step to step: a feature grid's
-/// table makes each one megabytes, and fresh ones cost page faults.
+/// Zeroed gradient buffers and chunks' grid-value gradients reused from
+/// step to step: a feature grid's table makes each gradient megabytes, a
+/// chunk's corners hundreds of kilobytes, and fresh ones cost page faults.
 #[derive(Default)]
-struct GradPool(std::sync::Mutex<Vec<Vec<f32>>>);
+struct GradPool(std::sync::Mutex<Vec<Vec<f32>>>, std::sync::Mutex<Vec<GridGrad>>);
 
 impl Clone for GradPool {
     fn clone(&self) -> Self {
@@ -104,6 +105,16 @@ impl GradPool {
         v.fill(0.0);
         if let Ok(mut p) = self.0.lock() {
             p.push(v);
+        }
+    }
+    /// A chunk's grid-value gradient whose buffers a forward pass may reuse.
+    fn take_grid(&self) -> GridGrad {
+        self.1.lock().map(|mut p| p.pop()).unwrap_or(None).unwrap_or_default()
+    }
+    /// Returns grid-value gradients for later chunks.
+    fn give_grids(&self, g: Vec<GridGrad>) {
+        if let Ok(mut p) = self.1.lock() {
+            p.extend(g);
         }
     }
 }
@@ -296,35 +307,55 @@ impl Trainer {
 
     /// Gradient of (coarse MSE + fine MSE) over `batch`, with the summed
     /// squared errors and the number of network evaluations.
+    ///
+    /// Chunks run in parallel, each thread accumulating the layers'
+    /// gradient; a feature grid's table (megabytes) is not copied per
+    /// thread: each chunk keeps its grid-value gradient, and the table's
+    /// gradient is scattered afterwards, one level per task, chunk after
+    /// chunk ([`Mlp::scatter_table`]).
     pub fn gradients(&self, batch: &[Sample], step_key: u32) -> (Vec<f32>, f64, f64, usize) {
         let net = self.mlp();
         let np = self.params.len();
+        // the parameters each thread accumulates: all but a feature grid's table
+        let dense = if net.features.is_some() { net.table } else { np };
         let scale = 2.0 / (3.0 * batch.len() as f32);
         let chunk = self.cfg.chunk_rays;
-        // at most ~4 accumulators per thread: each is a gradient as long as
-        // the parameters (a feature grid's table makes that megabytes)
+        // a few accumulators per thread, for balance
         let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
-        let (grad, sq_c, sq_f, samples) = batch
+        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>);
+        let (dense_grad, sq_c, sq_f, samples, mut grids): Acc = batch
             .par_chunks(chunk)
             .with_min_len(min_len.max(1))
             .enumerate()
             .fold(
-                || (self.pool.take(np), 0.0f64, 0.0f64, 0usize, Workspace::default()),
-                |(mut g, c, f, n, mut ws), (ci, rays)| {
+                || (self.pool.take(dense), 0.0f64, 0.0f64, 0usize, Vec::new(), Workspace::default()),
+                |(mut g, c, f, n, mut grids, mut ws), (ci, rays)| {
                     let key = hash32(step_key ^ hash32(ci as u32));
-                    let (a, b, k) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g);
-                    (g, c + a, f + b, n + k, ws)
+                    let (a, b, k, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g);
+                    grids.extend(grid.map(|gg| (ci, gg)));
+                    (g, c + a, f + b, n + k, grids, ws)
                 },
             )
-            .map(|(g, c, f, n, _)| (g, c, f, n))
+            .map(|(g, c, f, n, grids, _)| (g, c, f, n, grids))
             .reduce(
-                || (self.pool.take(np), 0.0, 0.0, 0),
-                |(mut g1, c1, f1, n1), (g2, c2, f2, n2)| {
+                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new()),
+                |(mut g1, c1, f1, n1, mut r1), (g2, c2, f2, n2, r2)| {
                     g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
                     self.pool.give(g2);
-                    (g1, c1 + c2, f1 + f2, n1 + n2)
+                    r1.extend(r2);
+                    (g1, c1 + c2, f1 + f2, n1 + n2, r1)
                 },
             );
+        if dense == np {
+            return (dense_grad, sq_c, sq_f, samples);
+        }
+        let mut grad = self.pool.take(np);
+        grad[..dense].copy_from_slice(&dense_grad);
+        self.pool.give(dense_grad);
+        grids.sort_unstable_by_key(|(ci, _)| *ci);
+        let grids: Vec<GridGrad> = grids.into_iter().map(|(_, g)| g).collect();
+        net.scatter_table(&grids, &mut grad[dense..]);
+        self.pool.give_grids(grids);
         (grad, sq_c, sq_f, samples)
     }
 
@@ -391,8 +422,10 @@ impl Trainer {
     }
 
     /// Forward and backward of one chunk; accumulates into `g` and returns
-    /// the squared errors (coarse, fine) summed over rays and channels and
-    /// the number of network evaluations.
+    /// the squared errors (coarse, fine) summed over rays and channels, the
+    /// number of network evaluations and, with a feature grid, the grid
+    /// values' gradient (`g` then holds the layers only: the table's
+    /// gradient is left to [`Mlp::scatter_table`]).
     fn chunk_gradient(
         &self,
         net: &Mlp,
@@ -401,14 +434,14 @@ impl Trainer {
         scale: f32,
         ws: &mut Workspace,
         g: &mut [f32],
-    ) -> (f64, f64, usize) {
+    ) -> (f64, f64, usize, Option<GridGrad>) {
         let r = rays.len();
         let nc = self.cfg.n_coarse as usize;
         let nf = self.cfg.n_fine as usize;
         let bg = if self.scene.white_background { 1.0 } else { 0.0 };
         let np = net.n_params;
         let (pc, pf) = self.params.split_at(np);
-        let (gc, gf) = g.split_at_mut(np);
+        let (gc, gf) = g.split_at_mut(np.min(g.len()));
         self.coarse_samples(rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), ws);
         let n_c = ws.pos.len();
         ws.w_c.resize(n_c, 0.0);
@@ -417,11 +450,17 @@ impl Trainer {
         }
         let sq_c =
             loss_gradients(rays, &ws.offs, bg, scale, &ws.acts_c, &ws.delta, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb);
-        if n_c > 0 {
+        let mut grid = None;
+        if n_c > 0 && net.features.is_some() {
+            net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
+            let mut gg = self.pool.take_grid();
+            net.swap_grid_grad(&mut ws.acts_c, &mut gg);
+            grid = Some(gg);
+        } else if n_c > 0 {
             net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
         }
         if nf == 0 {
-            return (sq_c, 0.0, n_c);
+            return (sq_c, 0.0, n_c, grid);
         }
         // no grid (validated): every ray has its nc coarse samples
         let na = nc + nf;
@@ -453,7 +492,7 @@ impl Trainer {
         let sq_f =
             loss_gradients(rays, &ws.offs, bg, scale, &ws.acts_f, &ws.delta, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb);
         net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf);
-        (sq_c, sq_f, n_c + r * na)
+        (sq_c, sq_f, n_c + r * na, grid)
     }
 
     /// Largest |activation| of every layer of each network, measured on
