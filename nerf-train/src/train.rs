@@ -97,8 +97,8 @@ impl std::fmt::Debug for GradPool {
 impl GradPool {
     /// A zeroed buffer of `n` values.
     fn take(&self, n: usize) -> Vec<f32> {
-        let v = self.0.lock().map(|mut p| p.pop()).unwrap_or(None);
-        v.filter(|v| v.len() == n).unwrap_or_else(|| vec![0.0; n])
+        let found = |p: &mut Vec<Vec<f32>>| p.iter().position(|v| v.len() == n).map(|i| p.swap_remove(i));
+        self.0.lock().map(|mut p| found(&mut p)).unwrap_or(None).unwrap_or_else(|| vec![0.0; n])
     }
     /// Returns a buffer (zeroed here) for later steps.
     fn give(&self, mut v: Vec<f32>) {
