@@ -18,7 +18,7 @@
 //! with the machine's peak from `cargo bench --bench peak`.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use nerf_infer::format::{CameraConvention, Scene};
+use nerf_infer::format::Scene;
 use nerf_infer::{render_tile, Tile};
 use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, Scheme, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
@@ -27,16 +27,7 @@ use nerf_train::path::orbit_camera;
 use std::hint::black_box;
 
 fn scene() -> Scene {
-    Scene {
-        bounds_min: [-1.5; 3],
-        bounds_max: [1.5; 3],
-        near: 2.0,
-        far: 6.0,
-        white_background: true,
-        convention: CameraConvention::OpenGl,
-        ndc: None,
-        unbounded: None,
-    }
+    Scene::blender(1.5, 2.0, 6.0)
 }
 
 /// Multiply-accumulates per ray: coarse pass (trunk + density head only)

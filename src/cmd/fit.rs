@@ -470,19 +470,10 @@ fn keep(a: &Args, name: &str, coarse: u16, why: &str, rows: &[Row]) -> CmdResult
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nerf_infer::format::{CameraConvention, Scene};
+    use nerf_infer::format::Scene;
 
     fn lego_scene() -> Scene {
-        Scene {
-            bounds_min: [-1.5; 3],
-            bounds_max: [1.5; 3],
-            near: 2.0,
-            far: 6.0,
-            white_background: true,
-            convention: CameraConvention::OpenGl,
-            ndc: None,
-            unbounded: None,
-        }
+        Scene::blender(1.5, 2.0, 6.0)
     }
 
     #[test]

@@ -3,23 +3,14 @@
 
 pub mod cli;
 
-use nerf_infer::format::{CameraConvention, Scene};
+use nerf_infer::format::Scene;
 use nerf_infer::{Camera, Model, RenderOptions};
 use nerf_train::config::TrainConfig;
 use nerf_train::eval::render_view;
 
 /// The scene of the built-in dataset (bounds ±1, near 2, far 6, white).
 pub fn unit_scene() -> Scene {
-    Scene {
-        bounds_min: [-1.0; 3],
-        bounds_max: [1.0; 3],
-        near: 2.0,
-        far: 6.0,
-        white_background: true,
-        convention: CameraConvention::OpenGl,
-        ndc: None,
-        unbounded: None,
-    }
+    Scene::blender(1.0, 2.0, 6.0)
 }
 
 /// A small configuration for tests.

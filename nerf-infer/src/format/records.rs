@@ -76,6 +76,25 @@ pub struct Scene {
     pub unbounded: Option<Unbounded>,
 }
 
+impl Scene {
+    /// An object scene in the Blender convention: the cube of half-width
+    /// `half` (world units) around the origin, rays sampled from `near` to
+    /// `far` (units of `t`), composited on white; bounded, no NDC. Blender's
+    /// synthetic scenes are `blender(1.5, 2.0, 6.0)`.
+    pub fn blender(half: f32, near: f32, far: f32) -> Self {
+        Self {
+            bounds_min: [-half; 3],
+            bounds_max: [half; 3],
+            near,
+            far,
+            white_background: true,
+            convention: CameraConvention::OpenGl,
+            ndc: None,
+            unbounded: None,
+        }
+    }
+}
+
 /// Unbounded space (mip-NeRF 360's contraction, with the max norm): a
 /// normalised position `u` (bounds ↦ `[−1, 1]³`) with `m = ‖u‖∞` enters the
 /// grid and the network as `u/2` when `m ≤ 1` and as `u/m · (1 − 1/(2m))`
