@@ -32,7 +32,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     assert_eq!(back.params, tr.params);
     assert_eq!(back.step, tr.step);
     // the exported model renders a validation view far better than a constant
-    let calib = Trainer::draw_batch(&data, 512, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, false, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     let m = Model::from_bytes(&bytes).unwrap();
     let (_, s) = score_view(&m, RenderOptions::from_model(&m), &val.views[0]).unwrap();
@@ -50,7 +50,7 @@ fn both_networks_learn_from_every_seed() {
     write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = nerf_train::config::TrainConfig { batch_rays: 128, lr: 1e-2, ..small_config() };
-    let probe = Trainer::draw_batch(&data, 512, &mut Rng::new(5));
+    let probe = Trainer::draw_batch(&data, 512, false, &mut Rng::new(5));
     for seed in 0..4 {
         let mut tr = Trainer::new(cfg.clone(), data.scene, 1, seed);
         let (_, c0, f0, _) = tr.gradients(&probe, 1);
@@ -134,7 +134,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     assert_eq!(back.grid, tr.grid);
     // the model file carries the grid (format version 2), no second network,
     // and renders the validation view well
-    let calib = Trainer::draw_batch(&data, 512, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, false, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 2);
     let m = Model::from_bytes(&bytes).unwrap();
@@ -145,5 +145,48 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     let base = nerf_train::metrics::psnr(&white, &val.views[0].rgb);
     println!("validation PSNR {:.2} dB (all-white baseline {base:.2} dB)", s.psnr);
     assert!(s.psnr > base + 3.0);
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn random_backgrounds_recomposite_pixels_by_their_alpha_and_leave_opaque_photos_alone() {
+    let d = std::env::temp_dir().join(format!("nerf-bg-test-{}", std::process::id()));
+    write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    // the Blender renders keep their alpha: a transparent background around an opaque object
+    let a = &data.views[0].alpha;
+    assert_eq!(a.len(), data.views[0].rgb.len());
+    assert!(a.contains(&0.0) && a.contains(&1.0), "alpha of the synthetic render: {a:?}");
+    // a transparent pixel shows the ray's background, whatever it is
+    let mut clear = data.clone();
+    for v in &mut clear.views {
+        v.alpha.fill(0.0);
+        v.rgb.fill([1.0; 3]);
+    }
+    let batch = Trainer::draw_batch(&clear, 256, true, &mut Rng::new(7));
+    assert_eq!(batch.len(), 256);
+    for s in &batch {
+        assert!(s.bg.iter().all(|c| (0.0..1.0).contains(c)), "{:?}", s.bg);
+        assert!((0..3).all(|c| (s.rgb[c] - s.bg[c]).abs() < 1e-6), "{:?} on {:?}", s.rgb, s.bg);
+    }
+    let reds: Vec<f32> = batch.iter().map(|s| s.bg[0]).collect();
+    assert!(reds.iter().any(|&r| r < 0.1) && reds.iter().any(|&r| r > 0.9), "backgrounds do not vary");
+    // an opaque pixel keeps its colour on any background
+    let mut solid = data.clone();
+    for v in &mut solid.views {
+        v.alpha.fill(1.0);
+        v.rgb.fill([0.25, 0.5, 0.75]);
+    }
+    for s in Trainer::draw_batch(&solid, 64, true, &mut Rng::new(8)) {
+        assert_eq!(s.rgb, [0.25, 0.5, 0.75]);
+    }
+    // without the option, or for photos without an alpha channel, rays keep the scene's white
+    let mut opaque = clear.clone();
+    opaque.views.iter_mut().for_each(|v| v.alpha.clear());
+    for (set, random) in [(&clear, false), (&opaque, true)] {
+        for s in Trainer::draw_batch(set, 64, random, &mut Rng::new(9)) {
+            assert_eq!((s.rgb, s.bg), ([1.0; 3], [1.0; 3]));
+        }
+    }
     std::fs::remove_dir_all(&d).ok();
 }

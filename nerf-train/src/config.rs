@@ -74,6 +74,13 @@ pub struct TrainConfig {
     pub feature_min_res: u16,
     /// Finest level's cells per axis (levels in between: geometric).
     pub feature_max_res: u16,
+    /// Photos with an alpha channel in a Blender-layout dataset
+    /// (`transforms_{split}.json`) train on a random
+    /// background colour per ray, as instant-ngp does: the photo's pixel and
+    /// the render are both composited on it, so density left in empty space
+    /// costs loss instead of hiding against a white background. Photos
+    /// without alpha train on the scene's background either way.
+    pub random_background: bool,
 }
 
 impl Default for TrainConfig {
@@ -114,6 +121,7 @@ impl TrainConfig {
             feature_log2_table: 15,
             feature_min_res: 16,
             feature_max_res: 256,
+            random_background: false,
         }
     }
 

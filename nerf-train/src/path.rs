@@ -206,7 +206,7 @@ pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::S
             for x in 0..size {
                 let (o, d) = cam.ray(x, y);
                 if let Some(r) = nerf_infer::Ray::new(scene, o, d) {
-                    out.push((r, [0.0; 3]));
+                    out.push(crate::train::Sample::on_scene(scene, r, [0.0; 3]));
                 }
             }
         }

@@ -42,7 +42,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 1;
+pub const CHECKPOINT_VERSION: u16 = 2;
 
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -140,14 +140,13 @@ struct Workspace {
 }
 
 /// Composites each ray's samples (`offs[i]..offs[i + 1]`, weights into
-/// `w`) and writes the gradients of `scale · Σ (C − C_gt)²` with respect to
+/// `w`) on the ray's background and writes the gradients of `scale · Σ (C − C_gt)²` with respect to
 /// the raw densities and colours into `dsig` and `drgb`; returns the summed
 /// squared error over rays and channels.
 #[allow(clippy::too_many_arguments)]
 fn loss_gradients(
     rays: &[Sample],
     offs: &[usize],
-    bg: f32,
     scale: f32,
     acts: &Acts,
     delta: &[f32],
@@ -159,8 +158,8 @@ fn loss_gradients(
     dsig.resize(n, 0.0);
     drgb.resize(n * 3, 0.0);
     let mut sq = 0.0f64;
-    for (i, (_, gt)) in rays.iter().enumerate() {
-        let s = offs[i]..offs[i + 1];
+    for (i, r) in rays.iter().enumerate() {
+        let (s, gt, bg) = (offs[i]..offs[i + 1], r.rgb, r.bg);
         let c = 3 * s.start..3 * s.end;
         let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[c.clone()]);
         let col = composite(sig, rgb, &delta[s.clone()], bg, &mut w[s.clone()]);
@@ -187,8 +186,35 @@ pub struct Calibration {
     pub active_f: Option<Vec<Vec<bool>>>,
 }
 
-/// A training ray and its ground-truth colour.
-pub type Sample = (Ray, [f32; 3]);
+/// A training ray, its ground-truth colour and the background both are
+/// composited on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// The ray through the pixel.
+    pub ray: Ray,
+    /// The pixel's colour on `bg`, stored (sRGB-encoded) values in `[0, 1]`.
+    pub rgb: [f32; 3],
+    /// Background colour of this ray in `[0, 1]`: the scene's
+    /// (white or black), or a random colour for a pixel with an alpha channel
+    /// ([`TrainConfig::random_background`]).
+    pub bg: [f32; 3],
+}
+
+impl Sample {
+    /// A ray on the scene's background with ground truth `rgb`.
+    pub fn on_scene(scene: &Scene, ray: Ray, rgb: [f32; 3]) -> Self {
+        Self { ray, rgb, bg: [scene_background(scene); 3] }
+    }
+}
+
+/// The scene's background grey level: 1 for white, 0 for black.
+fn scene_background(scene: &Scene) -> f32 {
+    if scene.white_background {
+        1.0
+    } else {
+        0.0
+    }
+}
 
 impl Trainer {
     /// A new run with freshly initialised networks.
@@ -243,13 +269,19 @@ impl Trainer {
     /// misses the scene are drawn again, at most `64 n` draws in all:
     /// [`crate::dataset::Dataset::check_rays`] makes sure at load time that
     /// enough rays meet the scene, so a short batch is rare.
-    pub fn draw_batch(data: &Dataset, n: usize, rng: &mut Rng) -> Vec<Sample> {
+    ///
+    /// With `random_background`, a pixel of a view with an alpha channel
+    /// gets a uniformly random background colour, its ground truth
+    /// recomposited on it (`rgb + (1 − alpha)·(bg − scene background)`);
+    /// other pixels keep the scene's background.
+    pub fn draw_batch(data: &Dataset, n: usize, random_background: bool, rng: &mut Rng) -> Vec<Sample> {
         let mut ends = Vec::with_capacity(data.views.len());
         let mut total = 0usize;
         for v in &data.views {
             total += v.rgb.len();
             ends.push(total);
         }
+        let scene_bg = scene_background(&data.scene);
         let mut out = Vec::with_capacity(n);
         for _ in 0..n.saturating_mul(64) {
             if out.len() == n || total == 0 {
@@ -261,9 +293,13 @@ impl Trainer {
             let px = k - (ends[vi] - v.rgb.len());
             let (x, y) = ((px % v.camera.width as usize) as u32, (px / v.camera.width as usize) as u32);
             let (o, d) = v.ray(x, y);
-            if let Some(r) = Ray::new(&data.scene, o, d) {
-                out.push((r, v.rgb[px]));
+            let Some(ray) = Ray::new(&data.scene, o, d) else { continue };
+            let mut s = Sample::on_scene(&data.scene, ray, v.rgb[px]);
+            if let (true, Some(&a)) = (random_background, v.alpha.get(px)) {
+                s.bg = [rng.f32(), rng.f32(), rng.f32()];
+                s.rgb = std::array::from_fn(|c| s.rgb[c] + (1.0 - a) * (s.bg[c] - scene_bg));
             }
+            out.push(s);
         }
         out
     }
@@ -279,7 +315,7 @@ impl Trainer {
             self.update_grid();
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let batch = Self::draw_batch(data, self.cfg.batch_rays, &mut rng);
+        let batch = Self::draw_batch(data, self.cfg.batch_rays, self.cfg.random_background, &mut rng);
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
         let (grad, sq_c, sq_f, samples) = self.gradients(&batch, step_key);
         let n = batch.len() as f64 * 3.0;
@@ -397,7 +433,7 @@ impl Trainer {
         ws.delta.clear();
         ws.offs.clear();
         ws.offs.push(0);
-        for (i, (ray, _)) in rays.iter().enumerate() {
+        for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let t = &mut ws.t_c[i * nc..(i + 1) * nc];
             ray.stratified(Some(key(i)), t);
             match grid {
@@ -438,7 +474,6 @@ impl Trainer {
         let r = rays.len();
         let nc = self.cfg.n_coarse as usize;
         let nf = self.cfg.n_fine as usize;
-        let bg = if self.scene.white_background { 1.0 } else { 0.0 };
         let np = net.n_params;
         let (pc, pf) = self.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np.min(g.len()));
@@ -449,7 +484,7 @@ impl Trainer {
             net.forward(pc, &ws.pos, &ws.dirs, true, &mut ws.acts_c);
         }
         let sq_c =
-            loss_gradients(rays, &ws.offs, bg, scale, &ws.acts_c, &ws.delta, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb);
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb);
         let mut grid = None;
         if n_c > 0 && net.features.is_some() {
             net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
@@ -472,7 +507,7 @@ impl Trainer {
         ws.delta.clear();
         ws.offs.clear();
         ws.offs.push(0);
-        for (i, (ray, _)) in rays.iter().enumerate() {
+        for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let s = i * nc..(i + 1) * nc;
             let rk = hash32(key ^ 0xF1AE ^ (i as u32).wrapping_mul(0x27D4_EB2F));
             sample_pdf_f32(
@@ -490,7 +525,7 @@ impl Trainer {
         }
         net.forward(pf, &ws.pos, &ws.dirs, true, &mut ws.acts_f);
         let sq_f =
-            loss_gradients(rays, &ws.offs, bg, scale, &ws.acts_f, &ws.delta, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb);
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb);
         net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf);
         (sq_c, sq_f, n_c + r * na, grid)
     }
@@ -503,7 +538,6 @@ impl Trainer {
         let net = self.mlp();
         let nc = self.cfg.n_coarse as usize;
         let nf = self.cfg.n_fine as usize;
-        let bg = if self.scene.white_background { 1.0 } else { 0.0 };
         let (pc, pf) = self.params.split_at(net.n_params);
         let mut max_c = vec![0.0f32; net.slots.len()];
         let mut max_f = vec![0.0f32; net.slots.len()];
@@ -525,11 +559,11 @@ impl Trainer {
                 continue;
             }
             let mut pos_f = Vec::new();
-            for (i, (ray, _)) in rays.iter().enumerate() {
+            for (i, Sample { ray, bg, .. }) in rays.iter().enumerate() {
                 let s = i * nc..(i + 1) * nc;
                 let ts = &ws.t_c[s.clone()];
                 let mut w = vec![0.0; nc];
-                composite(&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end], &ws.delta[s], bg, &mut w);
+                composite(&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end], &ws.delta[s], *bg, &mut w);
                 let (mut cdf, mut tf, mut all) = (vec![0.0; nc], vec![0.0; nf], vec![0.0; nc + nf]);
                 sample_pdf_f32(ts, &w, |j| (j as f32 + 0.5) / nf as f32, &mut cdf, &mut tf);
                 merge_sorted(ts, &tf, &mut all);

@@ -2,8 +2,8 @@
 //! formula as `nerf_infer::composite`, and its hand-written backward.
 //!
 //! For one ray with samples `i`: `sᵢ = max(σᵢ,0)·δᵢ`, `Tᵢ = exp(−Σⱼ<ᵢ sⱼ)`,
-//! `wᵢ = Tᵢ − Tᵢ₊₁`, `C = bg + Σ wᵢ(cᵢ − bg)`. Then
-//! `∂C/∂cᵢ = wᵢ` and `∂C/∂sₖ = Tₖ₊₁(cₖ − bg) − Σᵢ>ₖ wᵢ(cᵢ − bg)`.
+//! `wᵢ = Tᵢ − Tᵢ₊₁`, `C = bg + Σ wᵢ(cᵢ − bg)` for a background colour
+//! `bg`, channel by channel. Then `∂C/∂cᵢ = wᵢ` and `∂C/∂sₖ = Tₖ₊₁(cₖ − bg) − Σᵢ>ₖ wᵢ(cᵢ − bg)`.
 
 /// δ of the last sample (the paper's 1e10), also used by the f32 kernel.
 pub const LAST_DELTA: f32 = 1e10;
@@ -18,7 +18,7 @@ pub fn push_deltas(t: &[f32], dir_len: f32, out: &mut Vec<f32>) {
 /// Forward of one ray: writes each sample's weight into `w` and returns the
 /// composited colour. `delta` holds each sample's δ in world units (see
 /// [`push_deltas`]; samples skipped in empty space simply are not there).
-pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: f32, w: &mut [f32]) -> [f32; 3] {
+pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: [f32; 3], w: &mut [f32]) -> [f32; 3] {
     let n = delta.len();
     let mut trans = 1.0f32;
     let mut c = [0.0f32; 3];
@@ -33,7 +33,7 @@ pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: f32, w: &mut [f3
             c[k] += wi * rgb[3 * i + k];
         }
     }
-    c.map(|v| v + (1.0 - acc) * bg)
+    std::array::from_fn(|k| c[k] + (1.0 - acc) * bg[k])
 }
 
 /// Backward of [`composite`]: given `dc` = ∂L/∂C and the forward weights
@@ -43,7 +43,7 @@ pub fn composite_back(
     sigma: &[f32],
     rgb: &[f32],
     delta: &[f32],
-    bg: f32,
+    bg: [f32; 3],
     w: &[f32],
     dc: [f32; 3],
     dsigma: &mut [f32],
@@ -55,7 +55,7 @@ pub fn composite_back(
     let total: f32 = w.iter().sum();
     let mut prefix = total; // Σ_{i≤k} w_i, walked backwards
     for k in (0..n).rev() {
-        let ck: f32 = (0..3).map(|j| (rgb[3 * k + j] - bg) * dc[j]).sum();
+        let ck: f32 = (0..3).map(|j| (rgb[3 * k + j] - bg[j]) * dc[j]).sum();
         for j in 0..3 {
             drgb[3 * k + j] = w[k] * dc[j];
         }
@@ -73,7 +73,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn gradients_match_finite_differences() {
+    fn gradients_match_finite_differences_on_white_and_on_a_colour() {
+        for bg in [[1.0f32; 3], [0.2, 0.9, 0.5]] {
+            check_gradients(bg);
+        }
+    }
+
+    fn check_gradients(bg: [f32; 3]) {
         let sigma = [0.0f32, 0.8, 2.5, -0.3, 1.2, 4.0];
         let rgb: Vec<f32> = (0..18).map(|i| ((i * 7) % 10) as f32 / 10.0).collect();
         let t = [2.0f32, 2.3, 2.7, 3.0, 3.4, 3.9];
@@ -82,13 +88,13 @@ mod tests {
         let dc = [0.7f32, -1.1, 0.4];
         let loss = |s: &[f32], c: &[f32]| {
             let mut w = [0.0; 6];
-            let col = composite(s, c, &d, 1.0, &mut w);
+            let col = composite(s, c, &d, bg, &mut w);
             (0..3).map(|j| (col[j] * dc[j]) as f64).sum::<f64>()
         };
         let mut w = [0.0; 6];
-        composite(&sigma, &rgb, &d, 1.0, &mut w);
+        composite(&sigma, &rgb, &d, bg, &mut w);
         let (mut ds, mut dr) = ([0.0; 6], [0.0; 18]);
-        composite_back(&sigma, &rgb, &d, 1.0, &w, dc, &mut ds, &mut dr);
+        composite_back(&sigma, &rgb, &d, bg, &w, dc, &mut ds, &mut dr);
         let h = 1e-3;
         for k in 0..5 {
             if sigma[k] <= 0.0 {
@@ -117,7 +123,7 @@ mod tests {
         let mut w = [0.0; 4];
         let mut d = Vec::new();
         push_deltas(&t, 1.0, &mut d);
-        let c = composite(&sigma, &rgb, &d, 0.0, &mut w);
+        let c = composite(&sigma, &rgb, &d, [0.0; 3], &mut w);
         use nerf_infer::composite::{Compositor, CompositorF32};
         let mut k = CompositorF32::default();
         for i in 0..4 {

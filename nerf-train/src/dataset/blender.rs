@@ -15,7 +15,7 @@
 //! whose image file is missing are skipped and counted in the dataset's notes.
 
 use super::capture::{build, CaptureOptions, CaptureView, Intrinsics as CaptureIntrinsics, Selection};
-use super::image_io::load_rgb;
+use super::image_io::load_rgba;
 use super::lens::Lens;
 use super::types::{rigid_pose, DataError, Dataset, LoadOptions, Split, View};
 use nerf_infer::camera::Camera;
@@ -126,7 +126,7 @@ fn load_frames(
         let what = format!("frame {i} ({})", f.file_path);
         let pose = rigid_pose(path, &what, &f.transform_matrix)?;
         let img = image_path(dir, &f.file_path);
-        let (w, h, rgb) = load_rgb(&img, downscale, white)?;
+        let (w, h, rgb, alpha) = load_rgba(&img, downscale, white)?;
         if let Some(v0) = views.first() {
             if (w, h) != (v0.camera.width, v0.camera.height) {
                 return Err(DataError::new(
@@ -157,7 +157,7 @@ fn load_frames(
         }
         .map_err(|_| DataError::new(path, format!("{what}: invalid intrinsics")))?;
         let name = super::types::stem(&img);
-        views.push(View { name, file: img, camera, rgb, lens: Lens::Pinhole });
+        views.push(View { name, file: img, camera, rgb, alpha: alpha.unwrap_or_default(), lens: Lens::Pinhole });
     }
     Ok(views)
 }
@@ -195,6 +195,7 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         kind: opts.scene,
         lens: opts.lens,
         undistort: opts.undistort,
+        white_background: t.white_background.unwrap_or(false),
     };
     let mut data = if !select_all {
         build(&path, &views, &[], fixed, copts(Selection::Holdout(opts.holdout)))?
@@ -209,9 +210,6 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         all.extend(views);
         build(&path, &all, &[], fixed, copts(Selection::From(first)))?
     };
-    if let Some(s) = t.white_background {
-        data.scene.white_background = s;
-    }
     if missing > 0 {
         data.notes.push(format!(
             "{}: {missing} of {} frames skipped: image file not found",

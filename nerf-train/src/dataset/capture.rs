@@ -64,6 +64,9 @@ pub struct CaptureOptions {
     /// With `lens`: resample each distorted photo to a pinhole photo once
     /// instead ([`super::lens::undistort_image`]).
     pub undistort: bool,
+    /// Composite photos with an alpha channel on white (and render the
+    /// scene on white) instead of black.
+    pub white_background: bool,
 }
 
 /// Builds the split `opts.split` of a capture. `all` holds every view in
@@ -104,7 +107,7 @@ pub fn build(
     };
     let mut views = Vec::new();
     for (_, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
-        let (w, h, rgb) = load_rgb(&v.image, opts.downscale, false)?;
+        let (w, h, rgb) = load_rgb(&v.image, opts.downscale, opts.white_background)?;
         let k = &v.intrinsics;
         let (sx, sy) = (k.size[0] / w as f64, k.size[1] / h as f64);
         // the image's shape must be the camera's (the downscale crops at most n − 1 pixels a side); a photo
@@ -135,7 +138,7 @@ pub fn build(
             rgb = super::lens::undistort_image(&rgb, w as usize, h as usize, px, lens);
             lens = Lens::Pinhole;
         }
-        views.push(View { name: stem(&v.image), file: v.image.clone(), camera, rgb, lens });
+        views.push(View { name: stem(&v.image), file: v.image.clone(), camera, rgb, alpha: Vec::new(), lens });
     }
     if views.is_empty() {
         return Err(DataError::new(path, format!("no images in the {} split", opts.split.name())));
@@ -153,11 +156,12 @@ pub fn build(
         }
         Selection::From(_) => None,
     };
-    let scene = match frame {
+    let mut scene = match frame {
         Frame::Fixed(s) => s,
         Frame::Fitted(f) => f.scene,
         Frame::Forward(_) => ndc_scene(&views[0].camera),
     };
+    scene.white_background = opts.white_background;
     Ok(Dataset { scene, views, downscale: opts.downscale, notes: Vec::new(), capture })
 }
 

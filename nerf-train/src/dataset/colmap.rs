@@ -111,6 +111,7 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         kind: opts.scene,
         lens: opts.lens,
         undistort: opts.undistort,
+        white_background: false,
     };
     let mut data = build(&model_dir, &views, &points, None, copts)?;
     let registered: HashSet<&str> = images.iter().map(|im| im.name.as_str()).collect();

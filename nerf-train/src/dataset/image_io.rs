@@ -27,7 +27,31 @@ pub fn read_upright(path: &Path) -> Result<image::DynamicImage, DataError> {
 /// averaged (`n = downscale`; a remainder at the right/bottom is cropped).
 /// Returns (width, height, pixels).
 pub fn load_rgb(path: &Path, downscale: u32, white_bg: bool) -> Result<(u32, u32, Vec<[f32; 3]>), DataError> {
-    let img = read_upright(path)?.to_rgba32f();
+    load_rgba(path, downscale, white_bg).map(|(w, h, rgb, _)| (w, h, rgb))
+}
+
+/// Loads an image's alpha channel in `[0, 1]` (1 for an image without
+/// one), averaged over `n × n` blocks as [`load_rgb`] averages colour.
+/// Returns (width, height, alpha).
+pub fn load_alpha(path: &Path, downscale: u32) -> Result<(u32, u32, Vec<f32>), DataError> {
+    let (w, h, rgb, alpha) = load_rgba(path, downscale, false)?;
+    Ok((w, h, alpha.unwrap_or_else(|| vec![1.0; rgb.len()])))
+}
+
+/// [`load_rgb`] and, for an image with an alpha channel, its opacity in
+/// `[0, 1]` averaged over the same blocks (`None` for an opaque format).
+/// Block averages keep compositing linear: the block's colour on another
+/// background `b` is `rgb + (1 − alpha)·(b − background)`.
+/// Returns (width, height, pixels, alpha).
+#[allow(clippy::type_complexity)]
+pub fn load_rgba(
+    path: &Path,
+    downscale: u32,
+    white_bg: bool,
+) -> Result<(u32, u32, Vec<[f32; 3]>, Option<Vec<f32>>), DataError> {
+    let img = read_upright(path)?;
+    let has_alpha = img.color().has_alpha();
+    let img = img.to_rgba32f();
     let (w, h) = img.dimensions();
     let n = downscale.max(1);
     let (ow, oh) = (w / n, h / n);
@@ -36,44 +60,28 @@ pub fn load_rgb(path: &Path, downscale: u32, white_bg: bool) -> Result<(u32, u32
     }
     let bg = if white_bg { 1.0 } else { 0.0 };
     let mut out = vec![[0f32; 3]; (ow * oh) as usize];
+    let mut alpha = vec![0f32; if has_alpha { out.len() } else { 0 }];
     let inv = 1.0 / (n * n) as f32;
     for y in 0..oh {
         for x in 0..ow {
-            let mut acc = [0f32; 3];
+            let mut acc = [0f32; 4];
             for dy in 0..n {
                 for dx in 0..n {
                     let p = img.get_pixel(x * n + dx, y * n + dy).0;
                     for c in 0..3 {
                         acc[c] += p[c] * p[3] + bg * (1.0 - p[3]);
                     }
+                    acc[3] += p[3];
                 }
             }
-            out[(y * ow + x) as usize] = acc.map(|v| v * inv);
+            let i = (y * ow + x) as usize;
+            out[i] = [acc[0] * inv, acc[1] * inv, acc[2] * inv];
+            if has_alpha {
+                alpha[i] = acc[3] * inv;
+            }
         }
     }
-    Ok((ow, oh, out))
-}
-
-/// Loads an image's alpha channel in `[0, 1]` (1 for an image without
-/// one), averaged over `n × n` blocks as [`load_rgb`] averages colour.
-/// Returns (width, height, alpha).
-pub fn load_alpha(path: &Path, downscale: u32) -> Result<(u32, u32, Vec<f32>), DataError> {
-    let img = read_upright(path)?.to_rgba32f();
-    let (w, h) = img.dimensions();
-    let n = downscale.max(1);
-    let (ow, oh) = (w / n, h / n);
-    if ow == 0 || oh == 0 {
-        return Err(DataError::new(path, format!("image {w}x{h} is smaller than the downscale factor {n}")));
-    }
-    let inv = 1.0 / (n * n) as f32;
-    let mut out = vec![0f32; (ow * oh) as usize];
-    for y in 0..oh {
-        for x in 0..ow {
-            let sum: f32 = (0..n * n).map(|k| img.get_pixel(x * n + k % n, y * n + k / n).0[3]).sum();
-            out[(y * ow + x) as usize] = sum * inv;
-        }
-    }
-    Ok((ow, oh, out))
+    Ok((ow, oh, out, has_alpha.then_some(alpha)))
 }
 
 /// Writes RGB in `[0, 1]` as an 8-bit PNG, atomically (temp file + rename).

@@ -84,7 +84,7 @@ pub fn load_llff(dir: &Path, split: Split, downscale: u32, holdout: usize) -> Re
         let fy = (focal_full * h as f64 / h_full) as f32;
         let camera = Camera::new(w, h, f, fy, w as f32 / 2.0, h as f32 / 2.0, frame.apply(&poses[i]))
             .map_err(|_| DataError::new(&npy, format!("pose {i}: invalid camera")))?;
-        views.push(View { name: stem(file), file: file.clone(), camera, rgb, lens: Lens::Pinhole });
+        views.push(View { name: stem(file), file: file.clone(), camera, rgb, alpha: Vec::new(), lens: Lens::Pinhole });
     }
     if views.is_empty() {
         return Err(DataError::new(dir, format!("no images in the {} split", split.name())));

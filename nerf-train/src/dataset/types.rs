@@ -71,8 +71,15 @@ pub struct View {
     pub file: PathBuf,
     /// Camera at the loaded (downscaled) resolution.
     pub camera: Camera,
-    /// Pixels row-major, `camera.width × camera.height`.
+    /// Pixels row-major, `camera.width × camera.height`, composited on
+    /// the scene's background.
     pub rgb: Vec<[f32; 3]>,
+    /// Opacity in `[0, 1]` of each pixel (row-major, as `rgb`) for photos
+    /// with an alpha channel in a Blender-layout dataset
+    /// (`transforms_{split}.json`); empty otherwise.
+    /// Training composites such pixels on a random background
+    /// ([`crate::config::TrainConfig::random_background`]).
+    pub alpha: Vec<f32>,
     /// The photo's lens distortion ([`Lens::Pinhole`] for rendered data):
     /// [`View::ray`] bends each pixel's ray by it.
     pub lens: Lens,
