@@ -148,7 +148,7 @@ fn check_pixel(p: Pixel, scene: &Scene, what: &str) {
     assert!(p.depth >= scene.near - slack && p.depth <= scene.far + slack, "{what}: depth out of range: {p:?}");
     if p.opacity == 0.0 {
         assert!((p.depth - scene.far).abs() <= slack, "{what}: an empty ray has depth far: {p:?}");
-        let bg = if scene.white_background { 1.0 } else { 0.0 };
+        let bg = scene.background();
         assert!(
             p.rgb.iter().all(|c| (c - bg).abs() <= 1.0 / 32768.0),
             "{what}: an empty ray shows the background: {p:?}"

@@ -203,16 +203,7 @@ pub struct Sample {
 impl Sample {
     /// A ray on the scene's background with ground truth `rgb`.
     pub fn on_scene(scene: &Scene, ray: Ray, rgb: [f32; 3]) -> Self {
-        Self { ray, rgb, bg: [scene_background(scene); 3] }
-    }
-}
-
-/// The scene's background grey level: 1 for white, 0 for black.
-fn scene_background(scene: &Scene) -> f32 {
-    if scene.white_background {
-        1.0
-    } else {
-        0.0
+        Self { ray, rgb, bg: [scene.background(); 3] }
     }
 }
 
@@ -281,7 +272,7 @@ impl Trainer {
             total += v.rgb.len();
             ends.push(total);
         }
-        let scene_bg = scene_background(&data.scene);
+        let scene_bg = data.scene.background();
         let mut out = Vec::with_capacity(n);
         for _ in 0..n.saturating_mul(64) {
             if out.len() == n || total == 0 {

@@ -93,6 +93,15 @@ impl Scene {
             unbounded: None,
         }
     }
+
+    /// The background's grey level in `[0, 1]`: 1 on white, 0 on black.
+    pub fn background(&self) -> f32 {
+        if self.white_background {
+            1.0
+        } else {
+            0.0
+        }
+    }
 }
 
 /// Unbounded space (mip-NeRF 360's contraction, with the max norm): a
