@@ -61,7 +61,7 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
     assert_eq!(back.params, tr.params);
 
-    let calib = Trainer::draw_batch(&data, 512, false, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     assert_eq!(version(&bytes), FORMAT_VERSION_NO_CAPTURE);
     let m = Model::from_bytes(&bytes).unwrap();

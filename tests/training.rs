@@ -5,8 +5,9 @@ mod support;
 
 use nerf_infer::{Model, RenderOptions};
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
+use nerf_train::dataset::View;
 use nerf_train::dataset::{load, LoadOptions, Split};
-use nerf_train::eval::score_view;
+use nerf_train::eval::{score_rendered, score_view, Rendered};
 use nerf_train::export::{trainer_model, Prune};
 use nerf_train::rng::Rng;
 use nerf_train::train::Trainer;
@@ -32,7 +33,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     assert_eq!(back.params, tr.params);
     assert_eq!(back.step, tr.step);
     // the exported model renders a validation view far better than a constant
-    let calib = Trainer::draw_batch(&data, 512, false, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     let m = Model::from_bytes(&bytes).unwrap();
     let (_, s) = score_view(&m, RenderOptions::from_model(&m), &val.views[0]).unwrap();
@@ -50,7 +51,7 @@ fn both_networks_learn_from_every_seed() {
     write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = nerf_train::config::TrainConfig { batch_rays: 128, lr: 1e-2, ..small_config() };
-    let probe = Trainer::draw_batch(&data, 512, false, &mut Rng::new(5));
+    let probe = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(5));
     for seed in 0..4 {
         let mut tr = Trainer::new(cfg.clone(), data.scene, 1, seed);
         let (_, c0, f0, _) = tr.gradients(&probe, 1);
@@ -134,7 +135,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     assert_eq!(back.grid, tr.grid);
     // the model file carries the grid (format version 2), no second network,
     // and renders the validation view well
-    let calib = Trainer::draw_batch(&data, 512, false, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 2);
     let m = Model::from_bytes(&bytes).unwrap();
@@ -149,7 +150,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
 }
 
 #[test]
-fn random_backgrounds_recomposite_pixels_by_their_alpha_and_leave_opaque_photos_alone() {
+fn random_backgrounds_recomposite_a_share_of_pixels_by_their_alpha_and_leave_opaque_photos_alone() {
     let d = std::env::temp_dir().join(format!("nerf-bg-test-{}", std::process::id()));
     write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
@@ -163,7 +164,7 @@ fn random_backgrounds_recomposite_pixels_by_their_alpha_and_leave_opaque_photos_
         v.alpha.fill(0.0);
         v.rgb.fill([1.0; 3]);
     }
-    let batch = Trainer::draw_batch(&clear, 256, true, &mut Rng::new(7));
+    let batch = Trainer::draw_batch(&clear, 256, 1.0, &mut Rng::new(7));
     assert_eq!(batch.len(), 256);
     for s in &batch {
         assert!(s.bg.iter().all(|c| (0.0..1.0).contains(c)), "{:?}", s.bg);
@@ -177,16 +178,45 @@ fn random_backgrounds_recomposite_pixels_by_their_alpha_and_leave_opaque_photos_
         v.alpha.fill(1.0);
         v.rgb.fill([0.25, 0.5, 0.75]);
     }
-    for s in Trainer::draw_batch(&solid, 64, true, &mut Rng::new(8)) {
+    for s in Trainer::draw_batch(&solid, 64, 1.0, &mut Rng::new(8)) {
         assert_eq!(s.rgb, [0.25, 0.5, 0.75]);
     }
     // without the option, or for photos without an alpha channel, rays keep the scene's white
     let mut opaque = clear.clone();
     opaque.views.iter_mut().for_each(|v| v.alpha.clear());
-    for (set, random) in [(&clear, false), (&opaque, true)] {
+    for (set, random) in [(&clear, 0.0), (&opaque, 1.0)] {
         for s in Trainer::draw_batch(set, 64, random, &mut Rng::new(9)) {
             assert_eq!((s.rgb, s.bg), ([1.0; 3], [1.0; 3]));
         }
     }
+    // a share of the rays: about that share of transparent pixels leaves white
+    let batch = Trainer::draw_batch(&clear, 4000, 0.25, &mut Rng::new(10));
+    let random = batch.iter().filter(|s| s.bg != [1.0; 3]).count();
+    assert!((900..1100).contains(&random), "{random} of 4000 rays on a random background at a share of 0.25");
+    assert!(batch.iter().all(|s| s.rgb == s.bg), "a transparent pixel shows its ray's background");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn clear_opacity_is_the_rendered_opacity_over_transparent_pixels_only() {
+    let d = std::env::temp_dir().join(format!("nerf-clear-test-{}", std::process::id()));
+    write_blender(&d, SceneSpec { size: 16, train: 1, val: 1, test: 1 }).unwrap();
+    let view = load(&d, Split::Val, LoadOptions::default()).unwrap().views.remove(0);
+    let clear = view.alpha.iter().filter(|&&a| a == 0.0).count();
+    assert!(clear > 0 && clear < view.alpha.len(), "the render has transparent and covered pixels");
+    // haze of 0.25 on the transparent pixels, an opaque object elsewhere
+    let r = Rendered {
+        width: view.camera.width,
+        height: view.camera.height,
+        rgb: view.rgb.clone(),
+        depth: vec![4.0; view.rgb.len()],
+        opacity: view.alpha.iter().map(|&a| if a == 0.0 { 0.25 } else { 1.0 }).collect(),
+        secs_per_ray: 0.0,
+        samples_per_ray: 0.0,
+    };
+    assert_eq!(score_rendered(&r, &view).clear_opacity, Some(0.25));
+    // photos without alpha have no transparent pixels to judge
+    let opaque = View { alpha: Vec::new(), ..view };
+    assert_eq!(score_rendered(&r, &opaque).clear_opacity, None);
     std::fs::remove_dir_all(&d).ok();
 }

@@ -74,13 +74,14 @@ pub struct TrainConfig {
     pub feature_min_res: u16,
     /// Finest level's cells per axis (levels in between: geometric).
     pub feature_max_res: u16,
-    /// Photos with an alpha channel in a Blender-layout dataset
-    /// (`transforms_{split}.json`) train on a random
-    /// background colour per ray, as instant-ngp does: the photo's pixel and
-    /// the render are both composited on it, so density left in empty space
-    /// costs loss instead of hiding against a white background. Photos
-    /// without alpha train on the scene's background either way.
-    pub random_background: bool,
+    /// Share of the rays, in `[0, 1]`, through photos with an alpha
+    /// channel (a Blender-layout dataset, `transforms_{split}.json`) that
+    /// train on a random background colour, as instant-ngp does with all of
+    /// them: the photo's pixel and the render are both composited on it, so
+    /// density left in empty space costs loss instead of hiding against a
+    /// white background. The other rays, and photos without alpha, train
+    /// on the scene's background.
+    pub random_background: f32,
 }
 
 impl Default for TrainConfig {
@@ -121,7 +122,7 @@ impl TrainConfig {
             feature_log2_table: 15,
             feature_min_res: 16,
             feature_max_res: 256,
-            random_background: false,
+            random_background: 0.0,
         }
     }
 
@@ -281,6 +282,9 @@ impl TrainConfig {
                  {gb:.0} GB of activations)",
                 self.batch_rays, self.chunk_rays
             ));
+        }
+        if !(0.0..=1.0).contains(&self.random_background) {
+            return Err(format!("random_background {} must be a share of the rays in [0, 1]", self.random_background));
         }
         if self.grid_res > nerf_infer::occupancy::MAX_GRID_RES {
             return Err("grid_res must be at most 256".into());

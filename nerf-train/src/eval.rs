@@ -149,6 +149,11 @@ pub struct ViewScore {
     pub psnr: f64,
     /// SSIM against ground truth.
     pub ssim: f64,
+    /// Mean rendered opacity, in `[0, 1]`, over the pixels whose photo is
+    /// fully transparent (alpha 0): density left in empty space (haze,
+    /// floaters) that a white background hides; `None` for a photo
+    /// without alpha or without a transparent pixel.
+    pub clear_opacity: Option<f64>,
 }
 
 /// Renders `view` and scores it against its ground truth.
@@ -165,5 +170,12 @@ pub fn score_view(
 /// PSNR and SSIM of a render of `view` against its ground truth.
 pub fn score_rendered(r: &Rendered, view: &View) -> ViewScore {
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
-    ViewScore { name: view.name.clone(), psnr: psnr(&r.rgb, &view.rgb), ssim: ssim(&r.rgb, &view.rgb, w, h) }
+    let clear: Vec<f64> =
+        view.alpha.iter().zip(&r.opacity).filter(|(&a, _)| a == 0.0).map(|(_, &o)| o as f64).collect();
+    ViewScore {
+        name: view.name.clone(),
+        psnr: psnr(&r.rgb, &view.rgb),
+        ssim: ssim(&r.rgb, &view.rgb, w, h),
+        clear_opacity: (!clear.is_empty()).then(|| clear.iter().sum::<f64>() / clear.len() as f64),
+    }
 }

@@ -42,7 +42,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 2;
+pub const CHECKPOINT_VERSION: u16 = 3;
 
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -261,11 +261,11 @@ impl Trainer {
     /// [`crate::dataset::Dataset::check_rays`] makes sure at load time that
     /// enough rays meet the scene, so a short batch is rare.
     ///
-    /// With `random_background`, a pixel of a view with an alpha channel
-    /// gets a uniformly random background colour, its ground truth
-    /// recomposited on it (`rgb + (1 − alpha)·(bg − scene background)`);
-    /// other pixels keep the scene's background.
-    pub fn draw_batch(data: &Dataset, n: usize, random_background: bool, rng: &mut Rng) -> Vec<Sample> {
+    /// A share `random_background` (in `[0, 1]`) of the pixels of views
+    /// with an alpha channel gets a uniformly random background colour,
+    /// its ground truth recomposited on it (`rgb + (1 − alpha)·(bg − scene
+    /// background)`); other pixels keep the scene's background.
+    pub fn draw_batch(data: &Dataset, n: usize, random_background: f32, rng: &mut Rng) -> Vec<Sample> {
         let mut ends = Vec::with_capacity(data.views.len());
         let mut total = 0usize;
         for v in &data.views {
@@ -286,7 +286,8 @@ impl Trainer {
             let (o, d) = v.ray(x, y);
             let Some(ray) = Ray::new(&data.scene, o, d) else { continue };
             let mut s = Sample::on_scene(&data.scene, ray, v.rgb[px]);
-            if let (true, Some(&a)) = (random_background, v.alpha.get(px)) {
+            let recomposite = random_background > 0.0 && !v.alpha.is_empty();
+            if let (true, Some(&a)) = (recomposite && rng.f32() < random_background, v.alpha.get(px)) {
                 s.bg = [rng.f32(), rng.f32(), rng.f32()];
                 s.rgb = std::array::from_fn(|c| s.rgb[c] + (1.0 - a) * (s.bg[c] - scene_bg));
             }

@@ -84,6 +84,11 @@ pub struct Report {
     pub psnr_vs_reference: Option<f64>,
     /// Mean network evaluations per ray.
     pub samples_per_ray: f64,
+    /// Mean rendered opacity, in `[0, 1]`, over the pixels whose photo is
+    /// fully transparent (alpha 0), over the views that have such pixels:
+    /// density left in empty space that a white background hides (0 for a
+    /// clean model); `null` for photos without alpha.
+    pub clear_opacity: Option<f64>,
     /// Numeric scheme of the model (`F32`, `I16`, `I8`).
     pub scheme: String,
     /// Mean SSIM over the views.
@@ -163,10 +168,17 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
         psnr: results.iter().map(|(_, s, _)| s.psnr).sum::<f64>() / n,
         psnr_vs_reference: reference.as_ref().map(|_| results.iter().filter_map(|(_, _, p)| *p).sum::<f64>() / n),
         samples_per_ray: results.iter().map(|(r, _, _)| r.samples_per_ray).sum::<f64>() / n,
+        clear_opacity: mean_some(results.iter().map(|(_, s, _)| s.clear_opacity)),
         scheme: format!("{:?}", model.scheme()),
         ssim: results.iter().map(|(_, s, _)| s.ssim).sum::<f64>() / n,
         us_per_ray: us[us.len() / 2],
         views: results.into_iter().map(|(_, s, _)| s).collect(),
     };
     Ok(report)
+}
+
+/// Mean of the values present; `None` if there are none.
+fn mean_some(v: impl Iterator<Item = Option<f64>>) -> Option<f64> {
+    let (sum, n) = v.flatten().fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    (n > 0).then(|| sum / n as f64)
 }

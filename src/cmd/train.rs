@@ -277,7 +277,7 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
     };
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     let val = load_val(&a, tr.downscale);
-    let calib = Trainer::draw_batch(&data, 4096, false, &mut Rng::new(tr.seed ^ 0xCA11));
+    let calib = Trainer::draw_batch(&data, 4096, 0.0, &mut Rng::new(tr.seed ^ 0xCA11));
     let budget_secs = a.minutes.map(|m| m * 60.0);
     let total = match (a.iters, budget_secs) {
         (Some(n), _) => n,
