@@ -84,15 +84,22 @@ fn accumulate_i8_vnni<const N: usize>(weights: &[u8], od: usize, x: Input<'_, i1
         let sn = (n - s0).min(TILE_S);
         // a short tile repeats its last sample; those results are dropped
         let rows: [&[i16; N]; TILE_S] = core::array::from_fn(|s| &input[s0 + s.min(sn - 1)]);
-        let mut live = 0;
-        for p in 0..in_dim.div_ceil(2) {
-            let xs = rows.map(|r| {
-                let hi = if 2 * p + 1 < in_dim { r[2 * p + 1] as u16 as u32 } else { 0 };
-                (r[2 * p] as u16 as u32 | hi << 16) as i32
-            });
+        // the live pairs, 8 at a time from one OR of the tile's rows (as
+        // the AVX2 kernel finds them), the rest one by one; then each
+        // sample's values of the live pairs only
+        let tile = &input[s0..s0 + sn];
+        let mut live = super::avx2::live_pairs(tile, in_dim, &mut live_p);
+        for p in in_dim / 16 * 8..in_dim.div_ceil(2) {
+            let hi = |r: &[i16; N]| if 2 * p + 1 < in_dim { r[2 * p + 1] } else { 0 };
             live_p[live] = p as u16;
-            live_x[live] = xs;
-            live += xs.iter().any(|&x| x != 0) as usize;
+            live += tile.iter().any(|r| r[2 * p] | hi(r) != 0) as usize;
+        }
+        for (xs, &p) in live_x.iter_mut().zip(&live_p[..live]) {
+            let p = p as usize;
+            for (x, r) in xs.iter_mut().zip(&rows) {
+                let hi = if 2 * p + 1 < in_dim { r[2 * p + 1] as u16 as u32 } else { 0 };
+                *x = (r[2 * p] as u16 as u32 | hi << 16) as i32;
+            }
         }
         let mut c0 = 0;
         while c0 + TILE_C <= od {

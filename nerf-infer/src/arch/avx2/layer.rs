@@ -98,8 +98,9 @@ pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>,
 
 /// Writes to `live_p` the pairs `p < in_dim / 16 · 8` (inputs `2p`,
 /// `2p + 1`) that are non-zero in some row, in order; returns their count.
+/// (The VNNI kernel finds its live pairs with it too.)
 #[target_feature(enable = "avx2")]
-fn live_pairs<const N: usize>(rows: &[[i16; N]], in_dim: usize, live_p: &mut [u16; MAX_PAIRS]) -> usize {
+pub(crate) fn live_pairs<const N: usize>(rows: &[[i16; N]], in_dim: usize, live_p: &mut [u16]) -> usize {
     let mut live = 0;
     for k in 0..in_dim / 16 {
         let mut v = _mm256_setzero_si256();
