@@ -6,7 +6,7 @@
 //! | contract | portable reference | x86-64 AVX2 | x86-64 AVX-512 VNNI | wasm32 SIMD128 |
 //! |---|---|---|---|---|
 //! | int8 dense layer (`acc += x·W`) | [`crate::layer::accumulate`] | `avx2::accumulate_i8` | `vnni::accumulate_i8` (32-wide tiles) | `wasm::accumulate_i8` |
-//! | requantisation of i32 accumulators | [`crate::layer::requant_rows`] | `avx2::requant_i32` | (AVX2) | (portable) |
+//! | requantisation of i32 accumulators | [`crate::layer::requant_rows`] | `avx2::requant_i32` | `vnni::requant_i32` | (portable) |
 //! | sine of phases, Q15 | [`crate::fixed::sin_turns_q15`] | `avx2::sin_turns_q15_x8` | (AVX2) | (portable) |
 //! | width-2 feature-grid lookups | [`FeatureGrid::encode_fixed`] | `avx2::features_w2` | (AVX2) | (portable) |
 //!
@@ -108,7 +108,13 @@ impl IntKernel for W8 {
     }
     #[inline]
     fn requant_rows(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], b: (i16, i16)) {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+        vnni::requant_i32(l, n, acc, out, b);
+        #[cfg(all(
+            target_arch = "x86_64",
+            target_feature = "avx2",
+            not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+        ))]
         avx2::requant_i32(l, n, acc, out, b);
         #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
         requant_rows::<W8>(l, n, acc, out, b);

@@ -226,6 +226,11 @@ fn requant_avx2(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
     requant_with(c, |l, c, out| avx2::requant_i32(l, c.n, &c.acc, out, c.bounds))
 }
 
+#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+fn requant_vnni(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
+    requant_with(c, |l, c, out| vnni::requant_i32(l, c.n, &c.acc, out, c.bounds))
+}
+
 // ---- feature-grid lookups
 
 /// A width-2 grid's table and the positions to look up.
@@ -322,6 +327,8 @@ same_as_reference! {
     selected_int8_requantisation: requant_cases(), requant_selected, requant_reference;
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     avx2_int8_requantisation: requant_cases(), requant_avx2, requant_reference;
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+    vnni_int8_requantisation: requant_cases(), requant_vnni, requant_reference;
 
     selected_feature_lookups: feature_cases(), features_selected, features_reference;
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]

@@ -1,4 +1,4 @@
-//! The int8-weight layer kernel on x86-64 CPUs with AVX-512 VNNI (built when
+//! The int8-weight layer kernel and its requantiser on x86-64 CPUs with AVX-512 VNNI (built when
 //! the target enables `avx512bw` and `avx512vnni`, e.g. `-C
 //! target-cpu=native` on such a CPU; elsewhere the portable kernel runs).
 //!
@@ -135,6 +135,68 @@ fn accumulate_i8_vnni<const N: usize>(weights: &[u8], od: usize, x: Input<'_, i1
             c0 += TILE_C;
         }
         s0 += TILE_S;
+    }
+}
+
+/// `out[s][c] = clamp((acc[s][c] · m_c + 2^(n_c − 1)) >> n_c, lo, hi)` for
+/// `s < n` and every output `c` of `l`: [`crate::fixed::Requant::apply`]
+/// on i32 accumulators, eight channels per register in 64-bit lanes
+/// (AVX-512 has the arithmetic shift and the 64-bit clamp AVX2 lacks),
+/// the last `od % 8` channels one by one.
+pub(crate) fn requant_i32(
+    l: &Layer<'_>,
+    n: usize,
+    acc: &[[i32; MAX_WIDTH]],
+    out: &mut [[i16; MAX_WIDTH]],
+    bounds: (i16, i16),
+) {
+    // SAFETY: this module is only compiled when the build enables
+    // avx512f and avx512bw for the whole crate.
+    unsafe { requant_avx512(l, n, acc, out, bounds) }
+}
+
+#[target_feature(enable = "avx512f,avx512bw")]
+fn requant_avx512(
+    l: &Layer<'_>,
+    n: usize,
+    acc: &[[i32; MAX_WIDTH]],
+    out: &mut [[i16; MAX_WIDTH]],
+    (lo, hi): (i16, i16),
+) {
+    let (rq, od) = (l.requant, l.out_dim as usize);
+    let (lov, hiv) = (_mm512_set1_epi64(lo as i64), _mm512_set1_epi64(hi as i64));
+    let mut c0 = 0;
+    while c0 + 8 <= od {
+        // channel c's (multiplier, shift) pair as one 64-bit lane: the
+        // multiply reads the low half, the shift is the high half
+        let f = &rq[8 * c0..8 * c0 + 64];
+        // SAFETY: `f` is 64 bytes long; unaligned load.
+        let m = unsafe { _mm512_loadu_si512(f.as_ptr().cast()) };
+        // n = (31 + shift) & 63 with the shift taken as u32, as `apply`
+        let bits = _mm512_and_si512(
+            _mm512_add_epi64(_mm512_srli_epi64::<32>(m), _mm512_set1_epi64(31)),
+            _mm512_set1_epi64(63),
+        );
+        let round = _mm512_srli_epi64::<1>(_mm512_sllv_epi64(_mm512_set1_epi64(1), bits));
+        for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
+            let src = &a[c0..c0 + 8];
+            // SAFETY: `src` is 8 i32 (32 bytes) long; unaligned load.
+            let x = _mm512_cvtepi32_epi64(unsafe { _mm256_loadu_si256(src.as_ptr().cast()) });
+            // |acc · m| < 2⁶² and round ≤ 2⁶¹: the sum fits an i64
+            let p = _mm512_add_epi64(_mm512_mul_epi32(x, m), round);
+            let q = _mm512_min_epi64(_mm512_max_epi64(_mm512_srav_epi64(p, bits), lov), hiv);
+            let dst = &mut o[c0..c0 + 8];
+            // SAFETY: `dst` is 8 i16 (16 bytes) long; the clamped lanes fit
+            // i16, so truncating them is exact; unaligned store.
+            unsafe { _mm_storeu_si128(dst.as_mut_ptr().cast(), _mm512_cvtepi64_epi16(q)) };
+        }
+        c0 += 8;
+    }
+    for c in c0..od {
+        let r = l.requant(c);
+        for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
+            o[c] = r.apply(a[c] as i64).clamp(lo as i64, hi as i64) as i16;
+        }
     }
 }
 

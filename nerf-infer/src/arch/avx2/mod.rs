@@ -8,9 +8,8 @@ mod sine;
 
 pub(crate) use features::features_w2;
 // (with VNNI built, the tests still check the AVX2 layer kernels)
-#[cfg(any(test, not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))))]
-pub(crate) use layer::accumulate_i8;
 #[cfg(all(target_feature = "avx512bw", target_feature = "avx512vnni"))]
 pub(crate) use layer::live_pairs;
-pub(crate) use layer::requant_i32;
+#[cfg(any(test, not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))))]
+pub(crate) use layer::{accumulate_i8, requant_i32};
 pub(crate) use sine::sin_turns_q15_x8;
