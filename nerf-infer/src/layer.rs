@@ -244,17 +244,18 @@ impl IntWeight for W8 {
 }
 
 /// `out[s][c] = clamp(requantised acc[s][c], lo, hi)` for the first `n`
-/// samples and every output of `l`: the portable requantiser.
+/// samples and the outputs `c ≥ c_start` of `l`: the portable requantiser.
 #[inline]
 pub fn requant_rows<W: IntWeight>(
     l: &Layer<'_>,
+    c_start: usize,
     n: usize,
     acc: &[[W::A; MAX_WIDTH]],
     out: &mut [[i16; MAX_WIDTH]],
     (lo, hi): (i16, i16),
 ) {
     // output-major: each channel's multiplier and shift are read once
-    for c in 0..l.out_dim as usize {
+    for c in c_start..l.out_dim as usize {
         let r = l.requant(c);
         for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
             o[c] = r.apply(a[c].into()).clamp(lo as i64, hi as i64) as i16;

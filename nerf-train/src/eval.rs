@@ -170,12 +170,12 @@ pub fn score_view(
 /// PSNR and SSIM of a render of `view` against its ground truth.
 pub fn score_rendered(r: &Rendered, view: &View) -> ViewScore {
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
-    let clear: Vec<f64> =
-        view.alpha.iter().zip(&r.opacity).filter(|(&a, _)| a == 0.0).map(|(_, &o)| o as f64).collect();
+    let clear = view.alpha.iter().zip(&r.opacity).filter(|(&a, _)| a == 0.0);
+    let (sum, count) = clear.fold((0.0f64, 0usize), |(s, k), (_, &o)| (s + o as f64, k + 1));
     ViewScore {
         name: view.name.clone(),
         psnr: psnr(&r.rgb, &view.rgb),
         ssim: ssim(&r.rgb, &view.rgb, w, h),
-        clear_opacity: (!clear.is_empty()).then(|| clear.iter().sum::<f64>() / clear.len() as f64),
+        clear_opacity: (count > 0).then(|| sum / count as f64),
     }
 }

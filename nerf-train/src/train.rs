@@ -286,8 +286,8 @@ impl Trainer {
             let (o, d) = v.ray(x, y);
             let Some(ray) = Ray::new(&data.scene, o, d) else { continue };
             let mut s = Sample::on_scene(&data.scene, ray, v.rgb[px]);
-            let recomposite = random_background > 0.0 && !v.alpha.is_empty();
-            if let (true, Some(&a)) = (recomposite && rng.f32() < random_background, v.alpha.get(px)) {
+            let alpha = if random_background > 0.0 { v.alpha.get(px) } else { None };
+            if let Some(&a) = alpha.filter(|_| rng.f32() < random_background) {
                 s.bg = [rng.f32(), rng.f32(), rng.f32()];
                 s.rgb = std::array::from_fn(|c| s.rgb[c] + (1.0 - a) * (s.bg[c] - scene_bg));
             }

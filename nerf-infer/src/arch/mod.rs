@@ -72,7 +72,7 @@ pub trait IntKernel: IntWeight + Sized {
         out: &mut [[i16; MAX_WIDTH]],
         bounds: (i16, i16),
     ) {
-        requant_rows::<Self>(l, n, acc, out, bounds);
+        requant_rows::<Self>(l, 0, n, acc, out, bounds);
     }
 }
 
@@ -117,7 +117,7 @@ impl IntKernel for W8 {
         ))]
         avx2::requant_i32(l, n, acc, out, b);
         #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-        requant_rows::<W8>(l, n, acc, out, b);
+        requant_rows::<W8>(l, 0, n, acc, out, b);
     }
 }
 

@@ -214,7 +214,7 @@ fn requant_with(
 }
 
 fn requant_reference(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
-    requant_with(c, |l, c, out| requant_rows::<W8>(l, c.n, &c.acc, out, c.bounds))
+    requant_with(c, |l, c, out| requant_rows::<W8>(l, 0, c.n, &c.acc, out, c.bounds))
 }
 
 fn requant_selected(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {

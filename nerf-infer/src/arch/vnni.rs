@@ -18,7 +18,7 @@
 use core::arch::x86_64::*;
 
 use crate::format::{Layer, MAX_INPUT, MAX_WIDTH};
-use crate::layer::Input;
+use crate::layer::{requant_rows, Input, W8};
 
 /// Samples per register tile: 8 samples × 32 outputs is 16 accumulator
 /// registers, leaving room for the weights.
@@ -84,15 +84,13 @@ fn accumulate_i8_vnni<const N: usize>(weights: &[u8], od: usize, x: Input<'_, i1
         let sn = (n - s0).min(TILE_S);
         // a short tile repeats its last sample; those results are dropped
         let rows: [&[i16; N]; TILE_S] = core::array::from_fn(|s| &input[s0 + s.min(sn - 1)]);
-        // the live pairs, 8 at a time from one OR of the tile's rows (as
-        // the AVX2 kernel finds them), the rest one by one; then each
-        // sample's values of the live pairs only
+        // the live pairs (as the AVX2 kernel finds them; an odd last input
+        // is a pair of its own), then each sample's values of those only
         let tile = &input[s0..s0 + sn];
         let mut live = super::avx2::live_pairs(tile, in_dim, &mut live_p);
-        for p in in_dim / 16 * 8..in_dim.div_ceil(2) {
-            let hi = |r: &[i16; N]| if 2 * p + 1 < in_dim { r[2 * p + 1] } else { 0 };
-            live_p[live] = p as u16;
-            live += tile.iter().any(|r| r[2 * p] | hi(r) != 0) as usize;
+        if in_dim % 2 == 1 {
+            live_p[live] = (in_dim / 2) as u16;
+            live += tile.iter().any(|r| r[in_dim - 1] != 0) as usize;
         }
         for (xs, &p) in live_x.iter_mut().zip(&live_p[..live]) {
             let p = p as usize;
@@ -192,12 +190,7 @@ fn requant_avx512(
         }
         c0 += 8;
     }
-    for c in c0..od {
-        let r = l.requant(c);
-        for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
-            o[c] = r.apply(a[c] as i64).clamp(lo as i64, hi as i64) as i16;
-        }
-    }
+    requant_rows::<W8>(l, c0, n, acc, out, (lo, hi));
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@
 use core::arch::x86_64::*;
 
 use crate::format::{Layer, MAX_INPUT, MAX_WIDTH};
-use crate::layer::Input;
+use crate::layer::{requant_rows, Input, W8};
 
 /// Samples per register tile.
 const TILE_S: usize = 8;
@@ -72,11 +72,7 @@ pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>,
         // the pairs of inputs (2p, 2p + 1) non-zero for some sample, 8 at a
         // time from one OR of the rows; an odd last input goes alone
         // SAFETY: this module is compiled only with AVX2 enabled.
-        let mut live = unsafe { live_pairs(rows, in_dim, &mut live_p) };
-        for p in in_dim / 16 * 8..in_dim / 2 {
-            live_p[live] = p as u16;
-            live += rows.iter().any(|r| r[2 * p] | r[2 * p + 1] != 0) as usize;
-        }
+        let live = unsafe { live_pairs(rows, in_dim, &mut live_p) };
         let odd = in_dim % 2 == 1 && rows.iter().any(|r| r[in_dim - 1] != 0);
         let (p, out) = (&live_p[..live], &mut out[s0..s0 + sn]);
         // SAFETY: this module is compiled only with AVX2 enabled.
@@ -96,9 +92,10 @@ pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>,
     }
 }
 
-/// Writes to `live_p` the pairs `p < in_dim / 16 · 8` (inputs `2p`,
-/// `2p + 1`) that are non-zero in some row, in order; returns their count.
-/// (The VNNI kernel finds its live pairs with it too.)
+/// Writes to `live_p` the pairs `p < in_dim / 2` (inputs `2p`, `2p + 1`)
+/// that are non-zero in some row, in order, 8 at a time from one OR of the
+/// rows and the last few one by one; returns their count. (The VNNI
+/// kernel finds its live pairs with it too.)
 #[target_feature(enable = "avx2")]
 pub(crate) fn live_pairs<const N: usize>(rows: &[[i16; N]], in_dim: usize, live_p: &mut [u16]) -> usize {
     let mut live = 0;
@@ -116,6 +113,10 @@ pub(crate) fn live_pairs<const N: usize>(rows: &[[i16; N]], in_dim: usize, live_
             live += 1;
             m &= m - 1;
         }
+    }
+    for p in in_dim / 16 * 8..in_dim / 2 {
+        live_p[live] = p as u16;
+        live += rows.iter().any(|r| r[2 * p] | r[2 * p + 1] != 0) as usize;
     }
     live
 }
@@ -277,10 +278,5 @@ fn requant_avx2(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i
         }
         c0 += 4;
     }
-    for c in c0..od {
-        let r = l.requant(c);
-        for (a, o) in acc[..n].iter().zip(out[..n].iter_mut()) {
-            o[c] = r.apply(a[c] as i64).clamp(lo as i64, hi as i64) as i16;
-        }
-    }
+    requant_rows::<W8>(l, c0, n, acc, out, (lo, hi));
 }
