@@ -3,7 +3,7 @@
 # 1/8 size (100x100), exports it to int8 (`nerf export --bits 8`) and
 # evaluates both on the 10 validation views with the same samples and early
 # termination (1e-3); µs per ray per core. Appends one row per preset to
-# docs/int8_loss.csv: date, commit, CPU, preset, minutes, steps, PSNR f32 and
+# docs/int8_loss.csv: date, commit, CPU, cores, preset, minutes, steps, PSNR f32 and
 # int8, the loss, bytes and µs per ray of each.
 #
 #   scripts/int8_loss.sh [DATA_ROOT] [MINUTES] [PRESET...]
@@ -18,7 +18,7 @@ presets=("$@")
 . "$(dirname "$0")/lib.sh"
 out_csv=docs/int8_loss.csv
 [ -f "$out_csv" ] ||
-  echo "date,commit,cpu,preset,minutes,steps,psnr_f32,psnr_int8,loss_db,bytes_f32,bytes_int8,us_f32,us_int8" > "$out_csv"
+  echo "date,commit,cpu,cores,preset,minutes,steps,psnr_f32,psnr_int8,loss_db,bytes_f32,bytes_int8,us_f32,us_int8" > "$out_csv"
 for p in "${presets[@]}"; do
   run="$work/$p"
   echo "== $p" >&2
@@ -27,11 +27,11 @@ for p in "${presets[@]}"; do
   for m in model int8; do
     "$bin" eval "$run/$m.nerf" --data "$root/lego" --split val --early-stop 1e-3 > "$run/$m.json"
   done
-  python3 - "$run" "$p" "$minutes" "$(steps "$run")" "$(date -u +%F)" "$commit" "$cpu" >> "$out_csv" <<'PY'
+  python3 - "$run" "$p" "$minutes" "$(steps "$run")" "$stamp" >> "$out_csv" <<'PY'
 import json, sys
-run, preset, minutes, steps, date, commit, cpu = sys.argv[1:]
+run, preset, minutes, steps, stamp = sys.argv[1:]
 f, q = (json.load(open(f"{run}/{m}.json")) for m in ("model", "int8"))
-print(f"{date},{commit},{cpu},{preset},{minutes},{steps},{f['psnr']:.3f},{q['psnr']:.3f},"
+print(f"{stamp},{preset},{minutes},{steps},{f['psnr']:.3f},{q['psnr']:.3f},"
       f"{f['psnr'] - q['psnr']:.3f},{f['model_bytes']},{q['model_bytes']},{f['us_per_ray']:.2f},{q['us_per_ray']:.2f}")
 PY
   tail -1 "$out_csv" >&2

@@ -31,11 +31,11 @@ for seed in "${seeds[@]}"; do
   for m in model int8; do
     "$bin" eval "$run/$m.nerf" --data "$root/lego" --split val --early-stop 1e-3 --threads 1 --repeat 2 > "$run/$m.json"
   done
-  python3 - "$run" "$minutes" "$seed" "$(steps "$run")" "$(date -u +%F)" "$commit" "$cpu" "$(nproc)" >> "$out_csv" <<'PY'
+  python3 - "$run" "$minutes" "$seed" "$(steps "$run")" "$stamp" >> "$out_csv" <<'PY'
 import json, sys
-run, minutes, seed, steps, date, commit, cpu, cores = sys.argv[1:]
+run, minutes, seed, steps, stamp = sys.argv[1:]
 f, q = (json.load(open(f"{run}/{m}.json")) for m in ("model", "int8"))
-print(f"{date},{commit},{cpu},{cores},{minutes},{seed},{steps},{f['psnr']:.2f},{f['ssim']:.3f},{q['psnr']:.2f},"
+print(f"{stamp},{minutes},{seed},{steps},{f['psnr']:.2f},{f['ssim']:.3f},{q['psnr']:.2f},"
       f"{q['ssim']:.3f},{f['samples_per_ray']:.2f},{q['samples_per_ray']:.2f},{f['us_per_ray']:.2f},"
       f"{q['us_per_ray']:.2f},{q['model_bytes']},{f['clear_opacity']:.4f}")
 PY

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The mesh of lego: trains the default preset for 10 minutes at 100x100
 # (or takes MODEL), extracts the surface at two lattice resolutions, and
-# appends to docs/mesh.csv (labelled with date, commit and CPU) its size
+# appends to docs/mesh.csv (labelled with date, commit, CPU and cores) its size
 # (with the default --threshold and --min-piece, which the rows record),
 # area, volume, closure, the silhouette IoU against the alpha masks of
 # the 10 validation views, and the seconds `nerf mesh` took.
@@ -16,17 +16,17 @@ if [ -z "$model" ]; then
   model="$work/lego/model.nerf"
 fi
 out=docs/mesh.csv
-[ -f "$out" ] || echo "date,commit,cpu,model_psnr_val,resolution,threshold,min_piece,vertices,triangles,area,volume,closed,silhouette_iou_val,seconds" > "$out"
+[ -f "$out" ] || echo "date,commit,cpu,cores,model_psnr_val,resolution,threshold,min_piece,vertices,triangles,area,volume,closed,silhouette_iou_val,seconds" > "$out"
 psnr=$("$bin" eval "$model" --data "$root/lego" --split val | python3 -c 'import json,sys; print("%.2f" % json.load(sys.stdin)["psnr"])')
 for res in 128 256; do
   start=$(date +%s.%N)
   "$bin" mesh "$model" --out "$work/lego$res.ply" --resolution "$res" --masks "$root/lego" --split val > "$work/mesh.json"
   end=$(date +%s.%N)
-  python3 - "$work/mesh.json" "$(date -u +%F)" "$commit" "$cpu" "$psnr" "$start" "$end" >> "$out" <<'PY'
+  python3 - "$work/mesh.json" "$stamp" "$psnr" "$start" "$end" >> "$out" <<'PY'
 import json, sys
-path, date, commit, cpu, psnr, start, end = sys.argv[1:]
+path, stamp, psnr, start, end = sys.argv[1:]
 m = json.load(open(path))
-print(f"{date},{commit},{cpu},{psnr},{m['resolution']},{m['threshold']},{m['min_piece']},{m['vertices']},{m['triangles']},"
+print(f"{stamp},{psnr},{m['resolution']},{m['threshold']},{m['min_piece']},{m['vertices']},{m['triangles']},"
       f"{m['area']:.4f},{m['volume']:.4f},{m['closed']},{m['silhouette_iou']:.4f},{float(end) - float(start):.1f}")
 PY
   tail -1 "$out" >&2

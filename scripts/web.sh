@@ -5,27 +5,43 @@
 # 64x64, µs per ray of that frame without early termination, and the
 # milliseconds of one 100x100 frame as the viewer draws it, early
 # termination at 1e-3: over its workers, one per core, and on one thread),
-# then the CRC-32 of `nerf render --orbit 1 --size 64`.
+# then the CRC-32 of `nerf render --orbit 1 --size 64`. Appends a row to
+# docs/web.csv: date, commit, CPU, cores, Chromium's version, LABEL, whether
+# the two CRCs agree, µs per ray, workers and the two frame times.
 #
-#   scripts/web.sh [MODEL]      (default: models/scene_int8.nerf)
+#   scripts/web.sh [MODEL] [LABEL]      (default: models/scene_int8.nerf)
+#   scripts/web.sh --lego DATA_ROOT     the default trained 10 minutes on lego
+#                                       at 100x100, exported to int8
 set -euo pipefail
-model=$(realpath "${1:-models/scene_int8.nerf}")
-cd "$(dirname "$0")/.."
+lego=""
+if [ "${1:-}" = "--lego" ]; then
+  lego=$(realpath "${2:?--lego needs the folder that holds lego/}")
+  model="" label="lego int8 (the default, 10 min at 100×100)"
+else
+  model=$(realpath "${1:-models/scene_int8.nerf}")
+  label=${2:-$(basename "$model")}
+fi
+. "$(dirname "$0")/lib.sh"
+if [ -n "$lego" ]; then
+  "$bin" train --data "$lego/lego" --downscale 8 --minutes 10 --val-views 0 --out "$work/lego" >&2
+  "$bin" export "$work/lego/model.nerf" --bits 8 --out "$work/lego/int8.nerf" >&2
+  model="$work/lego/int8.nerf"
+fi
 command -v chromium >/dev/null || { echo "needs chromium (apt-get install chromium)" >&2; exit 1; }
 command -v python3 >/dev/null || { echo "needs python3 (its http.server)" >&2; exit 1; }
-cargo build --release --quiet
-work=$(mktemp -d)
 port=$((20000 + RANDOM % 20000))
 python3 -m http.server "$port" --bind 127.0.0.1 -d "$work/page" >/dev/null 2>&1 &
 server=$!
 trap 'kill $server 2>/dev/null; rm -rf "$work"' EXIT
-target/release/nerf web "$model" --out "$work/page" 2>/dev/null
+"$bin" web "$model" --out "$work/page" 2>/dev/null
 sleep 1
-timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 \
+page=$(timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 \
   --user-data-dir="$work/profile" "http://127.0.0.1:$port/index.html?check=1" 2>&1 \
-  | grep -m1 -o 'nerf-check {[^}]*}' | sed 's/^nerf-check //' || true   # grep ends Chromium's pipe
-target/release/nerf render "$model" --orbit 1 --size 64 --out "$work/host" >/dev/null 2>&1
-python3 - "$work/host" <<'PY'
+  | grep -m1 -o 'nerf-check {[^}]*}' | sed 's/^nerf-check //' || true)   # grep ends Chromium's pipe
+echo "$page"
+[ -n "$page" ] || { echo "the page reported nothing" >&2; exit 1; }
+"$bin" render "$model" --orbit 1 --size 64 --out "$work/host" >/dev/null 2>&1
+host=$(python3 - "$work/host" <<'PY'
 import os, sys, zlib, struct
 d = sys.argv[1]
 png = open(os.path.join(d, [f for f in os.listdir(d) if f.endswith("_000.png")][0]), "rb").read()
@@ -52,3 +68,18 @@ for y in range(h):
     prev = row
 print('{"host_crc32": %d}' % zlib.crc32(bytes(out)))
 PY
+)
+echo "$host"
+out=docs/web.csv
+[ -f "$out" ] || echo "date,commit,cpu,cores,browser,model,crc_matches_host,us_per_ray,workers,frame_ms_100,frame_ms_100_one_thread" > "$out"
+browser=$(chromium --version 2>/dev/null | grep -o '[0-9][0-9.]*' | head -1)
+python3 - "$stamp" "$browser" "$label" "$page" "$host" >> "$out" <<'PY'
+import csv, json, sys
+stamp, browser, label, page, host = sys.argv[1:]
+p, h = json.loads(page), json.loads(host)
+same = "yes" if p["crc32"] == h["host_crc32"] else "no"
+csv.writer(sys.stdout, lineterminator="\n").writerow(stamp.split(",") + [
+    f"Chromium {browser}", label, same, f"{p['us_per_ray']:.1f}", p["workers"], f"{p['frame_ms_100']:.1f}",
+    f"{p['frame_ms_100_one_thread']:.1f}"])
+PY
+tail -1 "$out" >&2

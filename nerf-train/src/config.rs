@@ -163,10 +163,10 @@ impl TrainConfig {
     /// every 64 steps, a cell kept while a default step through it would be
     /// at least 3 % opaque (`grid_alpha` 0.03: on lego the same int8 PSNR
     /// at half the samples per ray of 0.01, on fox 1.9–2.3 dB more in 5
-    /// minutes; docs/RESULTS.md), and a tenth of the rays through photos
+    /// minutes; docs/EXPERIMENTS.md), and a tenth of the rays through photos
     /// with alpha on a random background (`random_background` 0.1: on
     /// lego no haze left in empty space, 5.5 samples per ray in int8 where
-    /// runs without it ended at 6.4 to 25.4; docs/RESULTS.md).
+    /// runs without it ended at 6.4 to 25.4; docs/EXPERIMENTS.md).
     pub fn features() -> Self {
         Self {
             depth: 2,

@@ -319,7 +319,7 @@ fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedB
 /// Feature-table size (log2 entries per level) below which `nerf fit`
 /// coarsens the occupancy grid first: on lego at 64 KiB a 2¹⁰ table with a
 /// 32³ grid reached 28.64 dB in int8 after 10 minutes, where the 64³ grid
-/// with a 2⁸ table fell behind the 4x64 network (docs/RESULTS.md, "On a
+/// with a 2⁸ table fell behind the 4x64 network (docs/EXPERIMENTS.md, "On a
 /// Cortex-M").
 pub const TABLE_FLOOR_LOG2: u8 = 10;
 

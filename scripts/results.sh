@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Reruns the named measurements, then writes docs/RESULTS.md and the
+# README's results table from the CSV files they append to
+# (scripts/results_md.py). Without a name it only rewrites the two from
+# the rows already recorded.
+#
+#   scripts/results.sh [--data DATA_ROOT] [NAME...|all]
+#   scripts/results.sh --list
+#
+# DATA_ROOT holds lego/, bird/ and fox/ (default ../shared/data). Each
+# measurement builds the release binary first; those that need QEMU or
+# Chromium install or ask for them (see the scripts).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=../shared/data
+names=()
+# name|minutes on 2 cores|command
+steps=(
+  "default|25|scripts/lego_default.sh ROOT 10 0 1 && scripts/lego_default.sh ROOT 1 0 1"
+  "tradeoff|12|scripts/tradeoff.sh ROOT 10"
+  "int8-loss|15|scripts/int8_loss.sh ROOT 3"
+  "captures|40|scripts/captures.sh ROOT 5"
+  "lens|12|scripts/lens.sh ROOT 1000 0 && scripts/lens.sh ROOT 1000 1"
+  "scene360|5|scripts/scene360.sh 2"
+  "bench|8|scripts/bench.sh"
+  "mesh|12|scripts/mesh.sh ROOT"
+  "mcu|25|scripts/mcu.sh ROOT"
+  "web|13|scripts/web.sh models/scene_int8.nerf 'built-in scene, int8' && scripts/web.sh models/scene.nerf 'built-in scene, f32' && scripts/web.sh --lego ROOT"
+)
+while [ $# -gt 0 ]; do
+  case $1 in
+    --data) root=${2:?--data needs a folder}; shift 2 ;;
+    --list)
+      for s in "${steps[@]}"; do IFS='|' read -r n m c <<< "$s"; printf '%-10s about %3s min   %s\n' "$n" "$m" "$c"; done
+      exit 0 ;;
+    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    all) for s in "${steps[@]}"; do names+=("${s%%|*}"); done; shift ;;
+    *) names+=("$1"); shift ;;
+  esac
+done
+root=$(realpath "$root")
+for name in "${names[@]}"; do
+  cmd=""
+  for s in "${steps[@]}"; do
+    IFS='|' read -r n m c <<< "$s"
+    [ "$n" = "$name" ] && cmd=$c
+  done
+  [ -n "$cmd" ] || { echo "unknown measurement '$name' (scripts/results.sh --list names them)" >&2; exit 2; }
+  echo "== $name: ${cmd//ROOT/$root}" >&2
+  bash -c "set -euo pipefail; ${cmd//ROOT/\"$root\"}"
+done
+python3 scripts/results_md.py

@@ -1,0 +1,342 @@
+#!/usr/bin/env python3
+"""Writes docs/RESULTS.md and the README's results table from the CSV files
+the measurement scripts append to (docs/*.csv). Each table shows the latest
+row for each of its keys, with the date, commit, CPU and core count of the
+run that measured it. Run by scripts/results.sh after its measurements;
+standard library only.
+
+    scripts/results_md.py [REPO_ROOT]
+"""
+
+import csv
+import os
+import re
+import subprocess
+import sys
+
+ROOT = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(__file__), ".."))
+DOCS = os.path.join(ROOT, "docs")
+
+
+def rows(name):
+    """The rows of docs/NAME, or [] when the measurement never ran."""
+    path = os.path.join(DOCS, name)
+    if not os.path.exists(path):
+        return []
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def latest(rs, *key):
+    """The last row of each key, in the order keys first appear."""
+    out = {}
+    for r in rs:
+        k = tuple(r[c] for c in key)
+        out.pop(k, None)
+        out[k] = r
+    return list(out.values())
+
+
+def cpu(r):
+    return re.sub(r"\((R|TM)\)", "", r["cpu"]).replace("  ", " ").strip()
+
+
+def run(r):
+    """The stamp of a row: date, commit, CPU model and cores."""
+    return f"{r['date']} `{r['commit']}` {cpu(r)}, {r['cores']} cores"
+
+
+def thousands(v):
+    return f"{int(v):,}".replace(",", " ")
+
+
+def table(header, body):
+    align = ["---" if h.startswith("<") else "--:" for h in header]
+    head = [h.lstrip("<") for h in header]
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join(align) + "|"]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in body]
+    return "\n".join(lines)
+
+
+def missing(name):
+    return f"Not measured yet: `scripts/results.sh {name}`."
+
+
+# Each section: (heading, name for scripts/results.sh, what it measures, the table's markdown).
+
+
+def default_section():
+    rs = sorted(latest(rows("lego_default.csv"), "minutes", "seed"), key=lambda r: (float(r["minutes"]), r["seed"]))
+    body = [
+        [r["minutes"], r["seed"], thousands(r["steps"]), f"**{r['psnr_f32']}**", r["ssim_f32"], r["psnr_int8"],
+         r["samples_int8"], r["us_f32"], f"**{r['us_int8']}**", thousands(r["bytes_int8"]), r["clear_opacity"], run(r)]
+        for r in rs
+    ]
+    t = table(["minutes", "seed", "steps", "PSNR f32", "SSIM f32", "PSNR int8", "samples/ray", "µs/ray f32",
+               "µs/ray int8", "int8 bytes", "clear_opacity", "<run"], body)
+    return ("The default on lego", "default", """`scripts/lego_default.sh DATA_ROOT MINUTES 0 1` for 1 and 10
+minutes: `nerf train --data lego --downscale 8 --minutes M --val-views 0
+--seed S` with no preset (the default, `features`), `nerf export --bits 8`,
+then `nerf eval --split val --early-stop 1e-3 --threads 1 --repeat 2` on the
+f32 model and its int8 export: PSNR and SSIM on lego's 10 validation views
+at 100×100, samples and µs per ray on one core (the faster of two renders
+of each view). `clear_opacity` is the mean rendered opacity over the pixels
+whose photo is transparent (haze in empty space; 0 is none).""", t if rs else missing("default"))
+
+
+def tradeoff_section():
+    rs = rows("tradeoff_lego8.csv")
+    if not rs or "commit" not in rs[0]:
+        return ("The trade: PSNR against cost", "tradeoff", "", missing("tradeoff"))
+    body = [[r["label"], r["psnr"], r["ssim"], r["us_per_ray"], r["samples_per_ray"],
+             "yes" if r["pareto"] == "true" else ""] for r in rs]
+    t = table(["<point", "PSNR", "SSIM", "µs/ray", "samples/ray", "<Pareto front"], body)
+    return ("The trade: PSNR against cost", "tradeoff", f"""`scripts/tradeoff.sh DATA_ROOT 10`: the default trained
+{rs[0]['minutes']} minutes on lego at 100×100 (seed 0), then `nerf tradeoff` on
+the 10 validation views: weight bits (f32, int16, int8, int8 with 8-bit
+activations), samples per ray and early termination varied one at a time
+around the model's own settings; µs per ray on one thread, the median of 5
+interleaved repetitions. Run: {run(rs[0])}.
+
+![PSNR against µs per ray](tradeoff_lego8.png)""", t)
+
+
+def int8_section():
+    rs = latest(rows("int8_loss.csv"), "preset")
+    body = [[r["preset"], r["minutes"], thousands(r["steps"]), r["psnr_f32"], r["psnr_int8"], f"**{r['loss_db']}**",
+             thousands(r["bytes_f32"]), thousands(r["bytes_int8"]), r["us_f32"], r["us_int8"], run(r)] for r in rs]
+    t = table(["<preset", "minutes", "steps", "PSNR f32", "PSNR int8", "int8 loss (dB)", "f32 bytes", "int8 bytes",
+               "µs/ray f32", "µs/ray int8", "<run"], body)
+    return ("int8 against f32, every preset", "int8-loss", """`scripts/int8_loss.sh DATA_ROOT 3`: each preset trained for
+3 minutes on lego at 100×100, exported with `nerf export --bits 8`, and
+both models evaluated on the 10 validation views with the same samples and
+early termination at 10⁻³ (µs per ray over the machine's cores). A preset
+that trains few steps in 3 minutes is barely fitted; its loss says little
+about a trained model of that preset.""", t if rs else missing("int8-loss"))
+
+
+TREATMENTS = """- `auto`: no flag but the preset; the scene model (object box, forward-facing
+  NDC or unbounded contraction) chosen from the cameras. `object`: `--scene
+  object` forced (no room for what lies beyond the object).
+- `no-distortion`: the lens's distortion coefficients ignored
+  (`--ignore-distortion`); `lens`: rays bent through the lens (the default);
+  `undistort`: photos resampled without distortion once at load
+  (`--undistort`), scored against the photos as taken or, where the
+  treatment says so, against the resampled photos.
+- `features`: the default preset (`features`); the other treatments of
+  `scripts/captures.sh` train `--preset fast`.
+- `scene-colmap` / `scene-room`: the built-in scene written by `nerf scene`
+  as a 360° COLMAP capture on black / inside a coloured room
+  (`scripts/scene360.sh`)."""
+
+
+def captures_section():
+    rs = latest(rows("captures.csv"), "capture", "treatment")
+    order = {"bird": 0, "fox": 1}
+    rs.sort(key=lambda r: (order.get(r["capture"], 2), r["capture"]))
+    body = [[r["capture"], r["treatment"], r["minutes"], thousands(r["steps"]), f"**{r['psnr']}**", r["ssim"], run(r)]
+            for r in rs]
+    t = table(["<capture", "<treatment", "minutes", "steps", "PSNR", "SSIM", "<run"], body)
+    return ("Real captures", "captures", f"""`scripts/captures.sh DATA_ROOT 5` (bird: COLMAP, 184 JPEG photos
+walked around the object; fox: instant-ngp, JPEG, OpenCV lens distortion,
+frames whose files are missing), `scripts/lens.sh DATA_ROOT 1000 0` (fox at
+equal steps: minutes are the training time) and `scripts/scene360.sh 2`:
+`nerf train --data CAPTURE --downscale 8 --minutes M` with no other flag
+than the treatment's, scored by `nerf eval --split val` on the held-out
+photos (every 8th image) at 1/8 size.
+
+{TREATMENTS}""", t if rs else missing("captures"))
+
+
+def duration(ns):
+    return f"{ns / 1e6:.2f} ms" if ns >= 1e6 else f"{ns / 1e3:.2f} µs" if ns >= 1e3 else f"{ns:.1f} ns"
+
+
+def bench_section():
+    rs = latest(rows("bench.csv"), "group", "function")
+    by = {(r["group"], r["function"]): r for r in rs}
+    order = {"paper": 0, "fast": 1, "features": 2}
+    nets = sorted((g.split("/", 1)[1] for g in dict.fromkeys(r["group"] for r in rs) if g.startswith("per_ray/")),
+                  key=lambda n: (order.get(n, 3), n))
+    body = []
+    for net in nets:
+        for unit in ("ray", "tile"):
+            cells = []
+            for path in ("f32", "int16", "int8"):
+                r = by.get((f"per_{unit}/{net}", path))
+                cells.append(f"{duration(float(r['ns_per_iter']))} "
+                             f"({float(r['elements_per_iter']) / float(r['ns_per_iter']):.1f} GMAC/s)" if r else "")
+            body.append([f"`{net}`, per {'ray' if unit == 'ray' else '8×8 tile'}"] + cells)
+    t = table(["<network", "f32", "int16 weights", "int8 weights"], body)
+    frame = [[f"`{r['function']}`", f"{float(r['ns_per_iter']) / 1e3 / float(r['elements_per_iter']):.2f}"]
+             for r in rs if r["group"] == "frame/grid-model"]
+    if frame:
+        t += "\n\nA whole 32×32 view of the shipped grid model (µs per ray):\n\n" + table(["<model", "µs/ray"], frame)
+    peak = [[f"`{r['function']}`", f"{float(r['elements_per_iter']) / float(r['ns_per_iter']):.1f}"]
+            for r in rs if r["group"] == "peak"]
+    if peak:
+        t += "\n\nThe core's ceilings (GMAC/s):\n\n" + table(["<loop", "GMAC/s"], peak)
+    if rs:
+        t += f"\n\nRun: {run(rs[-1])}."
+    return ("Rendering cost, one core", "bench", """`scripts/bench.sh`: `cargo bench --bench per_ray` and `cargo
+bench --bench peak` (criterion, one core, the mean time per iteration).
+Per ray renders one ray and per tile an 8×8 tile through `render_tile`, for
+random-weight networks (no early termination): `paper` is 8×256 with 64 +
+128 samples, `fast` 4×64 with 48 + 48, `features` 2×64 behind the learned
+feature grid with 192 samples (its MAC count leaves out the feature
+lookups); GMAC/s is multiply-accumulates per second. The whole view is
+the shipped grid model of the built-in scene with and without its
+occupancy grid (`no-grid`) and early termination at 10⁻³ (`ert`). The
+ceilings are register-only loops: f32 multiply + add, f32 FMA, and the
+integer dot-product instruction (`vpdpwssd` with AVX-512 VNNI, `vpmaddwd`
+with AVX2; the `avx2_` loops use 256-bit registers only).""", t if rs else missing("bench"))
+
+
+def mesh_section():
+    rs = sorted(latest(rows("mesh.csv"), "resolution"), key=lambda r: int(r["resolution"]))
+    body = [[r["resolution"], r["model_psnr_val"], thousands(r["vertices"]), thousands(r["triangles"]), r["area"],
+             r["volume"], "yes" if r["closed"] == "True" else "no", f"**{r['silhouette_iou_val']}**", r["seconds"],
+             run(r)] for r in rs]
+    t = table(["lattice", "model PSNR", "vertices", "triangles", "area", "volume", "<closed", "silhouette IoU",
+               "seconds", "<run"], body)
+    return ("A mesh of the density", "mesh", """`scripts/mesh.sh DATA_ROOT`: the default trained 10 minutes on
+lego at 100×100, then `nerf mesh --resolution N --masks lego --split val`
+with the default threshold and floater removal: the mesh's size, area and
+volume in scene units, whether it is closed, the IoU of its silhouette
+against the alpha masks of the 10 validation views, and the seconds the
+command took.""", t if rs else missing("mesh"))
+
+
+def mcu_section():
+    rs = latest(rows("mcu.csv"), "model", "board")
+    body = [[r["model"], r["psnr_val"] or "", f"`{r['board']}`", thousands(r["model_bytes"]),
+             thousands(r["flash_bytes"]), thousands(r["stack_bytes"]), f"{int(r['instr_per_ray']) / 1e6:.2f} M",
+             f"{int(r['instr_min']) / 1e6:.2f}–{int(r['instr_max']) / 1e6:.2f} M", r["bit_exact"], run(r)]
+            for r in rs]
+    t = table(["<model", "PSNR", "<board", "model bytes", "flash bytes", "stack bytes", "instructions/ray",
+               "range", "<bit-exact", "<run"], body)
+    return ("On a Cortex-M", "mcu", """`scripts/mcu.sh DATA_ROOT`: `examples/cortex-m/run` builds the
+firmware for a Cortex-M3 (`lm3s6965evb`, no FPU, 256 KiB flash, 64 KiB RAM)
+and a Cortex-M4F (`mps2-an386`), runs it under QEMU and renders an 8×8 tile
+of a 64×64 view from a model in flash with the fixed-point path: the
+shipped int8 and int16 models of the built-in scene (one firmware, both
+models), and two lego models trained 10 minutes at 100×100 and exported to
+int8, the default and one with a 2¹¹-entry feature table (`run --model`; a
+board whose flash a model does not fit is left out). PSNR is the int8
+model's on lego's 10 validation views. Instructions are counted with
+`-icount shift=0` and SysTick, calibrated on a loop of known length; flash
+is the firmware image, models included; the stack high-water mark is
+measured by painting the stack; bit-exact means every pixel equals the
+host's render.""", t if rs else missing("mcu"))
+
+
+def web_section():
+    rs = latest(rows("web.csv"), "model")
+    body = [[r["model"], r["browser"], r["crc_matches_host"], r["us_per_ray"], r["workers"], r["frame_ms_100"],
+             r["frame_ms_100_one_thread"], run(r)] for r in rs]
+    t = table(["<model", "<browser", "<same pixels as the host", "µs/ray", "workers", "100×100 frame (ms)",
+               "on one thread (ms)", "<run"], body)
+    return ("In the browser", "web", """`scripts/web.sh MODEL LABEL` for the shipped models of the built-in
+scene (4×64, 48 + 96 samples, no grids) and `scripts/web.sh --lego
+DATA_ROOT` for the default trained 10 minutes on lego at 100×100 and
+exported to int8: `nerf web` writes the viewer's page,
+headless Chromium opens `index.html?check=1`, and the page reports the CRC-32
+of the model's first orbit frame at 64×64 (compared with `nerf render
+--orbit 1 --size 64`), µs per ray of that frame (no early termination, the
+second of two renders), and the milliseconds of one 100×100 frame as the
+viewer draws it (early termination at 10⁻³) over its Web Workers and on one
+thread.""", t if rs else missing("web"))
+
+
+SECTIONS = [default_section, tradeoff_section, int8_section, captures_section, bench_section, mesh_section,
+            mcu_section, web_section]
+
+
+def anchor(title):
+    return re.sub(r"[^a-z0-9 -]", "", title.lower()).replace(" ", "-")
+
+
+def readme_rows():
+    """The README's headline rows: (what, figure, section title)."""
+    out = []
+    d = latest(rows("lego_default.csv"), "minutes", "seed")
+    for minutes in ("10", "1"):
+        rs = sorted((r for r in d if r["minutes"] == minutes), key=lambda r: r["seed"])
+        if rs:
+            seeds = " / ".join(r["seed"] for r in rs)
+            out.append((f"lego 100×100, held-out views, the default after {minutes} min (seeds {seeds})",
+                        f"{' / '.join(r['psnr_f32'] for r in rs)} dB f32, "
+                        f"{' / '.join(r['psnr_int8'] for r in rs)} dB int8", "The default on lego"))
+            if minutes == "10":
+                out.append(("its int8 render, one core, early termination 10⁻³",
+                            f"{' / '.join(r['us_int8'] for r in rs)} µs per ray "
+                            f"({' / '.join(r['samples_int8'] for r in rs)} samples), "
+                            f"{thousands(rs[0]['bytes_int8'])} B", "The default on lego"))
+    q = latest(rows("int8_loss.csv"), "preset")
+    if q:
+        worst = max(abs(float(r["loss_db"])) for r in q)
+        out.append((f"int8 against f32, every preset ({', '.join(r['preset'] for r in q)})",
+                    f"within {worst:.2f} dB", "int8 against f32, every preset"))
+    c = {(r["capture"], r["treatment"]): r for r in latest(rows("captures.csv"), "capture", "treatment")}
+    if ("bird", "features") in c and ("fox", "features") in c:
+        b, f = c["bird", "features"], c["fox", "features"]
+        out.append(("bird (COLMAP) / fox (instant-ngp), the default, 5 min at 1/8 size",
+                    f"{b['psnr']} dB, SSIM {b['ssim']} / {f['psnr']} dB, {f['ssim']}", "Real captures"))
+    m = [r for r in latest(rows("mesh.csv"), "resolution") if r["resolution"] == "256"]
+    if m:
+        out.append(("lego mesh, 256³ lattice", f"{'closed' if m[0]['closed'] == 'True' else 'open'}, silhouette IoU "
+                    f"{m[0]['silhouette_iou_val']}", "A mesh of the density"))
+    for r in (r for r in latest(rows("web.csv"), "model") if "int8" in r["model"]):
+        out.append((f"browser ({r['browser']}), {r['model']}, {r['workers']} workers",
+                    f"100×100 frame in {r['frame_ms_100']} ms", "In the browser"))
+    for r in latest(rows("mcu.csv"), "model", "board"):
+        if r["board"] == "lm3s6965evb":
+            fig = f"{int(r['instr_per_ray']) / 1e6:.2f} M instructions per ray, {thousands(r['flash_bytes'])} B flash"
+            if r["psnr_val"]:
+                fig = f"{r['psnr_val']} dB, " + fig
+            out.append((f"Cortex-M3, {r['model']}", fig, "On a Cortex-M"))
+    return out
+
+
+def main():
+    commit = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    parts = ["""# Results
+
+Written by `scripts/results.sh` from the CSV files beside this page; do not
+edit by hand. `scripts/results.sh NAME...` reruns the named measurements
+(appending rows to their CSV files) and rewrites this page and the README's
+results table; `scripts/results.sh all` reruns every one, and
+`scripts/results.sh --list` says how long each takes. Each table shows the
+latest row for each of its keys, and each row the date, commit, CPU model
+and core count of the run that measured it. The measurements on lego, bird
+and fox read the public datasets from DATA_ROOT (`--data`, default
+`../shared/data`). Timings were taken on shared machines: compare rows of
+one run (same date and commit), not rows of different runs.
+[EXPERIMENTS.md](EXPERIMENTS.md) has the measurements behind the design
+choices (ablations), each with its command.
+"""]
+    index = []
+    for f in SECTIONS:
+        title, name, what, body = f()
+        index.append(f"| [{title}](#{anchor(title)}) | `{name}` |")
+        parts.append(f"## {title}\n\n{what}\n\n{body}\n" if what else f"## {title}\n\n{body}\n")
+    parts.insert(1, "| section | `scripts/results.sh` name |\n|---|---|\n" + "\n".join(index) + "\n")
+    with open(os.path.join(DOCS, "RESULTS.md"), "w") as f:
+        f.write("\n".join(parts))
+
+    readme = os.path.join(ROOT, "README.md")
+    text = open(readme).read()
+    begin, end = "<!-- results:begin -->", "<!-- results:end -->"
+    if begin in text and end in text:
+        body = table(["<what", "<figure", "<section"],
+                     [[w, fig, f"[{s}](docs/RESULTS.md#{anchor(s)})"] for w, fig, s in readme_rows()])
+        head, rest = text.split(begin, 1)
+        _, tail = rest.split(end, 1)
+        with open(readme, "w") as f:
+            f.write(f"{head}{begin}\n{body}\n{end}{tail}")
+    print(f"wrote docs/RESULTS.md (commit {commit}) and the README's results table", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()
