@@ -36,6 +36,34 @@ fn feature_config() -> TrainConfig {
     }
 }
 
+#[test]
+fn a_step_reports_the_time_of_each_of_its_stages_within_its_own_duration() {
+    let d = std::env::temp_dir().join(format!("nerf-step-times-test-{}", std::process::id()));
+    write_blender(&d, SceneSpec { size: 24, train: 4, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let cfg = TrainConfig { batch_rays: 256, grid_res: 16, grid_warmup: 0, grid_every: 2, ..feature_config() };
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    for _ in 0..4 {
+        let start = std::time::Instant::now();
+        let st = tr.train_step(&data, 0.5);
+        let took = start.elapsed().as_secs_f64();
+        let t = st.times;
+        let grid_step = (tr.step - 1) % 2 == 0;
+        assert_eq!(t.grid > 0.0, grid_step, "grid refreshed at step {}: {t:?}", tr.step - 1);
+        for (name, v) in t.stages() {
+            assert!(v >= 0.0 && v.is_finite(), "{name}: {v}");
+            assert!(v > 0.0 || name == "grid", "{name} not timed: {t:?}");
+        }
+        // the wall stages run one after the other within the step
+        assert!(t.wall() <= took, "stages {} s in a step of {took} s", t.wall());
+        // the chunks' split is thread time: at most the threads' share of the wall time
+        let threads = rayon::current_num_threads() as f64;
+        let split: f64 = t.stages()[5..].iter().map(|s| s.1).sum();
+        assert!(split <= threads * t.chunks, "split {split} s over {threads} threads of {} s", t.chunks);
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
 fn version(bytes: &[u8]) -> u16 {
     u16::from_le_bytes([bytes[4], bytes[5]])
 }

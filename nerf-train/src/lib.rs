@@ -24,5 +24,6 @@ pub mod mlp;
 pub mod path;
 pub mod plot;
 pub mod rng;
+pub mod timing;
 pub mod train;
 pub mod volume;

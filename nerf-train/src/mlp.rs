@@ -313,20 +313,34 @@ impl Mlp {
 
     /// Forward pass on normalised positions `pos` (`S`) and unit view
     /// directions `dirs` (`R`, one per `S/R` consecutive samples). Fills
-    /// `acts.sigma` and, if `need_rgb`, `acts.rgb`.
+    /// `acts.sigma` and, if `need_rgb`, `acts.rgb`: [`Mlp::encode`], then
+    /// [`Mlp::forward_layers`].
     pub fn forward(&self, p: &[f32], pos: &[[f32; 3]], dirs: &[[f32; 3]], need_rgb: bool, a: &mut Acts) {
-        let (s, r) = (pos.len(), dirs.len());
-        let (pd, dd) = (self.enc.pos_dim(), self.enc.dir_dim());
-        let (gd, fd) = (self.gamma_dim(), self.enc.grid_dim as usize);
-        let w = self.topo.width as usize;
-        let d = self.topo.depth as usize;
-        a.s = s;
-        a.r = r;
-        resize(&mut a.enc, s * gd);
+        self.encode(p, pos, a);
+        self.forward_layers(p, dirs, need_rgb, a);
+    }
+
+    /// The first part of [`Mlp::forward`]: the positions' encoding (γ and
+    /// the feature grid's values) into `a`.
+    pub fn encode(&self, p: &[f32], pos: &[[f32; 3]], a: &mut Acts) {
+        let gd = self.gamma_dim();
+        a.s = pos.len();
+        resize(&mut a.enc, pos.len() * gd);
         for (i, x) in pos.iter().enumerate() {
             encode_f32(*x, self.enc.pos_freqs as usize, self.enc.include_input, &mut a.enc[i * gd..(i + 1) * gd]);
         }
         self.grid_forward(p, pos, a);
+    }
+
+    /// The rest of [`Mlp::forward`]: the layers on the encoding
+    /// [`Mlp::encode`] left in `a`, with the view directions `dirs`.
+    pub fn forward_layers(&self, p: &[f32], dirs: &[[f32; 3]], need_rgb: bool, a: &mut Acts) {
+        let (s, r) = (a.s, dirs.len());
+        let (pd, dd) = (self.enc.pos_dim(), self.enc.dir_dim());
+        let (gd, fd) = (self.gamma_dim(), self.enc.grid_dim as usize);
+        let w = self.topo.width as usize;
+        let d = self.topo.depth as usize;
+        a.r = r;
         a.h.resize(d, Vec::new());
         for i in 0..d {
             let mut out = std::mem::take(&mut a.h[i]);

@@ -17,6 +17,7 @@ use crate::dataset::Dataset;
 use crate::grid::DensityGrid;
 use crate::mlp::{Acts, GridGrad, Mlp};
 use crate::rng::Rng;
+use crate::timing::{timed, StepTimes};
 use crate::volume::{composite, composite_back, push_deltas, LAST_DELTA};
 use nerf_infer::camera::Ray;
 use nerf_infer::format::Scene;
@@ -37,6 +38,8 @@ pub struct StepStats {
     pub samples: usize,
     /// The step was skipped because the loss or a gradient was not finite.
     pub skipped: bool,
+    /// Where the step's time went.
+    pub times: StepTimes,
 }
 
 /// The first bytes of a checkpoint file.
@@ -300,16 +303,18 @@ impl Trainer {
     /// the fraction of the run done (for the learning-rate decay).
     pub fn train_step(&mut self, data: &Dataset, progress: f64) -> StepStats {
         let c = &self.cfg;
+        let mut times = StepTimes::default();
         if self.grid.is_some()
             && self.step as usize >= c.grid_warmup
             && (self.step as usize).is_multiple_of(c.grid_every)
         {
-            self.update_grid();
+            timed(&mut times.grid, || self.update_grid());
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let batch = Self::draw_batch(data, self.cfg.batch_rays, self.cfg.random_background, &mut rng);
+        let (n, share) = (self.cfg.batch_rays, self.cfg.random_background);
+        let batch = timed(&mut times.draw, || Self::draw_batch(data, n, share, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
-        let (grad, sq_c, sq_f, samples) = self.gradients(&batch, step_key);
+        let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
         let mse_f = if self.cfg.n_fine > 0 { sq_f / n } else { sq_c / n };
         let loss = (sq_c + sq_f) / n;
@@ -319,6 +324,7 @@ impl Trainer {
             rays: batch.len(),
             samples,
             skipped: false,
+            times,
         };
         if !loss.is_finite() || grad.iter().any(|g| !g.is_finite()) {
             self.skipped += 1;
@@ -326,7 +332,7 @@ impl Trainer {
         } else {
             let lr = self.learning_rate(progress);
             let c = &self.cfg;
-            self.adam.update(&mut self.params, &grad, lr, c.beta1, c.beta2, c.eps);
+            timed(&mut stats.times.adam, || self.adam.update(&mut self.params, &grad, lr, c.beta1, c.beta2, c.eps));
         }
         self.pool.give(grad);
         self.step += 1;
@@ -342,6 +348,13 @@ impl Trainer {
     /// gradient is scattered afterwards, one level per task, chunk after
     /// chunk ([`Mlp::scatter_table`]).
     pub fn gradients(&self, batch: &[Sample], step_key: u32) -> (Vec<f32>, f64, f64, usize) {
+        self.gradients_timed(batch, step_key, &mut StepTimes::default())
+    }
+
+    /// [`Trainer::gradients`], adding the time of its stages to `times`
+    /// (`chunks` and its split, `scatter`).
+    fn gradients_timed(&self, batch: &[Sample], step_key: u32, times: &mut StepTimes) -> (Vec<f32>, f64, f64, usize) {
+        let start = std::time::Instant::now();
         let net = self.mlp();
         let np = self.params.len();
         // the parameters each thread accumulates: all but a feature grid's table
@@ -350,33 +363,40 @@ impl Trainer {
         let chunk = self.cfg.chunk_rays;
         // a few accumulators per thread, for balance
         let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
-        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>);
-        let (dense_grad, sq_c, sq_f, samples, mut grids): Acc = batch
+        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes);
+        let (dense_grad, sq_c, sq_f, samples, mut grids, split): Acc = batch
             .par_chunks(chunk)
             .with_min_len(min_len.max(1))
             .enumerate()
             .fold(
-                || (self.pool.take(dense), 0.0f64, 0.0f64, 0usize, Vec::new(), Workspace::default()),
-                |(mut g, c, f, n, mut grids, mut ws), (ci, rays)| {
+                || {
+                    let g = self.pool.take(dense);
+                    (g, 0.0f64, 0.0f64, 0usize, Vec::new(), StepTimes::default(), Workspace::default())
+                },
+                |(mut g, c, f, n, mut grids, mut t, mut ws), (ci, rays)| {
                     let key = hash32(step_key ^ hash32(ci as u32));
-                    let (a, b, k, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g);
+                    let (a, b, k, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g, &mut t);
                     grids.extend(grid.map(|gg| (ci, gg)));
-                    (g, c + a, f + b, n + k, grids, ws)
+                    (g, c + a, f + b, n + k, grids, t, ws)
                 },
             )
-            .map(|(g, c, f, n, grids, _)| (g, c, f, n, grids))
+            .map(|(g, c, f, n, grids, t, _)| (g, c, f, n, grids, t))
             .reduce(
-                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new()),
-                |(mut g1, c1, f1, n1, mut r1), (g2, c2, f2, n2, r2)| {
+                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new(), StepTimes::default()),
+                |(mut g1, c1, f1, n1, mut r1, mut t1), (g2, c2, f2, n2, r2, t2)| {
                     g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
                     self.pool.give(g2);
                     r1.extend(r2);
-                    (g1, c1 + c2, f1 + f2, n1 + n2, r1)
+                    t1.add(&t2);
+                    (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1)
                 },
             );
+        times.add(&split);
+        times.chunks += start.elapsed().as_secs_f64();
         if dense == np {
             return (dense_grad, sq_c, sq_f, samples);
         }
+        let start = std::time::Instant::now();
         let mut grad = self.pool.take(np);
         grad[..dense].copy_from_slice(&dense_grad);
         self.pool.give(dense_grad);
@@ -384,6 +404,7 @@ impl Trainer {
         let grids: Vec<GridGrad> = grids.into_iter().map(|(_, g)| g).collect();
         net.scatter_table(&grids, &mut grad[dense..]);
         self.pool.give_grids(grids);
+        times.scatter += start.elapsed().as_secs_f64();
         (grad, sq_c, sq_f, samples)
     }
 
@@ -453,7 +474,9 @@ impl Trainer {
     /// the squared errors (coarse, fine) summed over rays and channels, the
     /// number of network evaluations and, with a feature grid, the grid
     /// values' gradient (`g` then holds the layers only: the table's
-    /// gradient is left to [`Mlp::scatter_table`]).
+    /// gradient is left to [`Mlp::scatter_table`]). Adds the time of its
+    /// parts to `t`'s thread stages.
+    #[allow(clippy::too_many_arguments)]
     fn chunk_gradient(
         &self,
         net: &Mlp,
@@ -462,6 +485,7 @@ impl Trainer {
         scale: f32,
         ws: &mut Workspace,
         g: &mut [f32],
+        t: &mut StepTimes,
     ) -> (f64, f64, usize, Option<GridGrad>) {
         let r = rays.len();
         let nc = self.cfg.n_coarse as usize;
@@ -469,27 +493,30 @@ impl Trainer {
         let np = net.n_params;
         let (pc, pf) = self.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np.min(g.len()));
-        self.coarse_samples(rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), ws);
+        timed(&mut t.sample, || self.coarse_samples(rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), ws));
         let n_c = ws.pos.len();
         ws.w_c.resize(n_c, 0.0);
         if n_c > 0 {
-            net.forward(pc, &ws.pos, &ws.dirs, true, &mut ws.acts_c);
+            timed(&mut t.encode, || net.encode(pc, &ws.pos, &mut ws.acts_c));
+            timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
         }
-        let sq_c =
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb);
+        let sq_c = timed(&mut t.composite, || {
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb)
+        });
         let mut grid = None;
         if n_c > 0 && net.features.is_some() {
-            net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
+            timed(&mut t.backward, || net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
             let mut gg = self.pool.take_grid();
             net.swap_grid_grad(&mut ws.acts_c, &mut gg);
             grid = Some(gg);
         } else if n_c > 0 {
-            net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc);
+            timed(&mut t.backward, || net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
         }
         if nf == 0 {
             return (sq_c, 0.0, n_c, grid);
         }
         // no grid (validated): every ray has its nc coarse samples
+        let start = std::time::Instant::now();
         let na = nc + nf;
         ws.t_f.resize(nf, 0.0);
         ws.cdf.resize(nc, 0.0);
@@ -515,10 +542,13 @@ impl Trainer {
             push_deltas(all, ray.dir_len, &mut ws.delta);
             ws.offs.push(ws.pos.len());
         }
-        net.forward(pf, &ws.pos, &ws.dirs, true, &mut ws.acts_f);
-        let sq_f =
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb);
-        net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf);
+        t.sample += start.elapsed().as_secs_f64();
+        timed(&mut t.encode, || net.encode(pf, &ws.pos, &mut ws.acts_f));
+        timed(&mut t.forward, || net.forward_layers(pf, &ws.dirs, true, &mut ws.acts_f));
+        let sq_f = timed(&mut t.composite, || {
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb)
+        });
+        timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)
     }
 

@@ -11,7 +11,9 @@ use nerf_train::config::TrainConfig;
 use nerf_train::dataset::{Dataset, Split};
 use nerf_train::eval::score_view;
 use nerf_train::export::{trainer_model, OwnedModel, Prune};
+use nerf_train::mlp::Mlp;
 use nerf_train::rng::Rng;
+use nerf_train::timing::StepTimes;
 use nerf_train::train::Trainer;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -296,6 +298,8 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
     let flops_per_sample = 6.0 * mlp.macs_per_sample() as f64;
     let (mut last_ckpt, mut last_val) = (tr.elapsed, tr.elapsed);
     let (mut win_rays, mut win_samples, mut win_secs) = (0usize, 0usize, 0.0f64);
+    let (mut win_times, mut run_times, mut run_samples) = (StepTimes::default(), StepTimes::default(), 0usize);
+    let (mut win_steps, run_start) = (0u64, tr.step);
     let mut last_val_psnr = None;
     let wall = Instant::now();
     if progress_of(&tr) >= 1.0 {
@@ -315,6 +319,10 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
         win_rays += st.rays;
         win_samples += st.samples;
         win_secs += dt;
+        win_steps += 1;
+        win_times.add(&st.times);
+        run_times.add(&st.times);
+        run_samples += st.samples;
         if st.skipped {
             pb.println(format!("step {}: loss or gradient not finite, step skipped", tr.step));
         }
@@ -337,6 +345,8 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
                 "gflops": win_samples as f64 * flops_per_sample / win_secs / 1e9,
                 "val_psnr": val_psnr,
                 "skipped_steps": tr.skipped,
+                "step_ms": stage_ms(&win_times, win_steps),
+                "mlp_gflops_per_thread": mlp_gflops(&win_times, win_samples, &mlp),
             });
             log.append(&line)?;
             pb.set_message(format!(
@@ -347,6 +357,7 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
                 last_val_psnr.map(|v| format!(", val {v:.2} dB")).unwrap_or_default()
             ));
             (win_rays, win_samples, win_secs) = (0, 0, 0.0);
+            (win_times, win_steps) = (StepTimes::default(), 0);
         }
         pb.set_position(match a.iters {
             Some(_) => tr.step,
@@ -372,6 +383,7 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
         Some(v) => Some(validate(&tr, v, a.val_views, &calib[..256])?),
         None => None,
     };
+    eprintln!("{}", time_summary(&run_times, tr.step - run_start, run_samples, &mlp));
     eprintln!(
         "trained {} steps in {:.1} s; wrote {}{}",
         tr.step,
@@ -383,4 +395,41 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
             .unwrap_or_default()
     );
     Ok(())
+}
+
+/// Milliseconds per step of each stage of [`StepTimes`], averaged over `steps`.
+fn stage_ms(t: &StepTimes, steps: u64) -> serde_json::Value {
+    let per = 1e3 / steps.max(1) as f64;
+    serde_json::Value::Object(t.stages().iter().map(|&(k, v)| (k.to_string(), (v * per).into())).collect())
+}
+
+/// GFLOP/s per thread of the network's layers, forward (2 flops per
+/// multiply-accumulate) and backward (4: the input's and the weights'
+/// gradients), over `samples` network evaluations.
+fn mlp_gflops(t: &StepTimes, samples: usize, mlp: &Mlp) -> serde_json::Value {
+    let flops = samples as f64 * mlp.macs_per_sample() as f64 / 1e9;
+    serde_json::json!({
+        "forward": 2.0 * flops / t.forward.max(1e-9),
+        "backward": 4.0 * flops / t.backward.max(1e-9),
+    })
+}
+
+/// One line on where the run's time went: each wall stage's share of the
+/// steps, the chunks' thread time split, and the layers' GFLOP/s per thread.
+fn time_summary(t: &StepTimes, steps: u64, samples: usize, mlp: &Mlp) -> String {
+    let wall = t.wall().max(1e-9);
+    let thread: f64 = t.stages()[5..].iter().map(|s| s.1).sum::<f64>().max(1e-9);
+    let share = |v: f64, of: f64| format!("{:.0} %", 100.0 * v / of);
+    let stages: Vec<String> = t.stages()[..5].iter().map(|&(k, v)| format!("{k} {}", share(v, wall))).collect();
+    let split: Vec<String> = t.stages()[5..].iter().map(|&(k, v)| format!("{k} {}", share(v, thread))).collect();
+    let g = mlp_gflops(t, samples, mlp);
+    format!(
+        "time per step {:.2} ms over {steps} steps: {}; chunks' thread time: {}; layers {:.1} GFLOP/s forward, {:.1} \
+         backward per thread",
+        1e3 * wall / steps.max(1) as f64,
+        stages.join(", "),
+        split.join(", "),
+        g["forward"].as_f64().unwrap_or(0.0),
+        g["backward"].as_f64().unwrap_or(0.0),
+    )
 }
