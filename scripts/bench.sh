@@ -1,20 +1,25 @@
 #!/usr/bin/env bash
 # The renderer's cost per ray and per 8x8 tile (`cargo bench --bench
 # per_ray`: random-weight paper, fast and features networks in f32, int16
-# and int8, and a whole view of the shipped grid model) and this core's
-# multiply-accumulate ceilings (`cargo bench --bench peak`), one core each.
+# and int8, and a whole view of the shipped grid model), this core's
+# multiply-accumulate ceilings (`cargo bench --bench peak`), one core each,
+# and a training step with the gemm crate's products at the hidden layers'
+# shapes (`cargo bench --bench train_step`; the step on every core).
 # Appends one row per benchmark that ran to docs/bench.csv: date, commit,
 # CPU, cores, criterion's group and function, the mean time per iteration
 # in nanoseconds, and the elements per iteration (multiply-accumulates for
-# per_ray, per_tile and peak; rays for frame/grid-model).
+# per_ray, per_tile, peak and gemm; rays for frame/grid-model and
+# train_step).
 #
-#   scripts/bench.sh
+#   scripts/bench.sh [BENCH...]     (default: per_ray peak train_step)
 set -euo pipefail
+benches=("$@")
+[ ${#benches[@]} -gt 0 ] || benches=(per_ray peak train_step)
 . "$(dirname "$0")/lib.sh"
 out=docs/bench.csv
 [ -f "$out" ] || echo "date,commit,cpu,cores,group,function,ns_per_iter,elements_per_iter" > "$out"
 touch "$work/start"
-cargo bench --quiet --bench per_ray --bench peak >&2
+cargo bench --quiet $(printf -- "--bench %s " "${benches[@]}") >&2
 python3 - "$stamp" $(find target/criterion -path '*/new/benchmark.json' -newer "$work/start" | sort) <<'PY' |
 import json, os, sys
 stamp = sys.argv[1]

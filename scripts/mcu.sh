@@ -60,7 +60,7 @@ for run in default small; do
   psnr=$("$bin" eval "$work/$run/int8.nerf" --data "$root/lego" --split val \
     | python3 -c 'import json,sys; print("%.2f" % json.load(sys.stdin)["psnr"])')
   label="lego int8, default"
-  [ "$run" = small ] && label="lego int8, 2^11 table"
+  [ "$run" = small ] && label="lego int8, 2¹¹ table"
   firmware "$label" "$psnr" --model "$work/$run/int8.nerf"
 done
 tail -n +2 "$out" | tail -8 >&2

@@ -176,10 +176,21 @@ def bench_section():
             for r in rs if r["group"] == "peak"]
     if peak:
         t += "\n\nThe core's ceilings (GMAC/s):\n\n" + table(["<loop", "GMAC/s"], peak)
+    step = [[f"`{r['function']}`", f"{float(r['ns_per_iter']) / 1e6:.1f}",
+             f"{float(r['elements_per_iter']) / float(r['ns_per_iter']) * 1e9:,.0f}".replace(",", " ")]
+            for r in rs if r["group"] == "train_step"]
+    if step:
+        t += "\n\nA training step (1024 rays, every core):\n\n" + table(["<preset", "ms/step", "rays/s"], step)
+    prod = [[f"`{r['function']}`", f"{2 * float(r['elements_per_iter']) / float(r['ns_per_iter']):.1f}"]
+            for r in rs if r["group"] == "gemm"]
+    if prod:
+        t += ("\n\nThe gemm crate at the hidden layers' shapes (samples × outputs × inputs, one thread):\n\n"
+              + table(["<product", "GFLOP/s"], prod))
     if rs:
         t += f"\n\nRun: {run(rs[-1])}."
-    return ("Rendering cost, one core", "bench", """`scripts/bench.sh`: `cargo bench --bench per_ray` and `cargo
-bench --bench peak` (criterion, one core, the mean time per iteration).
+    return ("Rendering and training cost", "bench", """`scripts/bench.sh`: `cargo bench --bench per_ray`, `cargo
+bench --bench peak` and `cargo bench --bench train_step` (criterion, the
+mean time per iteration; one core but for the training step).
 Per ray renders one ray and per tile an 8×8 tile through `render_tile`, for
 random-weight networks (no early termination): `paper` is 8×256 with 64 +
 128 samples, `fast` 4×64 with 48 + 48, `features` 2×64 behind the learned
@@ -189,7 +200,12 @@ the shipped grid model of the built-in scene with and without its
 occupancy grid (`no-grid`) and early termination at 10⁻³ (`ert`). The
 ceilings are register-only loops: f32 multiply + add, f32 FMA, and the
 integer dot-product instruction (`vpdpwssd` with AVX-512 VNNI, `vpmaddwd`
-with AVX2; the `avx2_` loops use 256-bit registers only).""", t if rs else missing("bench"))
+with AVX2; the `avx2_` loops use 256-bit registers only). The training
+step is one `Trainer::train_step` on the built-in scene at 64×64 after 200
+warm-up steps; the products are the gemm crate's f32 kernel at the shapes
+of the default's 64-wide hidden layers (2 flops per multiply-accumulate),
+the ceiling to read the layers' GFLOP/s per thread from `nerf train`
+against.""", t if rs else missing("bench"))
 
 
 def mesh_section():
@@ -286,7 +302,8 @@ def readme_rows():
     if m:
         out.append(("lego mesh, 256³ lattice", f"{'closed' if m[0]['closed'] == 'True' else 'open'}, silhouette IoU "
                     f"{m[0]['silhouette_iou_val']}", "A mesh of the density"))
-    for r in (r for r in latest(rows("web.csv"), "model") if "int8" in r["model"]):
+    web = [r for r in latest(rows("web.csv"), "model") if "int8" in r["model"]]
+    for r in [r for r in web if "lego" in r["model"]] or web:
         out.append((f"browser ({r['browser']}), {r['model']}, {r['workers']} workers",
                     f"100×100 frame in {r['frame_ms_100']} ms", "In the browser"))
     for r in latest(rows("mcu.csv"), "model", "board"):
