@@ -48,7 +48,7 @@ fn a_step_reports_the_time_of_each_of_its_stages_within_its_own_duration() {
         let st = tr.train_step(&data, 0.5);
         let took = start.elapsed().as_secs_f64();
         let t = st.times;
-        let grid_step = (tr.step - 1) % 2 == 0;
+        let grid_step = (tr.step - 1).is_multiple_of(2);
         assert_eq!(t.grid > 0.0, grid_step, "grid refreshed at step {}: {t:?}", tr.step - 1);
         for (name, v) in t.stages() {
             assert!(v >= 0.0 && v.is_finite(), "{name}: {v}");

@@ -1,0 +1,58 @@
+//! Cost of one training step, and of the matrix products inside it.
+//!
+//! - `train_step/PRESET`: one [`Trainer::train_step`] of the `features`
+//!   preset (the default) and of `fast` on the built-in scene at 64×64
+//!   (1024 rays per step; throughput in rays), after 200 warm-up steps so
+//!   that the occupancy grid has been refreshed from a fitted density.
+//! - `gemm/MxNxK`: the `gemm` crate's product (`nerf_train::gemm::matmul`,
+//!   one thread) at the shapes of the default's hidden layers, `M` samples
+//!   by 64 outputs by 64 inputs, for the samples of one 32-ray chunk at
+//!   about 10 samples per ray and of larger chunks; throughput in
+//!   multiply-accumulates. Read the layers' GFLOP/s per thread that
+//!   `nerf train` reports (`mlp_gflops_per_thread`) against these.
+//!
+//! `cargo bench --bench train_step`
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use nerf_train::config::TrainConfig;
+use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
+use nerf_train::dataset::{load, LoadOptions, Split};
+use nerf_train::gemm::{matmul, View};
+use nerf_train::train::Trainer;
+use std::hint::black_box;
+
+fn steps(c: &mut Criterion) {
+    let dir = std::env::temp_dir().join(format!("nerf-bench-train-step-{}", std::process::id()));
+    write_blender(&dir, SceneSpec { size: 64, train: 24, val: 1, test: 1 }).expect("write the built-in scene");
+    let data = load(&dir, Split::Train, LoadOptions::default()).expect("load the built-in scene");
+    let mut g = c.benchmark_group("train_step");
+    g.sample_size(20);
+    for (name, cfg) in [("features", TrainConfig::features()), ("fast", TrainConfig::fast())] {
+        g.throughput(Throughput::Elements(cfg.batch_rays as u64));
+        let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+        for i in 0..200 {
+            tr.train_step(&data, i as f64 / 1000.0);
+        }
+        g.bench_function(name, |b| b.iter(|| black_box(tr.train_step(&data, 0.2).loss)));
+    }
+    g.finish();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn products(c: &mut Criterion) {
+    let mut g = c.benchmark_group("gemm");
+    let (n, k) = (64, 64);
+    for m in [320, 1280, 5120] {
+        let a: Vec<f32> = (0..m * k).map(|i| (i % 7) as f32 * 0.1).collect();
+        let w: Vec<f32> = (0..k * n).map(|i| (i % 5) as f32 * 0.1).collect();
+        let mut out = vec![0.0f32; m * n];
+        g.throughput(Throughput::Elements((m * n * k) as u64));
+        g.bench_function(format!("{m}x{n}x{k}"), |b| {
+            b.iter(|| matmul(m, n, k, black_box(&mut out), n, false, View::rows(&a, k), View::rows(&w, n)))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, steps, products);
+criterion_main!(benches);
