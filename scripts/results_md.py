@@ -182,12 +182,16 @@ def bench_section():
     if step:
         t += "\n\nA training step (1024 rays, every core):\n\n" + table(["<preset", "ms/step", "rays/s"], step)
     prod = [[f"`{r['function']}`", f"{2 * float(r['elements_per_iter']) / float(r['ns_per_iter']):.1f}"]
-            for r in rs if r["group"] == "gemm"]
+            for r in sorted((r for r in rs if r["group"] == "gemm"), key=lambda r: int(r["function"].split("x")[0]))]
     if prod:
         t += ("\n\nThe gemm crate at the hidden layers' shapes (samples × outputs × inputs, one thread):\n\n"
               + table(["<product", "GFLOP/s"], prod))
-    if rs:
-        t += f"\n\nRun: {run(rs[-1])}."
+    stamps = {}
+    for r in rs:
+        stamps.setdefault(run(r), []).append(r["group"].split("/")[0])
+    if stamps:
+        t += "\n\nRuns: " + "; ".join(f"{', '.join(f'`{g}`' for g in dict.fromkeys(gs))}: {st}"
+                                     for st, gs in stamps.items()) + "."
     return ("Rendering and training cost", "bench", """`scripts/bench.sh`: `cargo bench --bench per_ray`, `cargo
 bench --bench peak` and `cargo bench --bench train_step` (criterion, the
 mean time per iteration; one core but for the training step).
@@ -206,6 +210,27 @@ warm-up steps; the products are the gemm crate's f32 kernel at the shapes
 of the default's 64-wide hidden layers (2 flops per multiply-accumulate),
 the ceiling to read the layers' GFLOP/s per thread from `nerf train`
 against.""", t if rs else missing("bench"))
+
+
+def train_step_section():
+    rs = latest(rows("train_step.csv"), "preset")
+    body = [[f"`{r['preset']}`", thousands(r["steps"]), f"**{r['ms_per_step']}**"]
+            + [r[k] for k in ("grid", "draw", "chunks", "scatter", "adam", "sample", "encode", "forward", "composite",
+                              "backward", "gflops_forward", "gflops_backward")] + [run(r)] for r in rs]
+    t = table(["<preset", "steps", "ms/step", "grid", "draw", "chunks", "scatter", "Adam", "sample*", "encode*",
+               "forward*", "composite*", "backward*", "GFLOP/s forward", "GFLOP/s backward", "<run"], body)
+    return ("Where a training step's time goes", "step", """`scripts/train_step.sh DATA_ROOT 3000 features grid`: `nerf train
+--data lego --downscale 8 --iters 3000 --val-views 0 --log-every 3000
+--preset P`, whose log line covers the whole run (`step_ms`,
+`mlp_gflops_per_thread`; docs/CLI.md). Milliseconds per step: the
+wall-clock stages one after the other (the occupancy grid's refresh, the
+batch's draw, the chunks' forward and backward on every core, the feature
+table's gradient scatter, Adam), then, starred, the chunks' thread time
+summed over the threads (samples along the rays, the encoding: γ and the
+feature lookups, the layers forward, the quadrature and loss, the backward
+pass). GFLOP/s are the layers' per thread, 2 flops per multiply-accumulate
+forward and 4 backward; the gemm crate's own rate at these shapes is in
+the table above.""", t if rs else missing("step"))
 
 
 def mesh_section():
@@ -264,7 +289,8 @@ viewer draws it (early termination at 10⁻³) over its Web Workers and on one
 thread.""", t if rs else missing("web"))
 
 
-SECTIONS = [default_section, tradeoff_section, int8_section, captures_section, bench_section, mesh_section,
+SECTIONS = [default_section, tradeoff_section, int8_section, captures_section, bench_section, train_step_section,
+            mesh_section,
             mcu_section, web_section]
 
 
