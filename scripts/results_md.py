@@ -333,7 +333,7 @@ def readme_rows():
         out.append((f"browser ({r['browser']}), {r['model']}, {r['workers']} workers",
                     f"100×100 frame in {r['frame_ms_100']} ms", "In the browser"))
     for r in latest(rows("mcu.csv"), "model", "board"):
-        if r["board"] == "lm3s6965evb":
+        if r["board"] == "lm3s6965evb" and "int16" not in r["model"]:
             fig = f"{int(r['instr_per_ray']) / 1e6:.2f} M instructions per ray, {thousands(r['flash_bytes'])} B flash"
             if r["psnr_val"]:
                 fig = f"{r['psnr_val']} dB, " + fig
