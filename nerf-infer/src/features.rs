@@ -145,7 +145,8 @@ impl FeatureGrid<'_> {
         for a in 0..3 {
             let v = if p[a].is_finite() { p[a] } else { 0.0 };
             let x = ((v + 1.0) * 0.5).clamp(0.0, 1.0) * res as f32;
-            let i = (libm::floorf(x) as u32).min(res as u32 - 1);
+            // x ≥ 0: the conversion truncates, which is the floor here
+            let i = (x as u32).min(res as u32 - 1);
             cell[a] = i;
             let f = x - i as f32;
             w[a] = [1.0 - f, f];
