@@ -139,8 +139,8 @@ def captures_section():
     t = table(["<capture", "<treatment", "minutes", "steps", "PSNR", "SSIM", "<run"], body)
     return ("Real captures", "captures", f"""`scripts/captures.sh DATA_ROOT 5` (bird: COLMAP, 184 JPEG photos
 walked around the object; fox: instant-ngp, JPEG, OpenCV lens distortion,
-frames whose files are missing), `scripts/lens.sh DATA_ROOT 1000 0` (fox at
-equal steps: minutes are the training time) and `scripts/scene360.sh 2`:
+frames whose files are missing), `scripts/lens.sh DATA_ROOT 1000 S` (fox at
+equal steps, seeds 0 and 1: minutes are the training time) and `scripts/scene360.sh 2`:
 `nerf train --data CAPTURE --downscale 8 --minutes M` with no other flag
 than the treatment's, scored by `nerf eval --split val` on the held-out
 photos (every 8th image) at 1/8 size.
