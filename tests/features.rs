@@ -12,7 +12,7 @@ use nerf_train::eval::score_view;
 use nerf_train::export::{quantise, random_model, trainer_model, OwnedModel, Prune};
 use nerf_train::path::orbit_camera;
 use nerf_train::rng::Rng;
-use nerf_train::train::Trainer;
+use nerf_train::train::{Draw, Trainer};
 use support::*;
 
 /// A small grid model: 4 levels of 2 values, 2¹⁰ entries (the two coarse
@@ -89,7 +89,7 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
     assert_eq!(back.params, tr.params);
 
-    let calib = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     assert_eq!(version(&bytes), FORMAT_VERSION_NO_CAPTURE);
     let m = Model::from_bytes(&bytes).unwrap();

@@ -10,7 +10,7 @@ use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::{score_rendered, score_view, Rendered};
 use nerf_train::export::{trainer_model, Prune};
 use nerf_train::rng::Rng;
-use nerf_train::train::Trainer;
+use nerf_train::train::{Draw, Trainer};
 use support::small_config;
 
 #[test]
@@ -33,7 +33,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     assert_eq!(back.params, tr.params);
     assert_eq!(back.step, tr.step);
     // the exported model renders a validation view far better than a constant
-    let calib = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     let m = Model::from_bytes(&bytes).unwrap();
     let (_, s) = score_view(&m, RenderOptions::from_model(&m), &val.views[0]).unwrap();
@@ -51,7 +51,7 @@ fn both_networks_learn_from_every_seed() {
     write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = nerf_train::config::TrainConfig { batch_rays: 128, lr: 1e-2, ..small_config() };
-    let probe = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(5));
+    let probe = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(5));
     for seed in 0..4 {
         let mut tr = Trainer::new(cfg.clone(), data.scene, 1, seed);
         let (_, c0, f0, _) = tr.gradients(&probe, 1);
@@ -135,7 +135,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     assert_eq!(back.grid, tr.grid);
     // the model file carries the grid (format version 2), no second network,
     // and renders the validation view well
-    let calib = Trainer::draw_batch(&data, 512, 0.0, &mut Rng::new(3));
+    let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
     assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 2);
     let m = Model::from_bytes(&bytes).unwrap();
@@ -147,6 +147,53 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     println!("validation PSNR {:.2} dB (all-white baseline {base:.2} dB)", s.psnr);
     assert!(s.psnr > base + 3.0);
     std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn jittered_rays_cross_their_own_pixel_anywhere_and_unjittered_ones_its_centre() {
+    let d = std::env::temp_dir().join(format!("nerf-jitter-test-{}", std::process::id()));
+    write_blender(&d, SceneSpec { size: 16, train: 1, val: 1, test: 1 }).unwrap();
+    let mut data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    std::fs::remove_dir_all(&d).ok();
+    // each pixel's colour names the pixel, so a ray can be traced back to it
+    let v = &mut data.views[0];
+    let w = v.camera.width as usize;
+    for (k, c) in v.rgb.iter_mut().enumerate() {
+        *c = [(k % w) as f32, (k / w) as f32, 0.0];
+    }
+    let cam = data.views[0].camera;
+    // where a ray crosses the image plane, in pixels from the top-left corner
+    let crossing = |s: &nerf_train::train::Sample| {
+        let d = cam.rotation.transpose() * s.ray.viewdir;
+        (cam.cx + cam.fx * d.x / -d.z, cam.cy - cam.fy * d.y / -d.z)
+    };
+    for jitter in [false, true] {
+        let how = Draw { jitter, ..Draw::CENTRES };
+        let batch = Trainer::draw_batch(&data, 2000, how, &mut Rng::new(11));
+        let mut fracs = Vec::new();
+        for s in &batch {
+            let (u, v) = crossing(s);
+            let (fu, fv) = (u - s.rgb[0], v - s.rgb[1]);
+            assert!(
+                (-1e-3..1.001).contains(&fu) && (-1e-3..1.001).contains(&fv),
+                "ray at ({u}, {v}) of pixel {:?}",
+                s.rgb
+            );
+            fracs.extend([fu, fv]);
+        }
+        let (lo, hi) = fracs.iter().fold((f32::MAX, f32::MIN), |(a, b), &f| (a.min(f), b.max(f)));
+        if jitter {
+            let mean = fracs.iter().sum::<f32>() / fracs.len() as f32;
+            assert!(lo < 0.02 && hi > 0.98 && (mean - 0.5).abs() < 0.02, "offsets {lo}..{hi}, mean {mean}");
+        } else {
+            assert!(lo > 0.499 && hi < 0.501, "centre rays at offsets {lo}..{hi}");
+        }
+    }
+}
+
+/// Rays through pixel centres, a share `random` of them on a random background.
+fn bg(random: f32) -> Draw {
+    Draw { random_background: random, ..Draw::CENTRES }
 }
 
 #[test]
@@ -164,7 +211,7 @@ fn random_backgrounds_recomposite_a_share_of_pixels_by_their_alpha_and_leave_opa
         v.alpha.fill(0.0);
         v.rgb.fill([1.0; 3]);
     }
-    let batch = Trainer::draw_batch(&clear, 256, 1.0, &mut Rng::new(7));
+    let batch = Trainer::draw_batch(&clear, 256, bg(1.0), &mut Rng::new(7));
     assert_eq!(batch.len(), 256);
     for s in &batch {
         assert!(s.bg.iter().all(|c| (0.0..1.0).contains(c)), "{:?}", s.bg);
@@ -178,19 +225,19 @@ fn random_backgrounds_recomposite_a_share_of_pixels_by_their_alpha_and_leave_opa
         v.alpha.fill(1.0);
         v.rgb.fill([0.25, 0.5, 0.75]);
     }
-    for s in Trainer::draw_batch(&solid, 64, 1.0, &mut Rng::new(8)) {
+    for s in Trainer::draw_batch(&solid, 64, bg(1.0), &mut Rng::new(8)) {
         assert_eq!(s.rgb, [0.25, 0.5, 0.75]);
     }
     // without the option, or for photos without an alpha channel, rays keep the scene's white
     let mut opaque = clear.clone();
     opaque.views.iter_mut().for_each(|v| v.alpha.clear());
     for (set, random) in [(&clear, 0.0), (&opaque, 1.0)] {
-        for s in Trainer::draw_batch(set, 64, random, &mut Rng::new(9)) {
+        for s in Trainer::draw_batch(set, 64, bg(random), &mut Rng::new(9)) {
             assert_eq!((s.rgb, s.bg), ([1.0; 3], [1.0; 3]));
         }
     }
     // a share of the rays: about that share of transparent pixels leaves white
-    let batch = Trainer::draw_batch(&clear, 4000, 0.25, &mut Rng::new(10));
+    let batch = Trainer::draw_batch(&clear, 4000, bg(0.25), &mut Rng::new(10));
     let random = batch.iter().filter(|s| s.bg != [1.0; 3]).count();
     assert!((900..1100).contains(&random), "{random} of 4000 rays on a random background at a share of 0.25");
     assert!(batch.iter().all(|s| s.rgb == s.bg), "a transparent pixel shows its ray's background");

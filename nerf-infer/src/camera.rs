@@ -60,10 +60,16 @@ impl Camera {
     }
 
     /// Origin and (unnormalised, camera-space `z = −1`) direction of the ray
-    /// through pixel `(i, j)`, in world units.
+    /// through the centre of pixel `(i, j)`, in world units.
     pub fn ray(&self, i: u32, j: u32) -> (Vec3, Vec3) {
-        let x = (i as f32 + 0.5 - self.cx) / self.fx;
-        let y = -(j as f32 + 0.5 - self.cy) / self.fy;
+        self.ray_at(i as f32 + 0.5, j as f32 + 0.5)
+    }
+
+    /// The ray through image point `(u, v)` in pixels from the top-left
+    /// corner of the image (pixel `(i, j)` covers `[i, i + 1) × [j, j + 1)`).
+    pub fn ray_at(&self, u: f32, v: f32) -> (Vec3, Vec3) {
+        let x = (u - self.cx) / self.fx;
+        let y = -(v - self.cy) / self.fy;
         (self.position, self.rotation * Vec3::new(x, y, -1.0))
     }
 }

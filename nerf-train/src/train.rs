@@ -45,7 +45,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 3;
+pub const CHECKPOINT_VERSION: u16 = 4;
 
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -203,6 +203,22 @@ pub struct Sample {
     pub bg: [f32; 3],
 }
 
+/// Where [`Trainer::draw_batch`] sends its rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Draw {
+    /// Share of the pixels with an alpha channel, in `[0, 1]`, recomposited
+    /// on a random background colour ([`TrainConfig::random_background`]).
+    pub random_background: f32,
+    /// Each ray through a uniformly random point of its pixel instead of
+    /// its centre ([`TrainConfig::pixel_jitter`]).
+    pub jitter: bool,
+}
+
+impl Draw {
+    /// Rays through pixel centres, on the scene's background.
+    pub const CENTRES: Self = Self { random_background: 0.0, jitter: false };
+}
+
 impl Sample {
     /// A ray on the scene's background with ground truth `rgb`.
     pub fn on_scene(scene: &Scene, ray: Ray, rgb: [f32; 3]) -> Self {
@@ -259,16 +275,18 @@ impl Trainer {
     }
 
     /// Draws `n` training rays uniformly over all pixels of `data` (views
-    /// may differ in size), through each view's lens. Pixels whose ray
+    /// may differ in size), through each view's lens: through the pixel's
+    /// centre, or with `how.jitter` through a uniformly random point of it.
+    /// Pixels whose ray
     /// misses the scene are drawn again, at most `64 n` draws in all:
     /// [`crate::dataset::Dataset::check_rays`] makes sure at load time that
     /// enough rays meet the scene, so a short batch is rare.
     ///
-    /// A share `random_background` (in `[0, 1]`) of the pixels of views
+    /// A share `how.random_background` (in `[0, 1]`) of the pixels of views
     /// with an alpha channel gets a uniformly random background colour,
     /// its ground truth recomposited on it (`rgb + (1 − alpha)·(bg − scene
     /// background)`); other pixels keep the scene's background.
-    pub fn draw_batch(data: &Dataset, n: usize, random_background: f32, rng: &mut Rng) -> Vec<Sample> {
+    pub fn draw_batch(data: &Dataset, n: usize, how: Draw, rng: &mut Rng) -> Vec<Sample> {
         let mut ends = Vec::with_capacity(data.views.len());
         let mut total = 0usize;
         for v in &data.views {
@@ -286,11 +304,14 @@ impl Trainer {
             let v = &data.views[vi];
             let px = k - (ends[vi] - v.rgb.len());
             let (x, y) = ((px % v.camera.width as usize) as u32, (px / v.camera.width as usize) as u32);
-            let (o, d) = v.ray(x, y);
+            let (o, d) = match how.jitter {
+                true => v.ray_at(x as f32 + rng.f32(), y as f32 + rng.f32()),
+                false => v.ray(x, y),
+            };
             let Some(ray) = Ray::new(&data.scene, o, d) else { continue };
             let mut s = Sample::on_scene(&data.scene, ray, v.rgb[px]);
-            let alpha = if random_background > 0.0 { v.alpha.get(px) } else { None };
-            if let Some(&a) = alpha.filter(|_| rng.f32() < random_background) {
+            let alpha = if how.random_background > 0.0 { v.alpha.get(px) } else { None };
+            if let Some(&a) = alpha.filter(|_| rng.f32() < how.random_background) {
                 s.bg = [rng.f32(), rng.f32(), rng.f32()];
                 s.rgb = std::array::from_fn(|c| s.rgb[c] + (1.0 - a) * (s.bg[c] - scene_bg));
             }
@@ -311,8 +332,9 @@ impl Trainer {
             timed(&mut times.grid, || self.update_grid());
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let (n, share) = (self.cfg.batch_rays, self.cfg.random_background);
-        let batch = timed(&mut times.draw, || Self::draw_batch(data, n, share, &mut rng));
+        let how = Draw { random_background: self.cfg.random_background, jitter: self.cfg.pixel_jitter };
+        let n = self.cfg.batch_rays;
+        let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
         let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;

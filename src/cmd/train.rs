@@ -14,7 +14,7 @@ use nerf_train::export::{trainer_model, OwnedModel, Prune};
 use nerf_train::mlp::Mlp;
 use nerf_train::rng::Rng;
 use nerf_train::timing::StepTimes;
-use nerf_train::train::Trainer;
+use nerf_train::train::{Draw, Trainer};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
@@ -279,7 +279,7 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
     };
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     let val = load_val(&a, tr.downscale);
-    let calib = Trainer::draw_batch(&data, 4096, 0.0, &mut Rng::new(tr.seed ^ 0xCA11));
+    let calib = Trainer::draw_batch(&data, 4096, Draw::CENTRES, &mut Rng::new(tr.seed ^ 0xCA11));
     let budget_secs = a.minutes.map(|m| m * 60.0);
     let total = match (a.iters, budget_secs) {
         (Some(n), _) => n,

@@ -91,12 +91,18 @@ impl View {
     /// the lens: the ray of the ideal pinhole point the lens moved there.
     /// A pixel outside the lens model's invertible region keeps its pinhole ray.
     pub fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3) {
+        self.ray_at(x as f32 + 0.5, y as f32 + 0.5)
+    }
+
+    /// The ray through image point `(u, v)` (pixels from the photo's
+    /// top-left corner, as [`Camera::ray_at`]), through the lens.
+    pub fn ray_at(&self, u: f32, v: f32) -> (glam::Vec3, glam::Vec3) {
         let c = &self.camera;
         if self.lens == Lens::Pinhole {
-            return c.ray(x, y);
+            return c.ray_at(u, v);
         }
-        let xd = (x as f64 + 0.5 - c.cx as f64) / c.fx as f64;
-        let yd = (y as f64 + 0.5 - c.cy as f64) / c.fy as f64;
+        let xd = (u as f64 - c.cx as f64) / c.fx as f64;
+        let yd = (v as f64 - c.cy as f64) / c.fy as f64;
         let (ux, uy) = self.lens.undistort(xd, yd).unwrap_or((xd, yd));
         // OpenCV's y points down, the camera's (OpenGL) y up
         (c.position, c.rotation * glam::Vec3::new(ux as f32, -uy as f32, -1.0))
