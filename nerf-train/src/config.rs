@@ -174,8 +174,8 @@ impl TrainConfig {
     /// with alpha on a random background (`random_background` 0.1: on
     /// lego no haze left in empty space, 5.5 samples per ray in int8 where
     /// runs without it ended at 6.4 to 25.4; docs/EXPERIMENTS.md). The
-    /// learning rate decays 100× over the run (`lr_final_ratio` 0.01: on
-    /// lego in 10 minutes 0.14 and 0.37 dB above 10×, seeds 0 and 1).
+    /// learning rate decays 10× over the run: 100× gains 0.1–0.4 dB on lego
+    /// in 10 minutes but loses 3 dB in one (docs/EXPERIMENTS.md).
     pub fn features() -> Self {
         Self {
             depth: 2,
@@ -184,7 +184,6 @@ impl TrainConfig {
             pos_freqs: 0,
             dir_freqs: 4,
             lr: 1e-2,
-            lr_final_ratio: 0.01,
             beta2: 0.99,
             eps: 1e-15,
             grid_warmup: 64,
