@@ -77,9 +77,26 @@ impl StepTimes {
         ]
     }
 
+    /// The wall-clock stages with their names (the first of [`StepTimes::stages`]).
+    pub fn wall_stages(&self) -> [(&'static str, f64); 5] {
+        let s = self.stages();
+        std::array::from_fn(|i| s[i])
+    }
+
+    /// The thread stages with their names (the rest of [`StepTimes::stages`]).
+    pub fn thread_stages(&self) -> [(&'static str, f64); 5] {
+        let s = self.stages();
+        std::array::from_fn(|i| s[5 + i])
+    }
+
     /// The wall-clock stages' sum, seconds.
     pub fn wall(&self) -> f64 {
-        self.stages()[..5].iter().map(|s| s.1).sum()
+        self.wall_stages().iter().map(|s| s.1).sum()
+    }
+
+    /// The thread stages' sum, seconds of all threads.
+    pub fn thread(&self) -> f64 {
+        self.thread_stages().iter().map(|s| s.1).sum()
     }
 }
 
@@ -113,6 +130,9 @@ mod tests {
             }
         );
         assert_eq!(b.wall(), 4.75);
+        assert_eq!(b.thread(), 7.0);
+        assert_eq!(b.wall_stages().map(|s| s.0), ["grid", "draw", "chunks", "scatter", "adam"]);
+        assert_eq!(b.thread_stages().map(|s| s.0), ["sample", "encode", "forward", "composite", "backward"]);
         assert_eq!(b.stages().map(|s| s.0)[2], "chunks");
     }
 }

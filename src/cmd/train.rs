@@ -418,10 +418,10 @@ fn mlp_gflops(t: &StepTimes, samples: usize, mlp: &Mlp) -> serde_json::Value {
 /// steps, the chunks' thread time split, and the layers' GFLOP/s per thread.
 fn time_summary(t: &StepTimes, steps: u64, samples: usize, mlp: &Mlp) -> String {
     let wall = t.wall().max(1e-9);
-    let thread: f64 = t.stages()[5..].iter().map(|s| s.1).sum::<f64>().max(1e-9);
+    let thread = t.thread().max(1e-9);
     let share = |v: f64, of: f64| format!("{:.0} %", 100.0 * v / of);
-    let stages: Vec<String> = t.stages()[..5].iter().map(|&(k, v)| format!("{k} {}", share(v, wall))).collect();
-    let split: Vec<String> = t.stages()[5..].iter().map(|&(k, v)| format!("{k} {}", share(v, thread))).collect();
+    let stages: Vec<String> = t.wall_stages().iter().map(|&(k, v)| format!("{k} {}", share(v, wall))).collect();
+    let split: Vec<String> = t.thread_stages().iter().map(|&(k, v)| format!("{k} {}", share(v, thread))).collect();
     let g = mlp_gflops(t, samples, mlp);
     format!(
         "time per step {:.2} ms over {steps} steps: {}; chunks' thread time: {}; layers {:.1} GFLOP/s forward, {:.1} \
