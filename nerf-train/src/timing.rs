@@ -3,6 +3,10 @@
 
 use std::time::Instant;
 
+/// Wall-clock stages of a step, first in [`StepTimes::stages`]; as many
+/// thread stages follow.
+const WALL_STAGES: usize = 5;
+
 /// Seconds spent in each stage of training steps (one step, or summed over
 /// several with [`StepTimes::add`]).
 ///
@@ -78,15 +82,15 @@ impl StepTimes {
     }
 
     /// The wall-clock stages with their names (the first of [`StepTimes::stages`]).
-    pub fn wall_stages(&self) -> [(&'static str, f64); 5] {
+    pub fn wall_stages(&self) -> [(&'static str, f64); WALL_STAGES] {
         let s = self.stages();
         std::array::from_fn(|i| s[i])
     }
 
     /// The thread stages with their names (the rest of [`StepTimes::stages`]).
-    pub fn thread_stages(&self) -> [(&'static str, f64); 5] {
+    pub fn thread_stages(&self) -> [(&'static str, f64); WALL_STAGES] {
         let s = self.stages();
-        std::array::from_fn(|i| s[5 + i])
+        std::array::from_fn(|i| s[WALL_STAGES + i])
     }
 
     /// The wall-clock stages' sum, seconds.

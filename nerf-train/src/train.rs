@@ -217,6 +217,11 @@ pub struct Draw {
 impl Draw {
     /// Rays through pixel centres, on the scene's background.
     pub const CENTRES: Self = Self { random_background: 0.0, jitter: false };
+
+    /// The rays a training step of `cfg` draws.
+    pub fn of(cfg: &TrainConfig) -> Self {
+        Self { random_background: cfg.random_background, jitter: cfg.pixel_jitter }
+    }
 }
 
 impl Sample {
@@ -332,8 +337,7 @@ impl Trainer {
             timed(&mut times.grid, || self.update_grid());
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let how = Draw { random_background: self.cfg.random_background, jitter: self.cfg.pixel_jitter };
-        let n = self.cfg.batch_rays;
+        let (n, how) = (self.cfg.batch_rays, Draw::of(&self.cfg));
         let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
         let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
