@@ -88,6 +88,13 @@ pub struct TrainConfig {
     /// 100×100 the field fitted to jittered rays scores 1.8 dB lower on the
     /// held-out views (docs/EXPERIMENTS.md).
     pub pixel_jitter: bool,
+    /// Weight λ of the distortion loss (mip-NeRF 360, eq. 15; 0: off),
+    /// added to the mean squared colour error as `λ · mean over rays of
+    /// Σᵢⱼ wᵢwⱼ|sᵢ − sⱼ| + ⅓ Σᵢ wᵢ²Δsᵢ`, `s` the ray's normalised
+    /// coordinate (even in `t` within the bounds, in `1/t` beyond them in an
+    /// unbounded scene): it pulls each ray's weight into one short stretch,
+    /// clearing the fog and floaters a capture with surroundings grows.
+    pub distortion: f32,
 }
 
 impl Default for TrainConfig {
@@ -130,6 +137,7 @@ impl TrainConfig {
             feature_max_res: 256,
             random_background: 0.0,
             pixel_jitter: false,
+            distortion: 0.0,
         }
     }
 
@@ -295,6 +303,9 @@ impl TrainConfig {
                  {gb:.0} GB of activations)",
                 self.batch_rays, self.chunk_rays
             ));
+        }
+        if !(self.distortion.is_finite() && self.distortion >= 0.0) {
+            return Err(format!("distortion {} must be a finite weight ≥ 0", self.distortion));
         }
         if !(0.0..=1.0).contains(&self.random_background) {
             return Err(format!("random_background {} must be a share of the rays in [0, 1]", self.random_background));

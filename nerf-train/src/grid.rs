@@ -58,12 +58,40 @@ impl DensityGrid {
         })
     }
 
+    /// How much lower a cell's threshold is than one inside the bounds: 1,
+    /// or in a grid over contracted space ([`nerf_infer::unbounded`]) for a
+    /// cell of the outer shell whose centre has max-norm `c > ½`, `1/m²`
+    /// with `m = 1/(2(1 − c))` the distance it stands for: samples there
+    /// lie `m²` times farther apart in the world, so a thinner density
+    /// makes them as opaque.
+    fn threshold_factor(&self, i: usize, contracted: bool) -> f32 {
+        if !contracted {
+            return 1.0;
+        }
+        let r = self.res as usize;
+        let c = [i % r, (i / r) % r, i / (r * r)];
+        let norm = c.iter().map(|&k| ((k as f32 + 0.5) * 2.0 / r as f32 - 1.0).abs()).fold(0.0, f32::max);
+        if norm <= 0.5 {
+            1.0
+        } else {
+            let m = 0.5 / (1.0 - norm);
+            1.0 / (m * m)
+        }
+    }
+
     /// One update: evaluates `density` (normalised positions → raw σ, one
     /// call per chunk of cells, in parallel) at a random point of every
     /// cell, folds it into the decayed maxima, and marks a cell occupied
     /// while its maximum exceeds `min(threshold, mean)` (the mean keeps a
-    /// young, low-density field from being culled whole).
-    pub fn update(&mut self, key: u32, threshold: f32, density: impl Fn(&[[f32; 3]]) -> Vec<f32> + Sync) {
+    /// young, low-density field from being culled whole), lowered in the
+    /// outer shell of a `contracted` grid as [`Self::threshold_factor`] says.
+    pub fn update(
+        &mut self,
+        key: u32,
+        threshold: f32,
+        contracted: bool,
+        density: impl Fn(&[[f32; 3]]) -> Vec<f32> + Sync,
+    ) {
         const CHUNK: usize = 4096;
         let key = hash32(key ^ hash32(self.updates as u32));
         let this = &*self;
@@ -82,7 +110,7 @@ impl DensityGrid {
         let thr = threshold.min(mean as f32);
         self.bits.fill(0);
         for (i, &d) in self.density.iter().enumerate() {
-            if d > thr {
+            if d > thr * self.threshold_factor(i, contracted) {
                 self.bits[i / 8] |= 1 << (i % 8);
             }
         }
@@ -102,7 +130,7 @@ mod tests {
             p.iter().map(|q| if q.iter().map(|x| x * x).sum::<f32>() < 0.25 { 50.0 } else { 0.0 }).collect()
         };
         for k in 0..4 {
-            g.update(k, 1.0, ball);
+            g.update(k, 1.0, false, ball);
         }
         let v = g.view();
         assert!(v.at_f32([0.0, 0.0, 0.0]) && v.at_f32([0.3, -0.2, 0.1]));
@@ -114,9 +142,35 @@ mod tests {
         // below the threshold (50 · 0.95ᵏ < 1 after 77 updates)
         let moved = |p: &[[f32; 3]]| ball(&p.iter().map(|q| [q[0] - 0.5, q[1], q[2]]).collect::<Vec<_>>());
         for k in 0..100 {
-            g.update(100 + k, 1.0, moved);
+            g.update(100 + k, 1.0, false, moved);
         }
         let v = g.view();
         assert!(v.at_f32([0.5, 0.0, 0.0]) && !v.at_f32([-0.4, 0.0, 0.0]));
+    }
+
+    #[test]
+    fn a_contracted_grid_keeps_the_thin_density_of_its_outer_shell() {
+        // a dense ball and, in the outermost layer of cells (max-norm beyond
+        // 0.875: the far distance of a contracted grid), a thin density
+        let field = |p: &[[f32; 3]]| -> Vec<f32> {
+            p.iter()
+                .map(|q| match (q.iter().map(|x| x * x).sum::<f32>(), q.iter().fold(0.0f32, |m, x| m.max(x.abs()))) {
+                    (r2, _) if r2 < 0.06 => 50.0,
+                    (_, n) if n > 0.875 => 0.05,
+                    _ => 0.0,
+                })
+                .collect()
+        };
+        let (mut bounded, mut contracted) = (DensityGrid::new(16), DensityGrid::new(16));
+        for k in 0..4 {
+            bounded.update(k, 1.0, false, field);
+            contracted.update(k, 1.0, true, field);
+        }
+        for g in [&bounded, &contracted] {
+            assert!(g.view().at_f32([0.0, 0.1, 0.0]) && !g.view().at_f32([0.6, 0.0, 0.0]));
+        }
+        // the shell's samples stand for distances 8 times the bounds': 0.05 is opaque enough there
+        assert!(!bounded.view().at_f32([0.95, 0.2, -0.3]));
+        assert!(contracted.view().at_f32([0.95, 0.2, -0.3]) && contracted.view().at_f32([-0.1, -0.97, 0.5]));
     }
 }

@@ -18,7 +18,7 @@ use crate::grid::DensityGrid;
 use crate::mlp::{Acts, GridGrad, Mlp};
 use crate::rng::Rng;
 use crate::timing::{timed, StepTimes};
-use crate::volume::{composite, composite_back, push_deltas, LAST_DELTA};
+use crate::volume::{composite, composite_back, distortion, push_deltas, push_interval, LAST_DELTA};
 use nerf_infer::camera::Ray;
 use nerf_infer::format::Scene;
 use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
@@ -45,7 +45,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 4;
+pub const CHECKPOINT_VERSION: u16 = 5;
 
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -130,6 +130,12 @@ struct Workspace {
     /// Ray `i`'s samples are `offs[i]..offs[i + 1]` of `pos` and `delta`.
     offs: Vec<usize>,
     delta: Vec<f32>,
+    /// Per sample (as `delta`): its interval in the ray's normalised
+    /// coordinate, midpoint and length, for the distortion loss.
+    s_mid: Vec<f32>,
+    s_width: Vec<f32>,
+    /// ∂L/∂w of the distortion loss for one ray.
+    dw: Vec<f32>,
     t_c: Vec<f32>,
     w_c: Vec<f32>,
     t_f: Vec<f32>,
@@ -142,8 +148,17 @@ struct Workspace {
     drgb: Vec<f32>,
 }
 
+/// The distortion loss's weight and each sample's interval (see
+/// [`crate::volume::distortion`]); the weight 0 turns it off.
+struct Distortion<'a> {
+    weight: f32,
+    mid: &'a [f32],
+    width: &'a [f32],
+}
+
 /// Composites each ray's samples (`offs[i]..offs[i + 1]`, weights into
-/// `w`) on the ray's background and writes the gradients of `scale · Σ (C − C_gt)²` with respect to
+/// `w`) on the ray's background and writes the gradients of `scale · Σ (C − C_gt)²`
+/// (plus `scale · 3/2 · λ · L_dist` per ray for the distortion weight λ) with respect to
 /// the raw densities and colours into `dsig` and `drgb`; returns the summed
 /// squared error over rays and channels.
 #[allow(clippy::too_many_arguments)]
@@ -153,7 +168,9 @@ fn loss_gradients(
     scale: f32,
     acts: &Acts,
     delta: &[f32],
+    dist: Distortion<'_>,
     w: &mut [f32],
+    dw: &mut Vec<f32>,
     dsig: &mut Vec<f32>,
     drgb: &mut Vec<f32>,
 ) -> f64 {
@@ -168,7 +185,14 @@ fn loss_gradients(
         let col = composite(sig, rgb, &delta[s.clone()], bg, &mut w[s.clone()]);
         let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
         sq += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
-        composite_back(sig, rgb, &delta[s.clone()], bg, &w[s.clone()], dc, &mut dsig[s], &mut drgb[c]);
+        dw.clear();
+        if dist.weight > 0.0 {
+            // the colour loss is a mean over rays and channels, the distortion loss a mean over rays
+            dw.resize(s.len(), 0.0);
+            let (mid, width) = (&dist.mid[s.clone()], &dist.width[s.clone()]);
+            distortion(mid, width, &w[s.clone()], 1.5 * scale * dist.weight, dw);
+        }
+        composite_back(sig, rgb, &delta[s.clone()], bg, &w[s.clone()], dc, dw, &mut dsig[s], &mut drgb[c]);
     }
     sq
 }
@@ -451,7 +475,7 @@ impl Trainer {
         let thr = self.grid_threshold();
         let params = &self.params[..net.n_params];
         let key = hash32(self.seed as u32 ^ 0x6121_D000);
-        grid.update(key, thr, |pts| {
+        grid.update(key, thr, self.scene.unbounded.is_some(), |pts| {
             let mut acts = Acts::default();
             net.forward(params, pts, &[[0.0, 0.0, 1.0]], false, &mut acts);
             acts.sigma[..pts.len()].to_vec()
@@ -470,6 +494,8 @@ impl Trainer {
         ws.pos.clear();
         ws.dirs.clear();
         ws.delta.clear();
+        ws.s_mid.clear();
+        ws.s_width.clear();
         ws.offs.clear();
         ws.offs.push(0);
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
@@ -479,6 +505,7 @@ impl Trainer {
                 None => {
                     ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
                     push_deltas(t, ray.dir_len, &mut ws.delta);
+                    (0..nc).for_each(|j| push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width));
                     ws.dirs.push(ray.viewdir.to_array());
                 }
                 Some(g) => {
@@ -487,6 +514,7 @@ impl Trainer {
                         if g.at_f32(p) {
                             ws.pos.push(p);
                             ws.delta.push(if j + 1 < nc { (t[j + 1] - t[j]) * ray.dir_len } else { LAST_DELTA });
+                            push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width);
                             ws.dirs.push(ray.viewdir.to_array());
                         }
                     }
@@ -527,7 +555,9 @@ impl Trainer {
             timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
         }
         let sq_c = timed(&mut t.composite, || {
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, &mut ws.w_c, &mut ws.dsig, &mut ws.drgb)
+            let dist = Distortion { weight: self.cfg.distortion, mid: &ws.s_mid, width: &ws.s_width };
+            let (w, dw) = (&mut ws.w_c, &mut ws.dw);
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, dist, w, dw, &mut ws.dsig, &mut ws.drgb)
         });
         let mut grid = None;
         if n_c > 0 && net.features.is_some() {
@@ -550,6 +580,8 @@ impl Trainer {
         ws.w_f.resize(r * na, 0.0);
         ws.pos.clear();
         ws.delta.clear();
+        ws.s_mid.clear();
+        ws.s_width.clear();
         ws.offs.clear();
         ws.offs.push(0);
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
@@ -566,13 +598,16 @@ impl Trainer {
             merge_sorted(&ws.t_c[s], &ws.t_f, all);
             ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
             push_deltas(all, ray.dir_len, &mut ws.delta);
+            (0..na).for_each(|j| push_interval(ray, all, j, &mut ws.s_mid, &mut ws.s_width));
             ws.offs.push(ws.pos.len());
         }
         t.sample += start.elapsed().as_secs_f64();
         timed(&mut t.encode, || net.encode(pf, &ws.pos, &mut ws.acts_f));
         timed(&mut t.forward, || net.forward_layers(pf, &ws.dirs, true, &mut ws.acts_f));
         let sq_f = timed(&mut t.composite, || {
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, &mut ws.w_f, &mut ws.dsig, &mut ws.drgb)
+            let dist = Distortion { weight: self.cfg.distortion, mid: &ws.s_mid, width: &ws.s_width };
+            let (w, dw) = (&mut ws.w_f, &mut ws.dw);
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, dist, w, dw, &mut ws.dsig, &mut ws.drgb)
         });
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)

@@ -182,8 +182,8 @@ pub struct CaptureArgs {
     #[arg(long, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
     pub llffhold: Option<usize>,
     /// Scene treatment of COLMAP / instant-ngp captures: `auto` (from the cameras and points), `object` (a box
-    /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (bounds holding the cameras and
-    /// their surroundings, space beyond them contracted) [default: auto; with a model: the one it was trained
+    /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (bounds holding the object and
+    /// the cameras, the surroundings in the space beyond them, contracted) [default: auto; with a model: the one it was trained
     /// with].
     #[arg(long, value_enum)]
     pub scene: Option<SceneArg>,
@@ -258,7 +258,7 @@ pub enum SceneArg {
     Object,
     /// Forward-facing: NDC rays.
     Forward,
-    /// A box holding the cameras and the bulk of the sparse points.
+    /// A box holding the object and the cameras, space beyond it contracted.
     Unbounded,
 }
 

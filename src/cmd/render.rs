@@ -4,6 +4,7 @@
 //! `depth.json`) and as a colour-mapped preview, and the opacity.
 
 use super::{create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
+use nerf_infer::format::Scene;
 use nerf_infer::{Camera, RenderOptions};
 use nerf_train::dataset::save_png_rgb;
 use nerf_train::dataset::Split;
@@ -68,15 +69,22 @@ impl Args {
 }
 
 /// Writes `NAME_depth.png` (16-bit, `depth / step`), `NAME_depth_preview.png`
-/// (near..far colour-mapped, near warm) and `NAME_opacity.png` (8-bit grey).
-fn save_depth_opacity(out: &Path, name: &str, r: &Rendered, near: f32, far: f32, step: f32) -> CmdResult {
+/// (near..far colour-mapped, near warm; in an unbounded scene, whose `far`
+/// is 1000 times its
+/// [`nerf_infer::format::Unbounded::linear_until`], spaced as its samples
+/// are: even up to `linear_until`, then in 1/depth) and `NAME_opacity.png`
+/// (8-bit grey).
+fn save_depth_opacity(out: &Path, name: &str, r: &Rendered, scene: &Scene, step: f32) -> CmdResult {
     let path = out.join(format!("{name}_depth.png"));
     let d16 = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(r.width, r.height, |x, y| {
         let d = r.depth[(y * r.width + x) as usize];
         image::Luma([(d / step).round().clamp(0.0, 65535.0) as u16])
     });
     nerf_train::atomic::write_png(&path, &d16).map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
-    let preview: Vec<[f32; 3]> = r.depth.iter().map(|&d| colour_map(1.0 - (d - near) / (far - near))).collect();
+    let spacing = |d: f32| scene.unbounded.map_or(d, |u| nerf_infer::unbounded::s_of_t(d, u.linear_until));
+    let (near, far) = (spacing(scene.near), spacing(scene.far));
+    let preview: Vec<[f32; 3]> =
+        r.depth.iter().map(|&d| colour_map(1.0 - (spacing(d) - near) / (far - near))).collect();
     save_png_rgb(&out.join(format!("{name}_depth_preview.png")), r.width, r.height, &preview)
         .map_err(|e| e.to_string())?;
     let grey: Vec<[f32; 3]> = r.opacity.iter().map(|&a| [a; 3]).collect();
@@ -166,7 +174,7 @@ pub fn run(a: Args) -> CmdResult {
         let r = with_threads(a.threads, || render_view(&model, opts, cam.as_ref()))?
             .map_err(|e| format!("{}: {e}", a.model.display()))?;
         save_png_rgb(&a.out.join(format!("{name}.png")), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
-        save_depth_opacity(&a.out, name, &r, near, far, step)?;
+        save_depth_opacity(&a.out, name, &r, &model.scene, step)?;
         if path.is_some() {
             frames.push(gif_frame(&r));
         }

@@ -13,17 +13,22 @@
 //!   is forward-facing and keeps LLFF's NDC treatment; any other looks
 //!   inward (an arc of 90° already spreads 0.2).
 //! - An inward capture is modelled `unbounded` unless told otherwise: the
-//!   bounds hold the cameras and the 5th–95th percentile of all sparse
-//!   points, so that the table, floor and walls a photo shows have a place
-//!   in them at full resolution, and space beyond is contracted around them
-//!   ([`nerf_infer::unbounded`]): rays run out to 1000 times the farthest
-//!   a camera sees inside the bounds, so the distant things the outer
-//!   percentiles leave out have a place too. (With the object box alone,
-//!   everything outside it is black: `../shared/data/bird` scores 7.3 dB
-//!   that way.) The `object`
+//!   bounds hold the object box (below) and the cameras, and space beyond
+//!   them is contracted ([`nerf_infer::unbounded`]): rays run out to 1000
+//!   times the farthest a camera sees inside the bounds, so that the floor,
+//!   walls and distant things a photo shows have a place. The bounds leave
+//!   the surroundings to the contraction rather than hold them at full
+//!   resolution: the grid's cells are spent on what the cameras look at.
+//!   (With the object box alone, everything outside it is black:
+//!   `../shared/data/bird` scores 7.3 dB that way.) The `object`
 //!   box is the 2nd–98th percentile extent of the sparse points inside the
 //!   camera ring (or ±0.5 without points): for captures of an object on a
 //!   black background.
+//! - Near: half the distance from a camera to the nearest things it sees
+//!   (the 1st percentile of the depths of the sparse points within 60° of
+//!   the cameras' optical axes), at most [`MAX_NEAR`] and at least [`MIN_NEAR`]; `MAX_NEAR`
+//!   without points. Density right in front of a lens is seen by that
+//!   camera alone and lets the model paint its photo there.
 
 use glam::{DMat3, DVec3};
 use nerf_infer::format::{CameraConvention, Scene, Unbounded};
@@ -31,6 +36,12 @@ use nerf_infer::format::{CameraConvention, Scene, Unbounded};
 /// Farthest `far` of an unbounded scene (fitted units: the median camera
 /// is 1 from the centre), well inside the fixed-point path's 30 000.
 const UNBOUNDED_FAR: f64 = 10_000.0;
+
+/// Largest near plane, fitted units (a fifth of the median camera's distance to the centre).
+pub const MAX_NEAR: f64 = 0.2;
+
+/// Smallest near plane, fitted units.
+pub const MIN_NEAR: f64 = 0.01;
 
 /// How to model the space a capture shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,8 +53,8 @@ pub enum SceneKind {
     /// Forward-facing: rays in NDC (LLFF).
     Forward,
     /// Seen from all around, with its surroundings: bounds holding the
-    /// cameras and the bulk of the sparse points, and the rest of space
-    /// contracted around them (the default for inward captures).
+    /// object and the cameras, and the rest of space contracted around
+    /// them (the default for inward captures).
     Unbounded,
 }
 
@@ -132,6 +143,31 @@ fn up_to_z(up: DVec3) -> DMat3 {
     DMat3::from_quat(glam::DQuat::from_rotation_arc(up.normalize(), DVec3::Z))
 }
 
+/// The near plane (fitted units) of the module doc: half the 1st
+/// percentile of the depths of `points` within 60° of the cameras' axes (`poses`
+/// in capture space; `to_fit` and `rotation` take both into the fitted
+/// frame), within [`MIN_NEAR`]..=[`MAX_NEAR`].
+fn near_plane(poses: &[Pose], points: &[DVec3], to_fit: &dyn Fn(DVec3) -> DVec3, rotation: DMat3) -> f64 {
+    let pts: Vec<DVec3> = points.iter().map(|&p| to_fit(p)).filter(|p| p.is_finite()).collect();
+    // at most about 2 million camera–point pairs: every k-th point
+    let step = (pts.len() * poses.len() / 2_000_000).max(1);
+    let mut depths: Vec<f64> = poses
+        .iter()
+        .flat_map(|p| {
+            let (eye, forward) = (to_fit(p.1), -(rotation * p.0.z_axis).normalize_or_zero());
+            // depths of the points within 60° of the optical axis (a wide lens's view)
+            pts.iter().step_by(step).filter_map(move |&q| {
+                let d = (q - eye).dot(forward);
+                (d > 0.5 * (q - eye).length()).then_some(d)
+            })
+        })
+        .collect();
+    if depths.len() < 20 {
+        return MAX_NEAR;
+    }
+    (0.5 * quantile(&mut depths, 0.01)).clamp(MIN_NEAR, MAX_NEAR)
+}
+
 /// Fits the scene to `poses` (at least one) and the capture's sparse
 /// `points` (may be empty), with `kind` forced unless `Auto`.
 pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
@@ -166,14 +202,12 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
     };
     let (mut lo, mut hi) = if inner.len() >= 20 { extent(&inner, 0.02, 0.98) } else { ([-0.5; 3], [0.5; 3]) };
     if kind == SceneKind::Unbounded {
-        // the bounds hold the cameras and the bulk of the sparse points; the rest of space is contracted
+        // the bounds hold the object and the cameras; the rest of space is contracted
         let cams: Vec<DVec3> = poses.iter().map(|p| to_fit(p.1)).collect();
         let (clo, chi) = extent(&cams, 0.0, 1.0);
-        let all: Vec<DVec3> = points.iter().map(|&p| to_fit(p)).filter(|p| p.is_finite()).collect();
-        let (plo, phi) = if all.len() >= 20 { extent(&all, 0.05, 0.95) } else { (clo, chi) };
         for a in 0..3 {
-            lo[a] = lo[a].min(clo[a]).min(plo[a]);
-            hi[a] = hi[a].max(chi[a]).max(phi[a]);
+            lo[a] = lo[a].min(clo[a]);
+            hi[a] = hi[a].max(chi[a]);
         }
     }
     // pad by 10 % of the size, at least 0.05 per side
@@ -195,7 +229,7 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
     let scene = Scene {
         bounds_min: lo.map(|v| v as f32),
         bounds_max: hi.map(|v| v as f32),
-        near: 0.01,
+        near: near_plane(poses, points, &to_fit, rotation) as f32,
         far: if unbounded.is_some() { (1000.0 * far).min(UNBOUNDED_FAR) as f32 } else { far as f32 },
         white_background: false,
         convention: CameraConvention::OpenGl,
@@ -249,9 +283,30 @@ mod tests {
         pts.extend((0..50).map(|i| DVec3::splat(0.01 * i as f64)));
         let f = fit_scene(&poses, &pts, SceneKind::Auto);
         assert_eq!(f.kind, SceneKind::Unbounded);
-        assert!(f.scene.bounds_max[0] > 2.0, "the box holds the walls: {:?}", f.scene.bounds_max);
+        // the box holds the cameras (at 1 in fitted units), the walls (at 3) are left to the contraction
+        let hi = f.scene.bounds_max[0];
+        assert!((1.0..1.5).contains(&hi), "the box holds the cameras, not the walls: {:?}", f.scene.bounds_max);
+        // nothing in front of a camera nearer than the object (0.9 away or more): the near plane's cap
+        assert_eq!(f.scene.near, MAX_NEAR as f32);
         assert_eq!(fit_scene(&poses, &pts, SceneKind::Object).kind, SceneKind::Object);
         let obj = fit_scene(&poses, &pts, SceneKind::Object);
         assert!(obj.scene.bounds_max[0] < 0.5, "the object box holds the object only: {:?}", obj.scene.bounds_max);
+    }
+
+    #[test]
+    fn the_near_plane_is_half_the_depth_of_the_nearest_points_seen() {
+        let poses = ring(12, 4.0, DVec3::ZERO);
+        // a patch of 30 points 0.4 (world; 0.1 fitted) in front of every camera, among many points on the object
+        let mut pts: Vec<DVec3> = poses
+            .iter()
+            .flat_map(|(r, c)| (0..30).map(move |k| *c - 0.4 * r.z_axis + 0.001 * k as f64 * r.x_axis))
+            .collect();
+        pts.extend(
+            (0..2000).map(|i| DVec3::new((i % 10) as f64 * 0.05, (i / 10 % 10) as f64 * 0.05, (i / 100) as f64 * 0.02)),
+        );
+        let near = fit_scene(&poses, &pts, SceneKind::Auto).scene.near;
+        // the patches are over 1 % of the depths: the 1st percentile is theirs
+        assert!((0.045..0.055).contains(&near), "{near}");
+        assert_eq!(fit_scene(&poses, &[], SceneKind::Auto).scene.near, MAX_NEAR as f32);
     }
 }
