@@ -252,7 +252,7 @@ pub enum Framing {
     Object,
     /// Forward-facing: NDC rays.
     Forward,
-    /// Fitted: a box holding the cameras and their surroundings.
+    /// Fitted: a box holding the object and the cameras, space beyond it contracted.
     Unbounded,
 }
 
