@@ -84,7 +84,9 @@ impl DensityGrid {
     /// cell, folds it into the decayed maxima, and marks a cell occupied
     /// while its maximum exceeds `min(threshold, mean)` (the mean keeps a
     /// young, low-density field from being culled whole), lowered in the
-    /// outer shell of a `contracted` grid as [`Self::threshold_factor`] says.
+    /// outer shell of a `contracted` grid by `1/m²`, `m` the distance a cell
+    /// stands for in half-sizes of the bounds (samples lie `m²` times farther
+    /// apart there).
     pub fn update(
         &mut self,
         key: u32,
