@@ -48,10 +48,16 @@ impl DensityGrid {
         self.view().occupied_cells() as f32 / self.density.len() as f32
     }
 
+    /// Cell `i`'s indices along x, y and z.
+    fn cell(&self, i: usize) -> [usize; 3] {
+        let r = self.res as usize;
+        [i % r, (i / r) % r, i / (r * r)]
+    }
+
     /// Normalised position (bounds ↦ `[−1, 1]³`) of a random point in cell `i`.
     fn point(&self, i: usize, key: u32) -> [f32; 3] {
         let r = self.res as usize;
-        let c = [i % r, (i / r) % r, i / (r * r)];
+        let c = self.cell(i);
         core::array::from_fn(|k| {
             let u = (hash32(key ^ hash32((3 * i + k) as u32)) >> 8) as f32 / (1u32 << 24) as f32;
             (c[k] as f32 + u) * 2.0 / r as f32 - 1.0
@@ -69,8 +75,7 @@ impl DensityGrid {
             return 1.0;
         }
         let r = self.res as usize;
-        let c = [i % r, (i / r) % r, i / (r * r)];
-        let norm = c.iter().map(|&k| ((k as f32 + 0.5) * 2.0 / r as f32 - 1.0).abs()).fold(0.0, f32::max);
+        let norm = self.cell(i).iter().map(|&k| ((k as f32 + 0.5) * 2.0 / r as f32 - 1.0).abs()).fold(0.0, f32::max);
         if norm <= 0.5 {
             1.0
         } else {

@@ -130,8 +130,8 @@ struct Workspace {
     /// Ray `i`'s samples are `offs[i]..offs[i + 1]` of `pos` and `delta`.
     offs: Vec<usize>,
     delta: Vec<f32>,
-    /// Per sample (as `delta`): its interval in the ray's normalised
-    /// coordinate, midpoint and length, for the distortion loss.
+    /// Per sample (as `delta`) when the distortion loss is on: its interval
+    /// in the ray's normalised coordinate, midpoint and length.
     s_mid: Vec<f32>,
     s_width: Vec<f32>,
     /// ∂L/∂w of the distortion loss for one ray.
@@ -489,6 +489,7 @@ impl Trainer {
     /// grid, per ray without).
     fn coarse_samples(&self, rays: &[Sample], key: impl Fn(usize) -> u32, ws: &mut Workspace) {
         let nc = self.cfg.n_coarse as usize;
+        let intervals = self.cfg.distortion > 0.0;
         let grid = self.grid.as_ref().map(|g| g.view());
         ws.t_c.resize(rays.len() * nc, 0.0);
         ws.pos.clear();
@@ -505,7 +506,9 @@ impl Trainer {
                 None => {
                     ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
                     push_deltas(t, ray.dir_len, &mut ws.delta);
-                    (0..nc).for_each(|j| push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width));
+                    if intervals {
+                        (0..nc).for_each(|j| push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width));
+                    }
                     ws.dirs.push(ray.viewdir.to_array());
                 }
                 Some(g) => {
@@ -514,7 +517,9 @@ impl Trainer {
                         if g.at_f32(p) {
                             ws.pos.push(p);
                             ws.delta.push(if j + 1 < nc { (t[j + 1] - t[j]) * ray.dir_len } else { LAST_DELTA });
-                            push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width);
+                            if intervals {
+                                push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width);
+                            }
                             ws.dirs.push(ray.viewdir.to_array());
                         }
                     }
@@ -598,7 +603,9 @@ impl Trainer {
             merge_sorted(&ws.t_c[s], &ws.t_f, all);
             ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
             push_deltas(all, ray.dir_len, &mut ws.delta);
-            (0..na).for_each(|j| push_interval(ray, all, j, &mut ws.s_mid, &mut ws.s_width));
+            if self.cfg.distortion > 0.0 {
+                (0..na).for_each(|j| push_interval(ray, all, j, &mut ws.s_mid, &mut ws.s_width));
+            }
             ws.offs.push(ws.pos.len());
         }
         t.sample += start.elapsed().as_secs_f64();

@@ -170,12 +170,7 @@ pub fn build(
 /// cameras (LLFF's bound), or without points half the distance from the
 /// cameras to where their axes meet, or 1.
 fn nearest_depth(poses: &[Pose], points: &[DVec3]) -> f64 {
-    let step = (points.len() / 4000).max(1);
-    let mut depths: Vec<f64> = poses
-        .iter()
-        .flat_map(|(r, c)| points.iter().step_by(step).map(move |p| -(*p - *c).dot(r.z_axis)))
-        .filter(|d| d.is_finite() && *d > 0.0)
-        .collect();
+    let mut depths = super::fit::point_depths(poses, points, points.len() / 4000, 0.0);
     if depths.len() >= 20 {
         depths.sort_by(f64::total_cmp);
         return depths[depths.len() / 100].max(1e-6);

@@ -143,29 +143,35 @@ fn up_to_z(up: DVec3) -> DMat3 {
     DMat3::from_quat(glam::DQuat::from_rotation_arc(up.normalize(), DVec3::Z))
 }
 
-/// The near plane (fitted units) of the module doc: half the 1st
-/// percentile of the depths of `points` within 60° of the cameras' axes (`poses`
-/// in capture space; `to_fit` and `rotation` take both into the fitted
-/// frame), within [`MIN_NEAR`]..=[`MAX_NEAR`].
-fn near_plane(poses: &[Pose], points: &[DVec3], to_fit: &dyn Fn(DVec3) -> DVec3, rotation: DMat3) -> f64 {
-    let pts: Vec<DVec3> = points.iter().map(|&p| to_fit(p)).filter(|p| p.is_finite()).collect();
-    // at most about 2 million camera–point pairs: every k-th point
-    let step = (pts.len() * poses.len() / 2_000_000).max(1);
-    let mut depths: Vec<f64> = poses
+/// The depths along each camera's optical axis (capture units) of every
+/// `step`-th of `points` that the camera has in front of it within the
+/// cone whose angle to the axis has a cosine above `min_cos` (0: anywhere
+/// in front); non-finite ones left out.
+pub fn point_depths(poses: &[Pose], points: &[DVec3], step: usize, min_cos: f64) -> Vec<f64> {
+    poses
         .iter()
-        .flat_map(|p| {
-            let (eye, forward) = (to_fit(p.1), -(rotation * p.0.z_axis).normalize_or_zero());
-            // depths of the points within 60° of the optical axis (a wide lens's view)
-            pts.iter().step_by(step).filter_map(move |&q| {
-                let d = (q - eye).dot(forward);
-                (d > 0.5 * (q - eye).length()).then_some(d)
+        .flat_map(|(r, eye)| {
+            let forward = -r.z_axis.normalize_or_zero();
+            points.iter().step_by(step.max(1)).filter_map(move |&q| {
+                let d = (q - *eye).dot(forward);
+                (d.is_finite() && d > min_cos * (q - *eye).length()).then_some(d)
             })
         })
-        .collect();
+        .collect()
+}
+
+/// The near plane (fitted units) of the module doc: half the 1st
+/// percentile of the depths of `points` within 60° of the axes of the
+/// cameras `poses` (capture space, `scale` capture → fitted units), within
+/// [`MIN_NEAR`]..=[`MAX_NEAR`].
+fn near_plane(poses: &[Pose], points: &[DVec3], scale: f64) -> f64 {
+    // at most about 2 million camera–point pairs: every k-th point
+    let step = points.len() * poses.len() / 2_000_000;
+    let mut depths = point_depths(poses, points, step, 0.5);
     if depths.len() < 20 {
         return MAX_NEAR;
     }
-    (0.5 * quantile(&mut depths, 0.01)).clamp(MIN_NEAR, MAX_NEAR)
+    (0.5 * scale * quantile(&mut depths, 0.01)).clamp(MIN_NEAR, MAX_NEAR)
 }
 
 /// Fits the scene to `poses` (at least one) and the capture's sparse
@@ -229,7 +235,7 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
     let scene = Scene {
         bounds_min: lo.map(|v| v as f32),
         bounds_max: hi.map(|v| v as f32),
-        near: near_plane(poses, points, &to_fit, rotation) as f32,
+        near: near_plane(poses, points, scale) as f32,
         far: if unbounded.is_some() { (1000.0 * far).min(UNBOUNDED_FAR) as f32 } else { far as f32 },
         white_background: false,
         convention: CameraConvention::OpenGl,
