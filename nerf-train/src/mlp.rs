@@ -264,6 +264,19 @@ impl Mlp {
     /// σ > 0 at nearly every point at the start.
     pub const SIGMA_BIAS_INIT: f32 = 1.0;
 
+    /// [`Mlp::init`] with the density head's weights at zero and its bias
+    /// at `sigma` (1/world units, > 0): the network starts with the same
+    /// density `sigma` at every point, whatever the seed, and the head's
+    /// weights learn from the first step (their gradient is the trunk's
+    /// activations times the density's).
+    pub fn init_uniform_density(&self, seed: u64, sigma: f32) -> Vec<f32> {
+        let mut p = self.init(seed);
+        let s = self.slots[self.sigma_idx()];
+        p[s.w..s.w + s.din * s.dout].fill(0.0);
+        p[s.b] = sigma;
+        p
+    }
+
     /// `out = bias + Σ parts · W[row0..]` for `rows` rows.
     fn linear(&self, p: &[f32], l: usize, parts: &[(&[f32], usize, usize)], rows: usize, out: &mut [f32]) {
         let s = self.slots[l];

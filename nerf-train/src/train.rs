@@ -47,6 +47,17 @@ pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
 pub const CHECKPOINT_VERSION: u16 = 5;
 
+/// The density (1/fitted units) an unbounded scene's network starts with,
+/// the same at every point ([`Mlp::init_uniform_density`]). A ray there
+/// crosses the bounds and then the contracted shell out to `far`: starting
+/// from the bounded scenes' σ ≈ 1 ([`Mlp::SIGMA_BIAS_INIT`], with a random
+/// density head), the bounds alone would absorb most of the light (optical
+/// depth about 4 across the built-in room's 2.2-unit box) and the first
+/// steps would fit a fog between the cameras and the walls. At 0.1 the
+/// bounds' diagonal holds an optical depth well under 1 and the light
+/// reaches the shell. Measured on the built-in room (docs/EXPERIMENTS.md).
+pub const UNBOUNDED_SIGMA_INIT: f32 = 0.1;
+
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Trainer {
@@ -259,9 +270,13 @@ impl Trainer {
     /// A new run with freshly initialised networks.
     pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
         let net = cfg.mlp();
-        let mut params = net.init(seed);
+        let init = |seed| match scene.unbounded {
+            Some(_) => net.init_uniform_density(seed, UNBOUNDED_SIGMA_INIT),
+            None => net.init(seed),
+        };
+        let mut params = init(seed);
         if cfg.n_fine > 0 {
-            params.extend(net.init(seed ^ 0x5EED_F1E0));
+            params.extend(init(seed ^ 0x5EED_F1E0));
         }
         let adam = Adam::new(params.len());
         let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
