@@ -269,14 +269,25 @@ fn clear_opacity_is_the_rendered_opacity_over_transparent_pixels_only() {
 }
 
 /// The density at 200 random points of the normalised cube of a fresh
-/// trainer of the default configuration over `scene`.
-fn initial_densities(scene: nerf_infer::format::Scene, seed: u64) -> Vec<f32> {
-    let tr = Trainer::new(nerf_train::config::TrainConfig::default_preset(), scene, 1, seed);
+/// trainer of `cfg` over `scene`, of each of its networks (coarse, then
+/// fine if any).
+fn initial_densities(
+    cfg: &nerf_train::config::TrainConfig,
+    scene: nerf_infer::format::Scene,
+    seed: u64,
+) -> Vec<Vec<f32>> {
+    let tr = Trainer::new(cfg.clone(), scene, 1, seed);
     let mut rng = Rng::new(seed);
     let pts: Vec<[f32; 3]> = (0..200).map(|_| [0; 3].map(|_: i32| rng.f32() * 2.0 - 1.0)).collect();
-    let mut acts = nerf_train::mlp::Acts::default();
-    tr.mlp().forward(tr.coarse_params(), &pts, &[[0.0, 0.0, 1.0]], false, &mut acts);
-    acts.sigma[..pts.len()].iter().map(|s| s.max(0.0)).collect()
+    let nets = [Some(tr.coarse_params()), tr.fine_params()];
+    nets.into_iter()
+        .flatten()
+        .map(|p| {
+            let mut acts = nerf_train::mlp::Acts::default();
+            tr.mlp().forward(p, &pts, &[[0.0, 0.0, 1.0]], false, &mut acts);
+            acts.sigma[..pts.len()].iter().map(|s| s.max(0.0)).collect()
+        })
+        .collect()
 }
 
 #[test]
@@ -294,16 +305,23 @@ fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() 
     let unbounded =
         nerf_infer::format::Scene { unbounded: Some(nerf_infer::format::Unbounded { linear_until: 2.0 }), ..bounded };
     let diagonal = 2.2 * 3f32.sqrt();
-    for seed in 0..4 {
-        let sigma = initial_densities(unbounded, seed);
-        // the same density everywhere, whatever the seed
-        assert!(sigma.iter().all(|&s| s == sigma[0]), "seed {seed}: {:?}", &sigma[..4]);
-        // the bounds' diagonal absorbs under a third of the light
-        let depth = sigma[0] * diagonal;
-        assert!(depth > 0.0 && (-depth).exp() > 0.67, "seed {seed}: optical depth {depth}");
-        // a bounded scene starts as a fog to carve (seed-dependent, dense)
-        let fog = initial_densities(bounded, seed);
-        let mean = fog.iter().sum::<f32>() / fog.len() as f32;
-        assert!(fog.iter().any(|&s| s != fog[0]) && mean * diagonal > 1.0, "seed {seed}: mean σ {mean}");
+    // the default (one network) and `fast` (coarse and fine)
+    for cfg in [nerf_train::config::TrainConfig::default_preset(), nerf_train::config::TrainConfig::fast()] {
+        let nets = 1 + (cfg.n_fine > 0) as usize;
+        for seed in 0..4 {
+            let even = initial_densities(&cfg, unbounded, seed);
+            let fogs = initial_densities(&cfg, bounded, seed);
+            assert_eq!((even.len(), fogs.len()), (nets, nets));
+            for (sigma, fog) in even.iter().zip(&fogs) {
+                // the same density everywhere, whatever the seed
+                assert!(sigma.iter().all(|&s| s == sigma[0]), "seed {seed}: {:?}", &sigma[..4]);
+                // the bounds' diagonal absorbs under a third of the light
+                let depth = sigma[0] * diagonal;
+                assert!(depth > 0.0 && (-depth).exp() > 0.67, "seed {seed}: optical depth {depth}");
+                // a bounded scene starts as a fog to carve (seed-dependent, dense)
+                let mean = fog.iter().sum::<f32>() / fog.len() as f32;
+                assert!(fog.iter().any(|&s| s != fog[0]) && mean * diagonal > 1.0, "seed {seed}: mean σ {mean}");
+            }
+        }
     }
 }

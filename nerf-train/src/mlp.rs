@@ -259,9 +259,9 @@ impl Mlp {
         });
     }
 
-    /// Initial density bias (σ in 1/world units before the ReLU): with the
-    /// σ head's weights at ±1/√width on activations of order 1, this keeps
-    /// σ > 0 at nearly every point at the start.
+    /// Initial density bias of bounded scenes (σ in 1/world units before
+    /// the ReLU): with the σ head's weights at ±1/√width on activations of
+    /// order 1, this keeps σ > 0 at nearly every point at the start.
     pub const SIGMA_BIAS_INIT: f32 = 1.0;
 
     /// [`Mlp::init`] with the density head's weights at zero and its bias
@@ -270,6 +270,7 @@ impl Mlp {
     /// weights learn from the first step (their gradient is the trunk's
     /// activations times the density's).
     pub fn init_uniform_density(&self, seed: u64, sigma: f32) -> Vec<f32> {
+        debug_assert!(sigma > 0.0 && sigma.is_finite(), "{sigma}");
         let mut p = self.init(seed);
         let s = self.slots[self.sigma_idx()];
         p[s.w..s.w + s.din * s.dout].fill(0.0);

@@ -47,7 +47,7 @@ pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
 pub const CHECKPOINT_VERSION: u16 = 5;
 
-/// The density (1/fitted units) an unbounded scene's network starts with,
+/// The density (1/world units, the fitted scene's) an unbounded scene's network starts with,
 /// the same at every point ([`Mlp::init_uniform_density`]). A ray there
 /// crosses the bounds and then the contracted shell out to `far`: starting
 /// from the bounded scenes' σ ≈ 1 ([`Mlp::SIGMA_BIAS_INIT`], with a random
