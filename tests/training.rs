@@ -292,16 +292,7 @@ fn initial_densities(
 
 #[test]
 fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() {
-    let bounded = nerf_infer::format::Scene {
-        bounds_min: [-1.1; 3],
-        bounds_max: [1.1; 3],
-        near: 0.2,
-        far: 1000.0,
-        white_background: false,
-        convention: nerf_infer::format::CameraConvention::OpenGl,
-        ndc: None,
-        unbounded: None,
-    };
+    let bounded = nerf_infer::format::Scene::blender(1.1, 0.2, 1000.0);
     let unbounded =
         nerf_infer::format::Scene { unbounded: Some(nerf_infer::format::Unbounded { linear_until: 2.0 }), ..bounded };
     let diagonal = 2.2 * 3f32.sqrt();

@@ -635,7 +635,7 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
         let off = k * mlp.n_params;
         // the random density head of every scene (an unbounded scene's
         // trainer starts with an even density, no head to scale)
-        let init = mlp.init(if k == 0 { seed } else { seed ^ 0x5EED_F1E0 });
+        let init = mlp.init(crate::train::network_seed(seed, k));
         tr.params[off..off + mlp.n_params].copy_from_slice(&init);
         for (i, s) in mlp.slots.iter().enumerate() {
             let gain = if i == si { 6f32.sqrt() * sigma_gain } else { 6f32.sqrt() };

@@ -58,6 +58,15 @@ pub const CHECKPOINT_VERSION: u16 = 5;
 /// reaches the shell. Measured on the built-in room (docs/EXPERIMENTS.md).
 pub const UNBOUNDED_SIGMA_INIT: f32 = 0.1;
 
+/// The initialisation seed of network `k` (0 coarse, 1 fine) of a run seeded `seed`.
+pub fn network_seed(seed: u64, k: usize) -> u64 {
+    if k == 0 {
+        seed
+    } else {
+        seed ^ 0x5EED_F1E0
+    }
+}
+
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Trainer {
@@ -274,9 +283,9 @@ impl Trainer {
             Some(_) => net.init_uniform_density(seed, UNBOUNDED_SIGMA_INIT),
             None => net.init(seed),
         };
-        let mut params = init(seed);
+        let mut params = init(network_seed(seed, 0));
         if cfg.n_fine > 0 {
-            params.extend(init(seed ^ 0x5EED_F1E0));
+            params.extend(init(network_seed(seed, 1)));
         }
         let adam = Adam::new(params.len());
         let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
