@@ -19,6 +19,7 @@ steps=(
   "default|25|scripts/lego_default.sh ROOT 10 0 1 && scripts/lego_default.sh ROOT 1 0 1"
   "tradeoff|12|scripts/tradeoff.sh ROOT 10"
   "int8-loss|15|scripts/int8_loss.sh ROOT 3"
+  "table-bits|12|scripts/table_bits.sh ROOT 10"
   "captures|40|scripts/captures.sh ROOT 5"
   "lens|12|scripts/lens.sh ROOT 1000 0 && scripts/lens.sh ROOT 1000 1"
   "scene360|5|scripts/scene360.sh 2"

@@ -115,6 +115,25 @@ that trains few steps in 3 minutes is barely fitted; its loss says little
 about a trained model of that preset.""", t if rs else missing("int8-loss"))
 
 
+def table_bits_section():
+    rs = latest(rows("table_bits.csv"), "table_bits")
+    wide = next((float(r["psnr"]) for r in rs if r["table_bits"] == "16"), None)
+    body = [[r["table_bits"], f"**{r['psnr']}**", f"{float(r['psnr']) - wide:+.2f}" if wide is not None else "",
+             r["ssim"], r["samples"], r["us"], f"**{thousands(r['bytes'])}**", thousands(r["table_bytes"]), run(r)]
+            for r in rs]
+    t = table(["table bits", "PSNR", "against 16 bits (dB)", "SSIM", "samples/ray", "µs/ray", "model bytes",
+               "table bytes", "<run"], body)
+    minutes = rs[0]["minutes"] if rs else "10"
+    return ("The feature table in 16, 8 and 4 bits", "table-bits", f"""`scripts/table_bits.sh DATA_ROOT {minutes}`: the default trained
+{minutes} minutes on lego at 100×100 (seed 0), exported to int8 with
+`nerf export --bits 8 --table-bits B` (16: i16 values; 8 and 4: indices
+into a codebook of 256 or 16 values per level), and each export evaluated
+with `nerf eval --split val --early-stop 1e-3 --threads 1 --repeat 2` on
+the 10 validation views. Table bytes include the codebooks. The 8- and
+4-bit tables are read by the portable lookup, the i16 one by the AVX2
+lookup.""", t if rs else missing("table-bits"))
+
+
 TREATMENTS = """- `auto`: no flag but the preset; the scene model (object box, forward-facing
   NDC or unbounded contraction) chosen from the cameras. `object`: `--scene
   object` forced (no room for what lies beyond the object).
@@ -289,7 +308,7 @@ viewer draws it (early termination at 10⁻³) over its Web Workers and on one
 thread.""", t if rs else missing("web"))
 
 
-SECTIONS = [default_section, tradeoff_section, int8_section, captures_section, bench_section, train_step_section,
+SECTIONS = [default_section, tradeoff_section, int8_section, table_bits_section, captures_section, bench_section, train_step_section,
             mesh_section,
             mcu_section, web_section]
 
@@ -319,6 +338,12 @@ def readme_rows():
         worst = max(abs(float(r["loss_db"])) for r in q)
         out.append((f"int8 against f32, every preset ({', '.join(r['preset'] for r in q)})",
                     f"within {worst:.2f} dB", "int8 against f32, every preset"))
+    tb = {r["table_bits"]: r for r in latest(rows("table_bits.csv"), "table_bits")}
+    if "16" in tb and "4" in tb:
+        w, n = tb["16"], tb["4"]
+        out.append((f"lego int8 with a 4-bit feature table ({n['minutes']} min at 100×100)",
+                    f"{n['psnr']} dB ({float(n['psnr']) - float(w['psnr']):+.2f}), {thousands(n['bytes'])} B "
+                    f"against {thousands(w['bytes'])}", "The feature table in 16, 8 and 4 bits"))
     c = {(r["capture"], r["treatment"]): r for r in latest(rows("captures.csv"), "capture", "treatment")}
     if ("bird", "features") in c and ("fox", "features") in c:
         b, f = c["bird", "features"], c["fox", "features"]

@@ -113,6 +113,12 @@ fn scene_train_resume_eval_export_info_render() {
         fails(&["export", s(&model), "--bits", "16", "--int8-layers", &n.to_string(), "--out", s(&d.join("x.nerf"))]);
     assert!(e.contains(&format!("layers 0 to {}", n - 1)), "{e}");
     assert!(!d.join("x.nerf").exists());
+    // a narrow table needs a feature grid and an integer model
+    let e = fails(&["export", s(&model), "--bits", "8", "--table-bits", "4", "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains(s(&model)) && e.contains("--table-bits 4") && e.contains("no feature grid"), "{e}");
+    let e = fails(&["export", s(&model), "--bits", "32", "--table-bits", "8", "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains("--table-bits 8 needs --bits 16 or 8"), "{e}");
+    assert!(!d.join("x.nerf").exists());
     // --coarse sets the default samples per ray, and rendering follows it
     let few = d.join("few.nerf");
     ok(&["export", s(&model), "--bits", "8", "--coarse", "4", "--out", s(&few)]);
@@ -192,9 +198,11 @@ fn bad_inputs_give_one_line_errors() {
     std::fs::create_dir_all(&d).unwrap();
     let e = fails(&["info", s(&d.join("nope.nerf"))]);
     assert!(e.contains("nope.nerf") && e.contains("cannot read"), "{e}");
-    std::fs::write(d.join("junk.nerf"), b"NERF\x07\x00junkjunkjunk").unwrap();
+    // a version newer than this build reads
+    let newer = nerf_infer::format::FORMAT_VERSION + 1;
+    std::fs::write(d.join("junk.nerf"), [&b"NERF"[..], &newer.to_le_bytes(), b"junkjunkjunk"].concat()).unwrap();
     let e = fails(&["info", s(&d.join("junk.nerf"))]);
-    assert!(e.contains("junk.nerf") && e.contains("version 7"), "{e}");
+    assert!(e.contains("junk.nerf") && e.contains(&format!("version {newer}")), "{e}");
     let e = fails(&["train", "--data", s(&d.join("nodata")), "--iters", "1", "--out", s(&d.join("r"))]);
     assert!(e.contains("nodata"), "{e}");
     let e = fails(&["train", "--data", s(&d), "--iters", "1", "--out", s(&d.join("r")), "--preset", "huge"]);
@@ -279,5 +287,43 @@ fn fit_keeps_the_cheapest_candidate_that_reaches_the_target_and_tables_what_it_t
     assert!(cost.windows(2).all(|w| w[0] < w[1]), "not cheapest first: {cost:?}");
     assert!(csv.contains("\nfeatures,"), "the feature-grid candidate was not tried: {csv}");
     assert!(!run.join("model.nerf").exists());
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn export_stores_the_feature_table_as_8_or_4_bit_codebook_indices() {
+    let d = tmp("table-bits");
+    let data = blender_scene(&d, 16, 6);
+    let cfg = d.join("tiny.json");
+    std::fs::write(
+        &cfg,
+        r#"{"width": 16, "view_width": 8, "feature_log2_table": 10, "feature_max_res": 32, "batch_rays": 64}"#,
+    )
+    .unwrap();
+    let run = d.join("run");
+    ok(&["train", "--data", s(&data), "--config", s(&cfg), "--iters", "20", "--out", s(&run), "--val-views", "0"]);
+    let model = run.join("model.nerf");
+    let info =
+        |m: &std::path::Path| -> serde_json::Value { serde_json::from_str(&ok(&["info", s(m), "--json"])).unwrap() };
+    let mut table_bytes = Vec::new();
+    for bits in ["16", "8", "4"] {
+        let out = d.join(format!("t{bits}.nerf"));
+        ok(&["export", s(&model), "--bits", "8", "--table-bits", bits, "--out", s(&out)]);
+        let i = info(&out);
+        assert_eq!(i["features"]["value_bits"].to_string(), bits, "{i}");
+        assert_eq!(i["format_version"], if bits == "16" { 6 } else { 7 }, "{i}");
+        table_bytes.push(i["features"]["bytes"].as_u64().unwrap());
+        let text = ok(&["info", s(&out)]);
+        assert_eq!(text.contains(&format!("{bits}-bit indices into a codebook")), bits != "16", "{text}");
+        let r: serde_json::Value =
+            serde_json::from_str(&ok(&["eval", s(&out), "--data", s(&data), "--split", "test"])).unwrap();
+        assert!(r["psnr"].as_f64().unwrap() > 5.0, "{r}");
+    }
+    // 2 bytes per value, then 1, then a half
+    assert_eq!([table_bytes[0], table_bytes[0]], [2 * table_bytes[1], 4 * table_bytes[2]]);
+    // a model whose table is already narrow is not narrowed again
+    let e =
+        fails(&["export", s(&d.join("t4.nerf")), "--bits", "8", "--table-bits", "4", "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains("already quantised") || e.contains("already narrow"), "{e}");
     std::fs::remove_dir_all(&d).ok();
 }

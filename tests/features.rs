@@ -9,7 +9,7 @@ use nerf_train::config::TrainConfig;
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::score_view;
-use nerf_train::export::{quantise, random_model, trainer_model, OwnedModel, Prune};
+use nerf_train::export::{narrow_table, quantise, random_model, trainer_model, OwnedModel, Prune};
 use nerf_train::path::orbit_camera;
 use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Trainer};
@@ -114,6 +114,16 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     assert!(f_gt > base + 3.0);
     assert!(q16_gt >= f_gt - 0.1, "int16 loses {:.3} dB", f_gt - q16_gt);
     assert!(q8_gt >= f_gt - 0.5, "int8 loses {:.3} dB", f_gt - q8_gt);
+    // the int8 model with its table as 8- and 4-bit codebook indices
+    for (bits, most_loss) in [(8, 0.1), (4, 1.0)] {
+        let mut owned = quantise(&m, Scheme::I8).unwrap();
+        narrow_table(&mut owned, bits).unwrap();
+        let bytes = owned.to_bytes().unwrap();
+        let mn = Model::from_bytes(&bytes).unwrap();
+        let gt = score(&mn);
+        println!("{bits}-bit table: {gt:.3} dB, {} table bytes", mn.feature_bytes());
+        assert!(gt >= q8_gt - most_loss, "{bits}-bit table loses {:.3} dB", q8_gt - gt);
+    }
     std::fs::remove_dir_all(&d).ok();
 }
 
@@ -170,4 +180,63 @@ fn the_format_keeps_old_versions_and_checks_the_table() {
     let mut old = bytes.clone();
     old[4] = 2;
     assert!(Model::from_bytes(&old).is_err());
+}
+
+/// The table of an integer model as i16 values, whatever its storage.
+fn table_values(m: &Model<'_>) -> Vec<i16> {
+    let f = m.features.as_ref().unwrap();
+    let w = f.width as usize;
+    (0..f.levels())
+        .flat_map(|l| (f.offset(l) * w..f.offset(l + 1) * w).map(move |k| (l, k)))
+        .map(|(l, k)| match f.narrow {
+            Some(n) => n.value(f.table, l, k) as i16,
+            None => nerf_infer::format::read_i16(f.table, k),
+        })
+        .collect()
+}
+
+#[test]
+fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
+    let f32_bytes = random_model(&feature_config(), unit_scene(), 4, 8.0).to_bytes().unwrap();
+    let m32 = Model::from_bytes(&f32_bytes).unwrap();
+    let wide = quantise(&m32, Scheme::I8).unwrap();
+    let wide_bytes = wide.to_bytes().unwrap();
+    let mw = Model::from_bytes(&wide_bytes).unwrap();
+    for bits in [8u8, 4] {
+        let mut owned = wide.clone();
+        narrow_table(&mut owned, bits).unwrap();
+        let bytes = owned.to_bytes().unwrap();
+        assert_eq!(version(&bytes), nerf_infer::format::FORMAT_VERSION);
+        let mn = Model::from_bytes(&bytes).unwrap();
+        assert_eq!(OwnedModel::from_model(&mn), owned, "{bits}-bit table: the file round trips");
+        let values = mw.features.as_ref().unwrap().values();
+        assert_eq!(mn.feature_bytes(), values * bits as usize / 8 + 2 * (4 << bits));
+        // the file shrinks by what the table does, give or take the record's few bytes
+        let saved = wide_bytes.len() as i64 - bytes.len() as i64;
+        assert!((saved - (2 * values - mn.feature_bytes()) as i64).abs() <= 8, "{bits}-bit table saves {saved} B");
+        // the i16 table that holds each index's codebook value renders the same, bit for bit
+        let expanded = table_values(&mn);
+        let mut as_i16 = wide.clone();
+        as_i16.features.as_mut().unwrap().1 = expanded.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let as_i16_bytes = as_i16.to_bytes().unwrap();
+        let me = Model::from_bytes(&as_i16_bytes).unwrap();
+        for turn in [0.2, 0.7] {
+            let cam = orbit_camera(&mn.scene, turn, 24, 24);
+            assert_eq!(render(&mn, &cam), render(&me, &cam), "{bits}-bit table, view {turn}");
+        }
+        // each value is its level's nearest code
+        let (f, original) = (mn.features.as_ref().unwrap(), table_values(&mw));
+        let book = f.narrow.unwrap().codebook;
+        for l in 0..f.levels() {
+            let codes: Vec<i32> = book[2 * (l << bits)..2 * ((l + 1) << bits)]
+                .chunks_exact(2)
+                .map(|b| i16::from_le_bytes([b[0], b[1]]) as i32)
+                .collect();
+            for k in f.offset(l) * 2..f.offset(l + 1) * 2 {
+                let (t, got) = (original[k] as i32, expanded[k] as i32);
+                let best = codes.iter().map(|c| (c - t).abs()).min().unwrap();
+                assert_eq!((got - t).abs(), best, "{bits}-bit level {l} value {k}: {t} stored as {got}");
+            }
+        }
+    }
 }

@@ -12,9 +12,11 @@
 //! trilinearly. Output: `levels × width` values, level-major.
 //!
 //! Table values: f32 in f32 models; i16 with `frac_bits` fractional bits in
-//! fixed-point models. The fixed path computes the cell and the Q15
-//! trilinear weights from the Q24 position with integers only, and its
-//! features come out as i16 with `frac_bits` fractional bits.
+//! fixed-point models, or (format version 7, [`NarrowTable`]) 8- or 4-bit
+//! indices into a per-level codebook of such i16 values. The
+//! fixed path computes the cell and the Q15 trilinear weights from the Q24
+//! position with integers only, and its features come out as i16 with
+//! `frac_bits` fractional bits.
 
 use crate::fixed::NPOS_FRAC;
 use crate::fixed::{sat_i16, shr_round_i64};
@@ -36,10 +38,52 @@ pub struct FeatureGrid<'a> {
     /// Cells per axis of each level, coarse to fine (1..=4096).
     pub resolutions: heapless::Vec<u16, MAX_LEVELS>,
     /// [`FeatureGrid::values`] values, level then entry then value (level
-    /// `l` from entry [`FeatureGrid::offset`]`(l)`): f32 LE (f32 models) or
-    /// i16 LE (fixed-point models).
+    /// `l` from entry [`FeatureGrid::offset`]`(l)`): f32 LE (f32 models),
+    /// i16 LE (fixed-point models), or packed as `narrow` says.
     #[serde(borrow)]
     pub table: &'a [u8],
+    /// Fixed-point models: the table's values in fewer than 16 bits. Not
+    /// part of this record's encoding: the model carries it (format
+    /// version 7) and [`crate::Model::from_bytes`] copies it here.
+    #[serde(skip)]
+    pub narrow: Option<NarrowTable<'a>>,
+}
+
+/// A fixed-point table stored in fewer than 16 bits per value (format
+/// version 7): each value is an index `q` into its level's codebook of
+/// `2^bits` i16 values in Q`frac_bits`, so a level's values can sit where
+/// its values are dense (most near zero) rather than on an even grid.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct NarrowTable<'a> {
+    /// Bits per stored index: 8 (one per byte) or 4 (two per byte, value
+    /// `2m` in the low nibble of byte `m`, `2m + 1` in the high one).
+    pub bits: u8,
+    /// `levels × 2^bits` i16 LE: level `l`'s value for index `q` at
+    /// element `l·2^bits + q`.
+    #[serde(borrow)]
+    pub codebook: &'a [u8],
+}
+
+impl NarrowTable<'_> {
+    /// Bytes of a table of `values` values.
+    pub fn bytes(&self, values: usize) -> usize {
+        (values * self.bits as usize).div_ceil(8)
+    }
+
+    /// Value `k` of `table`, in level `l`'s codebook: an i16 in
+    /// Q`frac_bits`.
+    #[inline(always)]
+    pub fn value(&self, table: &[u8], l: usize, k: usize) -> i32 {
+        let q = if self.bits == 8 { table[k] } else { (table[k / 2] >> (4 * (k & 1))) & 0xF } as usize;
+        let e = 2 * ((l << self.bits) + q);
+        i16::from_le_bytes([self.codebook[e], self.codebook[e + 1]]) as i32
+    }
+
+    /// Checks the bits and that the codebook holds `2^bits` values for
+    /// each of `levels` levels.
+    pub fn is_valid(&self, levels: usize) -> bool {
+        matches!(self.bits, 4 | 8) && self.codebook.len() == 2 * (levels << self.bits)
+    }
 }
 
 /// The 8 table entries and trilinear weights of one level at one point.
@@ -96,16 +140,26 @@ impl FeatureGrid<'_> {
         self.offset(self.levels()) * self.width as usize
     }
 
-    /// Checks ranges and that the table holds `values()` elements of
-    /// `elem_bytes` bytes (4: f32, 2: i16).
+    /// Bytes of the table: `values()` elements of `elem_bytes` bytes (4:
+    /// f32, 2: i16), or as packed by `narrow`.
+    pub fn table_bytes(&self, elem_bytes: usize) -> usize {
+        match &self.narrow {
+            Some(n) => n.bytes(self.values()),
+            None => self.values() * elem_bytes,
+        }
+    }
+
+    /// Checks ranges, the narrow packing if any, and that the table holds
+    /// [`FeatureGrid::table_bytes`] bytes.
     pub fn is_valid(&self, elem_bytes: usize) -> bool {
         let shape_ok = (1..=8).contains(&self.width)
             && (1..=MAX_LOG2_TABLE).contains(&self.log2_table)
             && self.frac_bits <= 15
             && !self.resolutions.is_empty()
             && self.dim() <= MAX_FEATURES
-            && self.resolutions.iter().all(|&r| (1..=MAX_RES).contains(&r));
-        shape_ok && self.table.len() == self.values() * elem_bytes
+            && self.resolutions.iter().all(|&r| (1..=MAX_RES).contains(&r))
+            && self.narrow.as_ref().is_none_or(|n| n.is_valid(self.levels()));
+        shape_ok && self.table.len() == self.table_bytes(elem_bytes)
     }
 
     /// Entry of vertex `(i, j, k)` of a level with `res` cells per axis:
@@ -172,8 +226,8 @@ impl FeatureGrid<'_> {
         }
     }
 
-    /// The `dim()` features at the Q24 normalised position `p` (i16 table),
-    /// as i16 with `frac_bits` fractional bits. Integer only: the cell and
+    /// The `dim()` features at the Q24 normalised position `p` (i16 table,
+    /// or a [`NarrowTable`]'s indices of i16 values), as i16 with `frac_bits` fractional bits. Integer only: the cell and
     /// the fractions (rounded to Q15) come from `u·N` in Q25, each corner
     /// weight is the product of three Q15 factors rounded once to Q15, the
     /// blend is summed in i32 and rounded once. No overflow: the weights are
@@ -214,24 +268,40 @@ impl FeatureGrid<'_> {
                 core::array::from_fn(|c| combine(at(c).0, at(c).1, at(c).2, false, mask))
             };
             let mut acc = [0i32; 8];
-            for c in 0..8 {
-                let (wc, e) = (wc[c], (base + entry[c] as usize) * w);
-                if w == 2 {
-                    // the common width: one 4-byte read per corner
-                    let b = &self.table[2 * e..2 * e + 4];
-                    acc[0] += wc * i16::from_le_bytes([b[0], b[1]]) as i32;
-                    acc[1] += wc * i16::from_le_bytes([b[2], b[3]]) as i32;
-                    continue;
+            match &self.narrow {
+                Some(n) => {
+                    for c in 0..8 {
+                        let e = (base + entry[c] as usize) * w;
+                        for (j, a) in acc[..w].iter_mut().enumerate() {
+                            *a += wc[c] * n.value(self.table, l, e + j);
+                        }
+                    }
                 }
-                let vals = &self.table[2 * e..2 * (e + w)];
-                for (a, b) in acc[..w].iter_mut().zip(vals.chunks_exact(2)) {
-                    *a += wc * i16::from_le_bytes([b[0], b[1]]) as i32;
-                }
+                None => self.blend_i16(base, w, &entry, &wc, &mut acc),
             }
             for j in 0..w {
                 out[l * w + j] = sat_i16(shr_round_i64(acc[j] as i64, 15));
             }
             base += self.entries(l);
+        }
+    }
+
+    /// `acc[j] += Σ_c wc[c] · value(entry[c], j)` over an i16 table.
+    #[inline(always)]
+    fn blend_i16(&self, base: usize, w: usize, entry: &[u32; 8], wc: &[i32; 8], acc: &mut [i32; 8]) {
+        for c in 0..8 {
+            let (wc, e) = (wc[c], (base + entry[c] as usize) * w);
+            if w == 2 {
+                // the common width: one 4-byte read per corner
+                let b = &self.table[2 * e..2 * e + 4];
+                acc[0] += wc * i16::from_le_bytes([b[0], b[1]]) as i32;
+                acc[1] += wc * i16::from_le_bytes([b[2], b[3]]) as i32;
+                continue;
+            }
+            let vals = &self.table[2 * e..2 * (e + w)];
+            for (a, b) in acc[..w].iter_mut().zip(vals.chunks_exact(2)) {
+                *a += wc * i16::from_le_bytes([b[0], b[1]]) as i32;
+            }
         }
     }
 }
@@ -270,7 +340,14 @@ mod tests {
     const N: usize = (27 + 64 + 64) * 2;
 
     fn grid<'a>(table: &'a [u8], frac_bits: u8) -> FeatureGrid<'a> {
-        FeatureGrid { width: 2, log2_table: 6, frac_bits, resolutions: geometric_resolutions(3, 2, 9), table }
+        FeatureGrid {
+            width: 2,
+            log2_table: 6,
+            frac_bits,
+            resolutions: geometric_resolutions(3, 2, 9),
+            table,
+            narrow: None,
+        }
     }
 
     #[test]
@@ -365,5 +442,55 @@ mod tests {
         // typically within a step (rounding errors of both signs cancel)
         let mean = sum_err / (2000.0 * 6.0);
         assert!(mean < 0.6, "mean error {mean:.3} output steps");
+    }
+
+    /// A narrow table's features are those of the i16 table holding each
+    /// index's codebook value: 8- and 4-bit indices (the even value of a
+    /// byte in its low nibble), each level its own codebook, extreme codes
+    /// included.
+    #[test]
+    fn narrow_indices_read_their_level_codebooks_like_an_i16_table() {
+        for bits in [8u8, 4] {
+            let codes = 1usize << bits;
+            // level l, index q: a distinct value per level, the extremes at both ends
+            let code = |l: usize, q: usize| match q {
+                0 => i16::MIN,
+                q if q == codes - 1 => i16::MAX,
+                q => (q as i32 * 97 - 600 + l as i32 * 1000) as i16,
+            };
+            let codebook: [u8; 3 * 256 * 2] =
+                core::array::from_fn(|b| code(b / 2 / codes, b / 2 % codes).to_le_bytes()[b % 2]);
+            let codebook = &codebook[..3 * codes * 2];
+            let index: [usize; N] = core::array::from_fn(|k| ((k * 2_654_435_761usize) >> 7) % codes);
+            let packed: [u8; N] = core::array::from_fn(|b| {
+                if bits == 8 {
+                    index[b] as u8
+                } else {
+                    (index[(2 * b) % N] | index[(2 * b + 1) % N] << 4) as u8
+                }
+            });
+            let packed = &packed[..N * bits as usize / 8];
+            let g = grid(&[], 13);
+            let level_of = |k: usize| (0..3).rfind(|&l| k >= g.offset(l) * 2).unwrap();
+            let wide: [u8; 2 * N] = core::array::from_fn(|b| code(level_of(b / 2), index[b / 2]).to_le_bytes()[b % 2]);
+            let narrow = NarrowTable { bits, codebook };
+            let gn = FeatureGrid { narrow: Some(narrow), ..grid(packed, 13) };
+            let gw = grid(&wide, 13);
+            assert!(gn.is_valid(2) && gw.is_valid(2));
+            assert_eq!(gn.table_bytes(2), N * bits as usize / 8);
+            let (mut on, mut ow) = ([0i16; 6], [0i16; 6]);
+            for k in 0..3000u32 {
+                let h = |s: u32| (k.wrapping_mul(2_654_435_761) ^ s).wrapping_mul(0x9E37_79B9) as i32 >> 6;
+                gn.encode_fixed([h(1), h(2), h(3)], &mut on);
+                gw.encode_fixed([h(1), h(2), h(3)], &mut ow);
+                assert_eq!(on, ow, "{bits}-bit indices, position {k}");
+            }
+            // a table or codebook of the wrong length, or other bits, is refused
+            assert!(!FeatureGrid { narrow: Some(narrow), ..grid(&packed[1..], 13) }.is_valid(2));
+            let short = NarrowTable { codebook: &codebook[2..], ..narrow };
+            assert!(!FeatureGrid { narrow: Some(short), ..grid(packed, 13) }.is_valid(2));
+            let six = NarrowTable { bits: 6, ..narrow };
+            assert!(!FeatureGrid { narrow: Some(six), ..grid(packed, 13) }.is_valid(2));
+        }
     }
 }

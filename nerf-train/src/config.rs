@@ -249,6 +249,7 @@ impl TrainConfig {
                 self.feature_max_res,
             ),
             table: &[],
+            narrow: None,
         })
     }
 

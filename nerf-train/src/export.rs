@@ -23,10 +23,10 @@
 
 use crate::mlp::Mlp;
 use crate::train::Trainer;
-use nerf_infer::features::FeatureGrid;
+use nerf_infer::features::{FeatureGrid, NarrowTable};
 use nerf_infer::fixed::{Requant, ENC_FRAC, LOGIT_FRAC, SIGMA_FRAC};
 use nerf_infer::format::{
-    self, read_f32, sigma_layer, Encoding, Layer, Meta, Model, Network, Samples, Scene, Scheme, Topology,
+    self, read_f32, read_i16, sigma_layer, Encoding, Layer, Meta, Model, Network, Samples, Scene, Scheme, Topology,
 };
 use nerf_infer::network::OUTPUT_TILE;
 
@@ -131,9 +131,12 @@ pub struct OwnedModel {
     pub features: Option<(FeatureGrid<'static>, Vec<u8>)>,
     /// How the training capture was split and framed (format version 4).
     pub capture: Option<format::Capture>,
+    /// The feature table's index bits and codebook bytes when its values
+    /// are codebook indices (format version 7, [`NarrowTable`]).
+    pub narrow: Option<(u8, Vec<u8>)>,
 }
 
-/// `shape` with `table` as its table.
+/// `shape` with `table` as its table (i16 or f32 values; no codebook).
 fn with_table<'a>(shape: &FeatureGrid<'_>, table: &'a [u8]) -> FeatureGrid<'a> {
     FeatureGrid {
         width: shape.width,
@@ -141,6 +144,7 @@ fn with_table<'a>(shape: &FeatureGrid<'_>, table: &'a [u8]) -> FeatureGrid<'a> {
         frac_bits: shape.frac_bits,
         resolutions: shape.resolutions.clone(),
         table,
+        narrow: None,
     }
 }
 
@@ -167,6 +171,7 @@ impl OwnedModel {
         if self.coarse.layers.len() > format::MAX_LAYERS {
             return Err(nerf_infer::Error::Capacity("more than 24 layers"));
         }
+        let narrow = self.narrow.as_ref().map(|(bits, codebook)| NarrowTable { bits: *bits, codebook });
         let m = Model {
             scene: self.scene,
             encoding: self.encoding,
@@ -176,13 +181,14 @@ impl OwnedModel {
             coarse: self.coarse.view(),
             fine: self.fine.as_ref().map(|f| f.view()),
             grid: self.grid.as_ref().map(|(res, bits)| format::Occupancy { res: *res, bits }),
-            features: self.features.as_ref().map(|(f, t)| with_table(f, t)),
+            features: self.features.as_ref().map(|(f, t)| FeatureGrid { narrow, ..with_table(f, t) }),
             capture: self.capture,
             unbounded: self.scene.unbounded,
             precise: self.coarse.precise.as_ref().map(|p| format::Precise {
                 coarse: p.view(),
                 fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()).map(OwnedPrecise::view),
             }),
+            narrow,
         };
         format::to_bytes(&m)
     }
@@ -200,6 +206,7 @@ impl OwnedModel {
             grid: m.grid.map(|g| (g.res, g.bits.to_vec())),
             features: m.features.as_ref().map(|f| (with_table(f, &[]), f.table.to_vec())),
             capture: m.capture,
+            narrow: m.narrow.map(|n| (n.bits, n.codebook.to_vec())),
         }
     }
 }
@@ -269,6 +276,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
             .as_ref()
             .map(|f| (f.clone(), f32_bytes(tr.params[mlp.table..mlp.n_params].iter().copied()))),
         capture: None,
+        narrow: None,
     }
 }
 
@@ -620,6 +628,102 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
     Ok(())
 }
 
+/// The feature table of an integer model stored as `bits`-bit (8 or 4)
+/// indices into a codebook of `2^bits` i16 values per level (format
+/// version 7, [`NarrowTable`]). Each level's codebook is the Lloyd–Max
+/// quantiser of its values (1-D k-means from their quantiles, least
+/// squared error), so most codes go where most values are, near zero.
+pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
+    if !m.coarse.scheme.is_fixed() {
+        return Err("a narrow feature table needs an integer model (--bits 16 or 8)".into());
+    }
+    if !matches!(bits, 4 | 8) {
+        return Err(format!("{bits}-bit table indices: 8 or 4 (16 is the i16 table)"));
+    }
+    let Some((shape, table)) = &mut m.features else {
+        return Err("the model has no feature grid".into());
+    };
+    if m.narrow.is_some() {
+        return Err("the feature table is already narrow".into());
+    }
+    let w = shape.width as usize;
+    let mut index = Vec::with_capacity(shape.values());
+    let mut codebook = Vec::with_capacity(shape.levels() << bits);
+    for l in 0..shape.levels() {
+        let level: Vec<i16> = (shape.offset(l) * w..shape.offset(l + 1) * w).map(|k| read_i16(table, k)).collect();
+        let codes = lloyd_max(&level, 1 << bits);
+        // the nearest code: codes are sorted, so below the first midpoint above the value
+        let mids: Vec<i32> = codes.windows(2).map(|c| (c[0] as i32 + c[1] as i32).div_euclid(2)).collect();
+        index.extend(level.iter().map(|&t| mids.partition_point(|&m| m < t as i32) as u8));
+        codebook.extend(codes);
+    }
+    *table = match bits {
+        8 => index,
+        _ => index.chunks(2).map(|p| p[0] | p.get(1).copied().unwrap_or(0) << 4).collect(),
+    };
+    m.narrow = Some((bits, codebook.iter().flat_map(|c| c.to_le_bytes()).collect()));
+    Ok(())
+}
+
+/// `k` sorted i16 codes that quantise `values` with the least squared
+/// error Lloyd's iterations reach from `k` even codes over the values'
+/// range. A code left without values moves to split the cluster with the
+/// most squared error, so no code is wasted while a cluster holds two
+/// distinct values; fewer distinct values than codes leave the surplus
+/// codes repeating the largest.
+fn lloyd_max(values: &[i16], k: usize) -> Vec<i16> {
+    let mut v: Vec<i64> = values.iter().map(|&x| x as i64).collect();
+    v.sort_unstable();
+    let n = v.len();
+    if n == 0 {
+        return vec![0; k];
+    }
+    // prefix sums of values and squares: a run's mean and squared error in O(1)
+    let (mut sum, mut sq) = (vec![0i64; n + 1], vec![0i128; n + 1]);
+    for (i, &x) in v.iter().enumerate() {
+        sum[i + 1] = sum[i] + x;
+        sq[i + 1] = sq[i] + (x * x) as i128;
+    }
+    let mean = |a: usize, b: usize| (sum[b] - sum[a]) as f64 / (b - a) as f64;
+    let sse = |a: usize, b: usize| {
+        let s = (sum[b] - sum[a]) as i128;
+        (sq[b] - sq[a]) as f64 - (s * s) as f64 / (b - a) as f64
+    };
+    let (lo, hi) = (v[0] as f64, v[n - 1] as f64);
+    let mut c: Vec<f64> = (0..k).map(|i| lo + (hi - lo) * (i as f64 + 0.5) / k as f64).collect();
+    for _ in 0..1000 {
+        // the runs of sorted values nearest each code; empty ones dropped
+        let mut runs = Vec::with_capacity(k);
+        let mut a = 0;
+        for i in 0..c.len() {
+            let b = if i + 1 < c.len() { v.partition_point(|&x| (x as f64) < 0.5 * (c[i] + c[i + 1])) } else { n };
+            if b > a {
+                runs.push((a, b));
+            }
+            a = b;
+        }
+        // refill: split the run with the most error at its mean
+        while runs.len() < k {
+            let (i, &(a, b)) =
+                runs.iter().enumerate().max_by(|x, y| sse(x.1 .0, x.1 .1).total_cmp(&sse(y.1 .0, y.1 .1))).unwrap();
+            if v[a] == v[b - 1] {
+                break; // every run is one distinct value
+            }
+            let m = a + v[a..b].partition_point(|&x| (x as f64) <= mean(a, b)).clamp(1, b - a - 1);
+            runs.splice(i..=i, [(a, m), (m, b)]);
+        }
+        let next: Vec<f64> = runs.iter().map(|&(a, b)| mean(a, b)).collect();
+        if next == c {
+            break;
+        }
+        c = next;
+    }
+    let mut codes: Vec<i16> = c.iter().map(|x| x.round() as i16).collect();
+    codes.dedup();
+    codes.resize(k, *codes.last().unwrap_or(&0));
+    codes
+}
+
 /// A model with random weights for tests and benchmarks: He-uniform
 /// weights (PyTorch's default scaled by √6, so activations keep their
 /// magnitude through the layers and the image has structure), the density
@@ -660,4 +764,48 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
         }
     }
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::lloyd_max;
+
+    fn sse(values: &[i16], codes: &[i16]) -> i64 {
+        values.iter().map(|&v| codes.iter().map(|&c| (c as i64 - v as i64).pow(2)).min().unwrap()).sum()
+    }
+
+    /// On values bunched near zero with a long tail (as a trained table's
+    /// are), the codebook has less than half the squared error of the even one over
+    /// the same range it starts from, keeps the extremes within reach, and
+    /// comes out sorted and distinct.
+    #[test]
+    fn lloyd_max_codes_beat_even_codes_on_a_peaked_distribution() {
+        // a Laplace spread of scale 200 (half the values within ±139), tails to ±1 842
+        let values: Vec<i16> = (1..20_000i64)
+            .map(|i| {
+                let u = (i * 7919 % 20_000) as f64 / 20_000.0 - 0.5;
+                (-u.signum() * 200.0 * (1.0 - 2.0 * u.abs()).max(1e-7).ln()).clamp(-30_000.0, 30_000.0) as i16
+            })
+            .collect();
+        let (lo, hi) = (*values.iter().min().unwrap() as f64, *values.iter().max().unwrap() as f64);
+        for k in [16usize, 256] {
+            let codes = lloyd_max(&values, k);
+            assert_eq!(codes.len(), k);
+            assert!(codes.windows(2).all(|c| c[0] < c[1]), "{k} codes not sorted and distinct: {codes:?}");
+            let even: Vec<i16> =
+                (0..k).map(|i| (lo + (hi - lo) * (i as f64 + 0.5) / k as f64).round() as i16).collect();
+            let (got, start) = (sse(&values, &codes), sse(&values, &even));
+            println!("{k} codes: squared error {got} against {start} with even codes");
+            assert!(got * 2 < start, "{k} codes: {got} against {start}");
+        }
+    }
+
+    /// Fewer distinct values than codes: each value is a code, exactly.
+    #[test]
+    fn lloyd_max_codes_every_value_of_a_small_set() {
+        let values = [-7i16, 3, 3, 3, 100, -7, 12];
+        let codes = lloyd_max(&values, 16);
+        assert_eq!(sse(&values, &codes), 0, "{codes:?}");
+        assert_eq!(lloyd_max(&[], 4), [0; 4]);
+    }
 }

@@ -641,6 +641,7 @@ mod tests {
             frac_bits: 0,
             resolutions: nerf_infer::features::geometric_resolutions(3, 1, 5),
             table: &[],
+            narrow: None,
         };
         let enc = Encoding { pos_freqs: 1, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 6 };
         let m = Mlp::new(topo, enc).with_features(Some(f));
@@ -658,6 +659,7 @@ mod tests {
             frac_bits: 0,
             resolutions: nerf_infer::features::geometric_resolutions(3, 2, 9),
             table: &[],
+            narrow: None,
         };
         let enc = Encoding { pos_freqs: 0, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 6 };
         let m = Mlp::new(topo, enc).with_features(Some(f));

@@ -1,6 +1,6 @@
 //! `nerf export`: writes the model with 32-, 16- or 8-bit weights.
 
-use super::{decode, read_model, write_atomic, ActBits, CmdResult, WeightBits};
+use super::{decode, read_model, write_atomic, ActBits, CmdResult, TableBits, WeightBits};
 use nerf_infer::Scheme;
 use nerf_train::export::{quantise_layers, OwnedModel};
 use std::path::PathBuf;
@@ -17,6 +17,12 @@ pub struct Args {
     /// (ReLU outputs u8, the feature layer i8; the encoding stays 16-bit).
     #[arg(long, value_enum, default_value_t = ActBits::A16)]
     pub act_bits: ActBits,
+    /// Bits per value of the feature table in an integer model: 16 (i16),
+    /// or 8 or 4 with a shift per level (format version 7): 2× or 4× fewer
+    /// table bytes, the values rounded to fewer steps (measure the PSNR with
+    /// `nerf eval`). Renders through the portable lookup, not the AVX2 one.
+    #[arg(long, value_enum, default_value_t = TableBits::T16)]
+    pub table_bits: TableBits,
     /// Coarsen the occupancy grid to this many cells per axis (a divisor of
     /// the model's): 8× fewer grid bytes per halving, a little more empty
     /// space sampled, nothing occupied lost.
@@ -59,7 +65,16 @@ fn refuse_foreign_file(out: &std::path::Path) -> CmdResult {
 impl Args {
     /// `nerf export MODEL --bits BITS --out OUT` with every other flag at its default.
     pub fn new(model: PathBuf, bits: WeightBits, out: PathBuf) -> Self {
-        Self { model, bits, act_bits: ActBits::A16, grid_res: None, int8_layers: Vec::new(), coarse: None, out }
+        Self {
+            model,
+            bits,
+            act_bits: ActBits::A16,
+            table_bits: TableBits::T16,
+            grid_res: None,
+            int8_layers: Vec::new(),
+            coarse: None,
+            out,
+        }
     }
 }
 
@@ -67,6 +82,12 @@ impl Args {
 pub fn run(a: Args) -> CmdResult {
     if a.act_bits == ActBits::A8 && a.bits != WeightBits::I8 {
         return Err("--act-bits 8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into());
+    }
+    if a.table_bits != TableBits::T16 && a.bits == WeightBits::F32 {
+        return Err(format!(
+            "--table-bits {} needs --bits 16 or 8 (an f32 model keeps an f32 table)",
+            a.table_bits.bits()
+        ));
     }
     if !a.int8_layers.is_empty() && a.bits != WeightBits::I16 {
         return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
@@ -94,6 +115,10 @@ pub fn run(a: Args) -> CmdResult {
                 .map_err(|e| format!("{}: {e}", a.model.display()))?
         }
     };
+    if a.table_bits != TableBits::T16 {
+        nerf_train::export::narrow_table(&mut owned, a.table_bits.bits())
+            .map_err(|e| format!("{}: --table-bits {}: {e}", a.model.display(), a.table_bits.bits()))?;
+    }
     if let Some(r) = a.grid_res {
         nerf_train::export::coarsen_grid(&mut owned, r).map_err(|e| format!("{}: {e}", a.model.display()))?;
     }
@@ -106,6 +131,10 @@ pub fn run(a: Args) -> CmdResult {
         WeightBits::F32 => String::new(),
         _ => format!(", {}-bit activations", a.act_bits.bits()),
     };
-    eprintln!("wrote {} ({} bytes, {}-bit weights{acts})", a.out.display(), out.len(), a.bits.bits());
+    let table = match a.table_bits {
+        TableBits::T16 => String::new(),
+        t => format!(", {}-bit feature table", t.bits()),
+    };
+    eprintln!("wrote {} ({} bytes, {}-bit weights{acts}{table})", a.out.display(), out.len(), a.bits.bits());
     Ok(())
 }

@@ -41,6 +41,8 @@ pub fn run(a: Args) -> CmdResult {
         "features": m.features.as_ref().map(|f| serde_json::json!({
             "levels": f.levels(), "width": f.width, "log2_table": f.log2_table, "frac_bits": f.frac_bits,
             "resolutions": f.resolutions.as_slice(), "bytes": f.table.len(),
+            "value_bits": f.narrow.map_or(if m.scheme().is_fixed() { 16 } else { 32 }, |n| n.bits),
+            "codebook_bytes": f.narrow.map_or(0, |n| n.codebook.len()),
         })),
         "scheme": format!("{:?}", m.scheme()),
         "scene": { "bounds_min": m.scene.bounds_min, "bounds_max": m.scene.bounds_max, "near": m.scene.near, "far": m.scene.far,
@@ -134,7 +136,17 @@ pub fn run(a: Args) -> CmdResult {
             r[r.len() - 1],
             f.log2_table,
             f.table.len(),
-            if m.scheme().is_fixed() { format!(" (i16, Q{})", f.frac_bits) } else { String::new() }
+            match f.narrow {
+                Some(n) => format!(
+                    " ({}-bit indices into a codebook of {} i16 values per level, Q{}, {} bytes)",
+                    n.bits,
+                    1 << n.bits,
+                    f.frac_bits,
+                    n.codebook.len()
+                ),
+                None if m.scheme().is_fixed() => format!(" (i16, Q{})", f.frac_bits),
+                None => String::new(),
+            }
         );
     }
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);

@@ -81,6 +81,31 @@ pub enum WeightBits {
     I8,
 }
 
+/// `--table-bits` of `nerf export`: bits per value of the feature table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum TableBits {
+    /// i16 (every integer model's table unless told otherwise).
+    #[value(name = "16")]
+    T16,
+    /// 8-bit values, a shift per level (format version 7).
+    #[value(name = "8")]
+    T8,
+    /// 4-bit values, two per byte, a shift per level (format version 7).
+    #[value(name = "4")]
+    T4,
+}
+
+impl TableBits {
+    /// Bits per value.
+    pub fn bits(self) -> u8 {
+        match self {
+            TableBits::T16 => 16,
+            TableBits::T8 => 8,
+            TableBits::T4 => 4,
+        }
+    }
+}
+
 impl WeightBits {
     /// The model scheme.
     pub fn scheme(self) -> nerf_infer::Scheme {

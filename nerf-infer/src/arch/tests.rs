@@ -251,6 +251,7 @@ impl FeatureCase {
             frac_bits: 9,
             resolutions: geometric_resolutions(self.levels, self.min, self.max),
             table: &self.table,
+            narrow: None,
         }
     }
 }

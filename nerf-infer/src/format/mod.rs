@@ -1,11 +1,11 @@
-//! The model file format (versions 1 to 6). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 7). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–6)  |
+//! | 4      | 2    | format version, u16 little-endian (1–7)  |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
@@ -14,8 +14,10 @@
 //! another, the optional learned feature grid ([`FeatureGrid`]); version 4
 //! the optional record of the training capture's split ([`Capture`]);
 //! version 5 unbounded space ([`Unbounded`]); version 6 the parts of an
-//! int8 model kept at 16 bits ([`Precise`]). A model is written as the
-//! oldest version that holds it (no 16-bit parts: 5; not
+//! int8 model kept at 16 bits ([`Precise`]); version 7 a feature table
+//! stored as 8- or 4-bit codebook indices ([`NarrowTable`]). A model is written as the
+//! oldest version that holds it (no narrow table: 6; no 16-bit parts
+//! either: 5; not
 //! unbounded either: 4; no capture record
 //! either: 3; no feature grid either: 2; no occupancy grid and no pruned
 //! layer either: 1), byte for byte what earlier builds wrote, so older readers
@@ -39,14 +41,14 @@ pub use records::{
 };
 
 use crate::error::{Error, Result};
-pub use crate::features::FeatureGrid;
+pub use crate::features::{FeatureGrid, NarrowTable};
 pub use crate::occupancy::Occupancy;
 use serde::{Deserialize, Serialize};
 
 pub use crate::limits::{
     FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_FEATURES, FORMAT_VERSION_NO_GRID,
-    FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS,
-    MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
+    FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE,
+    MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
 };
 pub use crate::tensor::{read_f32, read_i16, read_i32};
 
@@ -87,6 +89,10 @@ pub struct Model<'a> {
     /// same as each network's `precise`.
     #[serde(borrow)]
     pub precise: Option<Precise<'a>>,
+    /// The feature table's values as 8- or 4-bit codebook indices (format
+    /// version 7), the same as `features.narrow`.
+    #[serde(borrow)]
+    pub narrow: Option<NarrowTable<'a>>,
 }
 
 impl<'a> Model<'a> {
@@ -99,6 +105,9 @@ impl<'a> Model<'a> {
         de.finalize().map_err(|_| Error::Decode)?;
         model.encoding.grid_dim = model.features.as_ref().map_or(0, |f| f.dim() as u8);
         model.scene.unbounded = model.unbounded;
+        if let Some(f) = &mut model.features {
+            f.narrow = model.narrow;
+        }
         if let Some(p) = model.precise {
             model.coarse.precise = Some(p.coarse);
             if let Some(f) = &mut model.fine {
@@ -153,12 +162,14 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 6 with 16-bit parts,
-    /// 5 with unbounded space, 4 with a capture record, 3
+    /// The format version this model is written as: 7 with a narrow feature
+    /// table, 6 with 16-bit parts, 5 with unbounded space, 4 with a capture record, 3
     /// with a feature grid, 2 with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.precise.is_some() {
+        if self.narrow.is_some() {
             FORMAT_VERSION
+        } else if self.precise.is_some() {
+            FORMAT_VERSION_NO_NARROW
         } else if self.unbounded.is_some() {
             FORMAT_VERSION_NO_PRECISE
         } else if self.capture.is_some() {
@@ -177,9 +188,9 @@ impl<'a> Model<'a> {
         self.grid.map_or(0, |g| g.bits.len())
     }
 
-    /// Bytes of the feature grid's table (0 without one).
+    /// Bytes of the feature grid's table and codebook (0 without a grid).
     pub fn feature_bytes(&self) -> usize {
-        self.features.as_ref().map_or(0, |f| f.table.len())
+        self.features.as_ref().map_or(0, |f| f.table.len() + f.narrow.map_or(0, |n| n.codebook.len()))
     }
 
     /// Total bytes of all tensors (weights, biases, scales, requant, and the
@@ -302,12 +313,44 @@ mod tests {
         let table = [0u8; 8 * 2 * 2]; // 1 cell: 8 vertices of 2 i16
         let mut m = Model::from_bytes(include_bytes!("../../tests/data/golden.nerf")).unwrap();
         let resolutions = heapless::Vec::from_slice(&[1]).unwrap();
-        m.features = Some(FeatureGrid { width: 2, log2_table: 3, frac_bits: 8, resolutions, table: &table });
+        m.features =
+            Some(FeatureGrid { width: 2, log2_table: 3, frac_bits: 8, resolutions, table: &table, narrow: None });
         let e = Model::from_bytes(&encode(&m).unwrap()).unwrap_err();
         if cfg!(feature = "feature-grid") {
             assert_eq!(e, Error::LayerShape(0));
         } else {
             assert!(matches!(e, Error::Capacity(s) if s.contains("feature-grid")), "{e:?}");
         }
+    }
+
+    /// A narrow feature table makes a version-7 model; one that the model
+    /// and its grid disagree on, without a grid, or in an f32 model is
+    /// refused. (A valid one round trips in the workspace's tests/features.rs.)
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn narrow_tables_are_version_7_and_checked() {
+        let table = [0u8; 8 * 2 / 2]; // 1 cell: 8 vertices of 2 4-bit indices
+        let codebook = [0u8; 16 * 2];
+        let narrow = NarrowTable { bits: 4, codebook: &codebook };
+        let mut m = Model::from_bytes(include_bytes!("../../tests/data/golden8.nerf")).unwrap();
+        let resolutions = heapless::Vec::from_slice(&[1]).unwrap();
+        let grid =
+            FeatureGrid { width: 2, log2_table: 3, frac_bits: 8, resolutions, table: &table, narrow: Some(narrow) };
+        m.features = Some(grid.clone());
+        m.narrow = Some(narrow);
+        assert_eq!(m.format_version(), 7);
+        let refused = |m: &Model<'_>| Model::from_bytes(&encode(m).unwrap()).unwrap_err();
+        // consistent: the checks pass the table and fail later on layer 0's missing grid inputs
+        if cfg!(feature = "feature-grid") {
+            assert_eq!(refused(&m), Error::LayerShape(0));
+        }
+        let mut bad = m.clone();
+        bad.features = Some(FeatureGrid { narrow: None, ..grid.clone() });
+        assert!(matches!(bad.validate(), Err(Error::InvalidEncoding(s)) if s.contains("narrow")));
+        bad.features = None;
+        assert!(matches!(bad.validate(), Err(Error::InvalidEncoding(s)) if s.contains("narrow")));
+        let mut f = m.clone();
+        f.coarse.scheme = Scheme::F32;
+        assert!(matches!(f.validate(), Err(Error::InvalidEncoding(s)) if s.contains("f32")));
     }
 }

@@ -72,6 +72,12 @@ impl Model<'_> {
         if self.features.is_some() && !cfg!(feature = "feature-grid") {
             return Err(Error::Capacity("feature grid (nerf-infer built without its `feature-grid` feature)"));
         }
+        if self.narrow != self.features.as_ref().and_then(|f| f.narrow) {
+            return Err(Error::InvalidEncoding("the narrow table differs from the feature grid's or has no grid"));
+        }
+        if self.narrow.is_some() && !self.scheme().is_fixed() {
+            return Err(Error::InvalidEncoding("a narrow feature table in an f32 model"));
+        }
         let elem = if self.scheme().is_fixed() { 2 } else { 4 };
         if self.features.as_ref().is_some_and(|f| !f.is_valid(elem)) {
             return Err(Error::InvalidEncoding("feature grid shape, range or table length"));

@@ -28,7 +28,13 @@ struct LevelLanes {
 /// integer steps in lanes (bit-identical), the 8 corners read with gathers.
 pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
     // the gathers below read entry `base + e` of 4 bytes for e < entries(l)
-    assert!(g.width == 2 && g.table.len() >= 2 * g.values() && at + g.dim() <= N && pos.len() <= out.len());
+    assert!(
+        g.width == 2
+            && g.narrow.is_none()
+            && g.table.len() >= 2 * g.values()
+            && at + g.dim() <= N
+            && pos.len() <= out.len()
+    );
     let mut base = 0;
     for l0 in (0..g.levels()).step_by(8) {
         let k = (g.levels() - l0).min(8);
