@@ -224,6 +224,9 @@ fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
             let cam = orbit_camera(&mn.scene, turn, 24, 24);
             assert_eq!(render(&mn, &cam), render(&me, &cam), "{bits}-bit table, view {turn}");
         }
+        // a narrow table is not narrowed again
+        let e = narrow_table(&mut owned.clone(), 4).unwrap_err();
+        assert!(e.contains("already narrow"), "{e}");
         // each value is its level's nearest code
         let (f, original) = (mn.features.as_ref().unwrap(), table_values(&mw));
         let book = f.narrow.unwrap().codebook;
@@ -239,4 +242,42 @@ fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
             }
         }
     }
+}
+
+/// A model with a 4-bit table, its bytes flipped at random (the checksum
+/// recomputed, half the flips in the record of the codes at the end):
+/// every variant is a typed error or a model that renders in-range pixels.
+#[test]
+fn a_corrupted_narrow_table_model_is_refused_or_renders_in_range() {
+    use nerf_infer::format::{crc32, HEADER_LEN};
+    let f32_bytes = random_model(&feature_config(), unit_scene(), 5, 8.0).to_bytes().unwrap();
+    let mut owned = quantise(&Model::from_bytes(&f32_bytes).unwrap(), Scheme::I8).unwrap();
+    narrow_table(&mut owned, 4).unwrap();
+    let blob = owned.to_bytes().unwrap();
+    let tail = 2 * (4 << 4) + 8; // the codebook, its length and the bits
+    let (mut decoded, mut refused) = (0, 0);
+    for k in 0..3000u64 {
+        let mut b = blob.clone();
+        let h = (k + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let pos = if k % 2 == 0 {
+            b.len() - 1 - (h >> 40) as usize % tail
+        } else {
+            HEADER_LEN + (h >> 40) as usize % (b.len() - HEADER_LEN)
+        };
+        b[pos] ^= 1 << (h & 7);
+        let crc = crc32(&b[HEADER_LEN..]);
+        b[10..14].copy_from_slice(&crc.to_le_bytes());
+        match Model::from_bytes(&b) {
+            Ok(m) => {
+                decoded += 1;
+                let cam = orbit_camera(&m.scene, 0.3, 6, 6);
+                if let Ok(img) = nerf_train::eval::render_view(&m, RenderOptions::from_model(&m), &cam) {
+                    assert!(img.rgb.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "flip {k} at {pos}");
+                }
+            }
+            Err(_) => refused += 1,
+        };
+    }
+    println!("{decoded} variants decoded and rendered, {refused} refused");
+    assert!(decoded > 500 && refused > 100, "{decoded} decoded, {refused} refused");
 }

@@ -74,6 +74,7 @@ impl NarrowTable<'_> {
     /// Q`frac_bits`.
     #[inline(always)]
     pub fn value(&self, table: &[u8], l: usize, k: usize) -> i32 {
+        debug_assert!(matches!(self.bits, 4 | 8), "{} bits", self.bits);
         let q = if self.bits == 8 { table[k] } else { (table[k / 2] >> (4 * (k & 1))) & 0xF } as usize;
         let e = 2 * ((l << self.bits) + q);
         i16::from_le_bytes([self.codebook[e], self.codebook[e + 1]]) as i32
@@ -447,10 +448,11 @@ mod tests {
     /// A narrow table's features are those of the i16 table holding each
     /// index's codebook value: 8- and 4-bit indices (the even value of a
     /// byte in its low nibble), each level its own codebook, extreme codes
-    /// included.
+    /// included; widths 2 and 1 (155 values: an odd count, the last byte's
+    /// high nibble unused).
     #[test]
     fn narrow_indices_read_their_level_codebooks_like_an_i16_table() {
-        for bits in [8u8, 4] {
+        for (bits, width) in [(8u8, 2u8), (4, 2), (8, 1), (4, 1)] {
             let codes = 1usize << bits;
             // level l, index q: a distinct value per level, the extremes at both ends
             let code = |l: usize, q: usize| match q {
@@ -461,36 +463,39 @@ mod tests {
             let codebook: [u8; 3 * 256 * 2] =
                 core::array::from_fn(|b| code(b / 2 / codes, b / 2 % codes).to_le_bytes()[b % 2]);
             let codebook = &codebook[..3 * codes * 2];
+            let g = FeatureGrid { width, ..grid(&[], 13) };
+            let n = g.values();
             let index: [usize; N] = core::array::from_fn(|k| ((k * 2_654_435_761usize) >> 7) % codes);
-            let packed: [u8; N] = core::array::from_fn(|b| {
-                if bits == 8 {
-                    index[b] as u8
-                } else {
-                    (index[(2 * b) % N] | index[(2 * b + 1) % N] << 4) as u8
-                }
-            });
-            let packed = &packed[..N * bits as usize / 8];
-            let g = grid(&[], 13);
-            let level_of = |k: usize| (0..3).rfind(|&l| k >= g.offset(l) * 2).unwrap();
+            let at = |k: usize| if k < n { index[k] } else { 0 };
+            let packed: [u8; N] =
+                core::array::from_fn(|b| if bits == 8 { at(b) as u8 } else { (at(2 * b) | at(2 * b + 1) << 4) as u8 });
+            let packed = &packed[..(n * bits as usize).div_ceil(8)];
+            let level_of = |k: usize| (0..3).rfind(|&l| k >= g.offset(l) * width as usize).unwrap();
             let wide: [u8; 2 * N] = core::array::from_fn(|b| code(level_of(b / 2), index[b / 2]).to_le_bytes()[b % 2]);
             let narrow = NarrowTable { bits, codebook };
-            let gn = FeatureGrid { narrow: Some(narrow), ..grid(packed, 13) };
-            let gw = grid(&wide, 13);
-            assert!(gn.is_valid(2) && gw.is_valid(2));
-            assert_eq!(gn.table_bytes(2), N * bits as usize / 8);
+            let gn = FeatureGrid { narrow: Some(narrow), table: packed, ..g.clone() };
+            let gw = FeatureGrid { table: &wide[..2 * n], ..g.clone() };
+            assert!(gn.is_valid(2) && gw.is_valid(2), "{bits}-bit indices, width {width}");
+            assert_eq!(gn.table_bytes(2), (n * bits as usize).div_ceil(8));
             let (mut on, mut ow) = ([0i16; 6], [0i16; 6]);
+            let dim = g.dim();
             for k in 0..3000u32 {
                 let h = |s: u32| (k.wrapping_mul(2_654_435_761) ^ s).wrapping_mul(0x9E37_79B9) as i32 >> 6;
-                gn.encode_fixed([h(1), h(2), h(3)], &mut on);
-                gw.encode_fixed([h(1), h(2), h(3)], &mut ow);
-                assert_eq!(on, ow, "{bits}-bit indices, position {k}");
+                gn.encode_fixed([h(1), h(2), h(3)], &mut on[..dim]);
+                gw.encode_fixed([h(1), h(2), h(3)], &mut ow[..dim]);
+                assert_eq!(on, ow, "{bits}-bit indices, width {width}, position {k}");
             }
+            // at the finest level's top corner the feature is that vertex's code, exactly
+            gn.encode_fixed([1 << NPOS_FRAC; 3], &mut on[..dim]);
+            let last = g.entry(9, [9, 9, 9]) as usize + g.offset(2);
+            assert_eq!(on[dim - width as usize], code(2, index[last * width as usize]));
             // a table or codebook of the wrong length, or other bits, is refused
-            assert!(!FeatureGrid { narrow: Some(narrow), ..grid(&packed[1..], 13) }.is_valid(2));
+            assert!(!FeatureGrid { table: &packed[1..], ..gn.clone() }.is_valid(2));
             let short = NarrowTable { codebook: &codebook[2..], ..narrow };
-            assert!(!FeatureGrid { narrow: Some(short), ..grid(packed, 13) }.is_valid(2));
-            let six = NarrowTable { bits: 6, ..narrow };
-            assert!(!FeatureGrid { narrow: Some(six), ..grid(packed, 13) }.is_valid(2));
+            assert!(!FeatureGrid { narrow: Some(short), ..gn.clone() }.is_valid(2));
+            for other in [0, 6, 16] {
+                assert!(!FeatureGrid { narrow: Some(NarrowTable { bits: other, ..narrow }), ..gn.clone() }.is_valid(2));
+            }
         }
     }
 }

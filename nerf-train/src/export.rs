@@ -631,8 +631,9 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
 /// The feature table of an integer model stored as `bits`-bit (8 or 4)
 /// indices into a codebook of `2^bits` i16 values per level (format
 /// version 7, [`NarrowTable`]). Each level's codebook is the Lloyd–Max
-/// quantiser of its values (1-D k-means from their quantiles, least
-/// squared error), so most codes go where most values are, near zero.
+/// quantiser of its values (1-D k-means from even codes over their range,
+/// a local least squared error), so most codes go where most values are,
+/// near zero; each value stores its nearest code.
 pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
     if !m.coarse.scheme.is_fixed() {
         return Err("a narrow feature table needs an integer model (--bits 16 or 8)".into());
@@ -685,9 +686,10 @@ fn lloyd_max(values: &[i16], k: usize) -> Vec<i16> {
         sq[i + 1] = sq[i] + (x * x) as i128;
     }
     let mean = |a: usize, b: usize| (sum[b] - sum[a]) as f64 / (b - a) as f64;
-    let sse = |a: usize, b: usize| {
+    // a run's squared error, its numerator exact in i128 (up to 2²⁵ values of up to 2¹⁵)
+    let sse = |&(a, b): &(usize, usize)| {
         let s = (sum[b] - sum[a]) as i128;
-        (sq[b] - sq[a]) as f64 - (s * s) as f64 / (b - a) as f64
+        ((sq[b] - sq[a]) * (b - a) as i128 - s * s) as f64 / (b - a) as f64
     };
     let (lo, hi) = (v[0] as f64, v[n - 1] as f64);
     let mut c: Vec<f64> = (0..k).map(|i| lo + (hi - lo) * (i as f64 + 0.5) / k as f64).collect();
@@ -702,12 +704,12 @@ fn lloyd_max(values: &[i16], k: usize) -> Vec<i16> {
             }
             a = b;
         }
-        // refill: split the run with the most error at its mean
+        // refill: split the run with the most error at its mean (a run of
+        // one distinct value has none, exactly, and is never split)
         while runs.len() < k {
-            let (i, &(a, b)) =
-                runs.iter().enumerate().max_by(|x, y| sse(x.1 .0, x.1 .1).total_cmp(&sse(y.1 .0, y.1 .1))).unwrap();
+            let (i, &(a, b)) = runs.iter().enumerate().max_by(|x, y| sse(x.1).total_cmp(&sse(y.1))).unwrap();
             if v[a] == v[b - 1] {
-                break; // every run is one distinct value
+                break; // the most error is none: every run is one distinct value
             }
             let m = a + v[a..b].partition_point(|&x| (x as f64) <= mean(a, b)).clamp(1, b - a - 1);
             runs.splice(i..=i, [(a, m), (m, b)]);

@@ -17,10 +17,12 @@ pub struct Args {
     /// (ReLU outputs u8, the feature layer i8; the encoding stays 16-bit).
     #[arg(long, value_enum, default_value_t = ActBits::A16)]
     pub act_bits: ActBits,
-    /// Bits per value of the feature table in an integer model: 16 (i16),
-    /// or 8 or 4 with a shift per level (format version 7): 2× or 4× fewer
-    /// table bytes, the values rounded to fewer steps (measure the PSNR with
-    /// `nerf eval`). Renders through the portable lookup, not the AVX2 one.
+    /// Bits per value of the feature table in an integer model: 16 (i16
+    /// values), or 8 or 4: indices into a codebook of 256 or 16 i16 values
+    /// per level, fitted to the level's values (Lloyd–Max; format version
+    /// 7). About 2× or 4× fewer table bytes, each value moved to its nearest
+    /// code (measure the PSNR with `nerf eval`). Renders through the
+    /// portable lookup, not the AVX2 one.
     #[arg(long, value_enum, default_value_t = TableBits::T16)]
     pub table_bits: TableBits,
     /// Coarsen the occupancy grid to this many cells per axis (a divisor of

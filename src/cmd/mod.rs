@@ -87,10 +87,10 @@ pub enum TableBits {
     /// i16 (every integer model's table unless told otherwise).
     #[value(name = "16")]
     T16,
-    /// 8-bit values, a shift per level (format version 7).
+    /// 8-bit indices into a codebook of 256 i16 values per level (format version 7).
     #[value(name = "8")]
     T8,
-    /// 4-bit values, two per byte, a shift per level (format version 7).
+    /// 4-bit indices, two per byte, into a codebook of 16 i16 values per level (format version 7).
     #[value(name = "4")]
     T4,
 }

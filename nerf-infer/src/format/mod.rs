@@ -323,9 +323,10 @@ mod tests {
         }
     }
 
-    /// A narrow feature table makes a version-7 model; one that the model
-    /// and its grid disagree on, without a grid, or in an f32 model is
-    /// refused. (A valid one round trips in the workspace's tests/features.rs.)
+    /// A narrow feature table makes a version-7 model. Files whose table,
+    /// codebook or bits disagree, with codes but no grid, or with codes in
+    /// an f32 model are refused with `InvalidEncoding` (a valid one round
+    /// trips in the workspace's tests/features.rs).
     #[cfg(feature = "alloc")]
     #[test]
     fn narrow_tables_are_version_7_and_checked() {
@@ -339,16 +340,33 @@ mod tests {
         m.features = Some(grid.clone());
         m.narrow = Some(narrow);
         assert_eq!(m.format_version(), 7);
-        let refused = |m: &Model<'_>| Model::from_bytes(&encode(m).unwrap()).unwrap_err();
+        let decoded = |m: &Model<'_>| Model::from_bytes(&encode(m).unwrap()).map(|_| ());
         // consistent: the checks pass the table and fail later on layer 0's missing grid inputs
-        if cfg!(feature = "feature-grid") {
-            assert_eq!(refused(&m), Error::LayerShape(0));
+        if !cfg!(feature = "feature-grid") {
+            return;
         }
-        let mut bad = m.clone();
-        bad.features = Some(FeatureGrid { narrow: None, ..grid.clone() });
-        assert!(matches!(bad.validate(), Err(Error::InvalidEncoding(s)) if s.contains("narrow")));
-        bad.features = None;
-        assert!(matches!(bad.validate(), Err(Error::InvalidEncoding(s)) if s.contains("narrow")));
+        assert_eq!(decoded(&m), Err(Error::LayerShape(0)));
+        let invalid = |m: &Model<'_>| matches!(decoded(m), Err(Error::InvalidEncoding(_)));
+        for bits in [0, 5, 8, 16, 255] {
+            let other = NarrowTable { bits, ..narrow };
+            let bad = Model {
+                narrow: Some(other),
+                features: Some(FeatureGrid { narrow: Some(other), ..grid.clone() }),
+                ..m.clone()
+            };
+            assert!(invalid(&bad), "{bits} bits");
+        }
+        let short = NarrowTable { codebook: &codebook[2..], ..narrow };
+        let bad = Model {
+            narrow: Some(short),
+            features: Some(FeatureGrid { narrow: Some(short), ..grid.clone() }),
+            ..m.clone()
+        };
+        assert!(invalid(&bad));
+        let bad = Model { features: Some(FeatureGrid { table: &table[1..], ..grid.clone() }), ..m.clone() };
+        assert!(invalid(&bad));
+        let bad = Model { features: None, ..m.clone() };
+        assert!(invalid(&bad));
         let mut f = m.clone();
         f.coarse.scheme = Scheme::F32;
         assert!(matches!(f.validate(), Err(Error::InvalidEncoding(s)) if s.contains("f32")));
