@@ -631,9 +631,11 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
 /// The feature table of an integer model stored as `bits`-bit (8 or 4)
 /// indices into a codebook of `2^bits` i16 values per level (format
 /// version 7, [`NarrowTable`]). Each level's codebook is the Lloyd–Max
-/// quantiser of its values (1-D k-means from even codes over their range,
-/// a local least squared error), so most codes go where most values are,
-/// near zero; each value stores its nearest code.
+/// quantiser of its values, each value weighted by how much the renders
+/// read it ([`value_weights`]): 1-D k-means from even codes over the
+/// values' range, a local least weighted squared error, so the codes go
+/// where the values that reach the pixels are. Each value stores its
+/// nearest code.
 pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
     if !m.coarse.scheme.is_fixed() {
         return Err("a narrow feature table needs an integer model (--bits 16 or 8)".into());
@@ -647,12 +649,14 @@ pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
     if m.narrow.is_some() {
         return Err("the feature table is already narrow".into());
     }
+    let weights = value_weights(shape, m.grid.as_ref());
     let w = shape.width as usize;
     let mut index = Vec::with_capacity(shape.values());
     let mut codebook = Vec::with_capacity(shape.levels() << bits);
     for l in 0..shape.levels() {
-        let level: Vec<i16> = (shape.offset(l) * w..shape.offset(l + 1) * w).map(|k| read_i16(table, k)).collect();
-        let codes = lloyd_max(&level, 1 << bits);
+        let range = shape.offset(l) * w..shape.offset(l + 1) * w;
+        let level: Vec<i16> = range.clone().map(|k| read_i16(table, k)).collect();
+        let codes = lloyd_max(&level, &weights[range], 1 << bits);
         // the nearest code: codes are sorted, so below the first midpoint above the value
         let mids: Vec<i32> = codes.windows(2).map(|c| (c[0] as i32 + c[1] as i32).div_euclid(2)).collect();
         index.extend(level.iter().map(|&t| mids.partition_point(|&m| m < t as i32) as u8));
@@ -666,64 +670,126 @@ pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
     Ok(())
 }
 
-/// `k` sorted i16 codes that quantise `values` with the least squared
-/// error Lloyd's iterations reach from `k` even codes over the values'
-/// range. A code left without values moves to split the cluster with the
-/// most squared error, so no code is wasted while a cluster holds two
-/// distinct values; fewer distinct values than codes leave the surplus
-/// codes repeating the largest.
-fn lloyd_max(values: &[i16], k: usize) -> Vec<i16> {
-    let mut v: Vec<i64> = values.iter().map(|&x| x as i64).collect();
-    v.sort_unstable();
+/// Each table value's weight in the fit of its level's codes: the
+/// trilinear weight its entry takes, summed over points on an even lattice
+/// within the occupied cells of the occupancy grid `grid` (the cells a
+/// render evaluates; the whole bounds without a grid), about 32 points per
+/// value and at most 2²¹; plus a floor of 10⁻³ of the mean weight, so that
+/// values no point reads still count a little.
+fn value_weights(shape: &FeatureGrid<'_>, grid: Option<&(u16, Vec<u8>)>) -> Vec<f64> {
+    let (res, occupied): (usize, Vec<[usize; 3]>) = match grid {
+        Some((r, bits)) => {
+            let r = *r as usize;
+            let cells = (0..r * r * r).filter(|&i| bits[i / 8] >> (i % 8) & 1 == 1);
+            (r, cells.map(|i| [i % r, i / r % r, i / (r * r)]).collect())
+        }
+        None => (1, vec![[0; 3]]),
+    };
+    let w = shape.width as usize;
+    let mut weights = vec![0.0f64; shape.values()];
+    let points = (32 * shape.values()).min(1 << 21);
+    // points per cell: s³ on a lattice of cell centres' offsets
+    let s = ((points as f64 / occupied.len().max(1) as f64).cbrt().round() as usize).max(1);
+    let step = 2.0 / (res * s) as f32;
+    for c in &occupied {
+        for j in 0..s * s * s {
+            let sub = [j % s, j / s % s, j / (s * s)];
+            let p: [f32; 3] = core::array::from_fn(|a| -1.0 + ((c[a] * s + sub[a]) as f32 + 0.5) * step);
+            for l in 0..shape.levels() {
+                let corners = shape.corners_f32(l, p);
+                let base = shape.offset(l);
+                for (e, cw) in corners.entry.iter().zip(corners.weight) {
+                    let k = (base + *e as usize) * w;
+                    weights[k..k + w].iter_mut().for_each(|v| *v += cw as f64);
+                }
+            }
+        }
+    }
+    let floor = 1e-3 * weights.iter().sum::<f64>() / weights.len().max(1) as f64;
+    weights.iter_mut().for_each(|v| *v += floor.max(f64::MIN_POSITIVE));
+    weights
+}
+
+/// `k` sorted i16 codes that quantise `values`, each counted with its
+/// weight (> 0), with the least weighted squared error Lloyd's iterations
+/// reach from two starts: `k` even codes over the values' range, and the
+/// values' weighted quantiles (the better of the two is kept). A code left
+/// without values moves to split the cluster with the most weighted
+/// squared error, so no code is wasted while a cluster holds two distinct
+/// values; fewer distinct values than codes leave the surplus codes
+/// repeating the largest.
+fn lloyd_max(values: &[i16], weights: &[f64], k: usize) -> Vec<i16> {
+    let mut v: Vec<(i64, f64)> = values.iter().zip(weights).map(|(&x, &w)| (x as i64, w)).collect();
+    v.sort_unstable_by_key(|p| p.0);
     let n = v.len();
     if n == 0 {
         return vec![0; k];
     }
-    // prefix sums of values and squares: a run's mean and squared error in O(1)
-    let (mut sum, mut sq) = (vec![0i64; n + 1], vec![0i128; n + 1]);
-    for (i, &x) in v.iter().enumerate() {
-        sum[i + 1] = sum[i] + x;
-        sq[i + 1] = sq[i] + (x * x) as i128;
+    // prefix sums of w, w·x and w·x²: a run's weighted mean and squared error in O(1)
+    let (mut sw, mut swx, mut swxx) = (vec![0.0f64; n + 1], vec![0.0f64; n + 1], vec![0.0f64; n + 1]);
+    for (i, &(x, w)) in v.iter().enumerate() {
+        let x = x as f64;
+        (sw[i + 1], swx[i + 1], swxx[i + 1]) = (sw[i] + w, swx[i] + w * x, swxx[i] + w * x * x);
     }
-    let mean = |a: usize, b: usize| (sum[b] - sum[a]) as f64 / (b - a) as f64;
-    // a run's squared error, its numerator exact in i128 (up to 2²⁵ values of up to 2¹⁵)
-    let sse = |&(a, b): &(usize, usize)| {
-        let s = (sum[b] - sum[a]) as i128;
-        ((sq[b] - sq[a]) * (b - a) as i128 - s * s) as f64 / (b - a) as f64
-    };
-    let (lo, hi) = (v[0] as f64, v[n - 1] as f64);
-    let mut c: Vec<f64> = (0..k).map(|i| lo + (hi - lo) * (i as f64 + 0.5) / k as f64).collect();
-    for _ in 0..1000 {
-        // the runs of sorted values nearest each code; empty ones dropped
+    let mean = |a: usize, b: usize| (swx[b] - swx[a]) / (sw[b] - sw[a]);
+    let sse = |&(a, b): &(usize, usize)| (swxx[b] - swxx[a]) - (swx[b] - swx[a]).powi(2) / (sw[b] - sw[a]);
+    // the runs of sorted values nearest each code; empty ones dropped
+    let runs_of = |c: &[f64]| {
         let mut runs = Vec::with_capacity(k);
         let mut a = 0;
         for i in 0..c.len() {
-            let b = if i + 1 < c.len() { v.partition_point(|&x| (x as f64) < 0.5 * (c[i] + c[i + 1])) } else { n };
+            let b = if i + 1 < c.len() { v.partition_point(|p| (p.0 as f64) < 0.5 * (c[i] + c[i + 1])) } else { n };
             if b > a {
                 runs.push((a, b));
             }
             a = b;
         }
-        // refill: split the run with the most error at its mean (a run of
-        // one distinct value has none, exactly, and is never split)
-        while runs.len() < k {
-            let (i, &(a, b)) = runs.iter().enumerate().max_by(|x, y| sse(x.1).total_cmp(&sse(y.1))).unwrap();
-            if v[a] == v[b - 1] {
-                break; // the most error is none: every run is one distinct value
+        runs
+    };
+    let lloyd = |mut c: Vec<f64>| {
+        for _ in 0..1000 {
+            let mut runs = runs_of(&c);
+            // refill: split the run of two or more distinct values with the most error at its mean
+            while runs.len() < k {
+                let splittable = runs.iter().enumerate().filter(|(_, &(a, b))| v[a].0 != v[b - 1].0);
+                let Some((i, &(a, b))) = splittable.max_by(|x, y| sse(x.1).total_cmp(&sse(y.1))) else {
+                    break; // every run is one distinct value
+                };
+                let m = a + v[a..b].partition_point(|p| (p.0 as f64) <= mean(a, b)).clamp(1, b - a - 1);
+                runs.splice(i..=i, [(a, m), (m, b)]);
             }
-            let m = a + v[a..b].partition_point(|&x| (x as f64) <= mean(a, b)).clamp(1, b - a - 1);
-            runs.splice(i..=i, [(a, m), (m, b)]);
+            let next: Vec<f64> = runs.iter().map(|&(a, b)| mean(a, b)).collect();
+            if next == c {
+                break;
+            }
+            c = next;
         }
-        let next: Vec<f64> = runs.iter().map(|&(a, b)| mean(a, b)).collect();
-        if next == c {
-            break;
-        }
-        c = next;
+        let mut codes: Vec<i16> = c.iter().map(|x| x.round() as i16).collect();
+        codes.dedup();
+        codes.resize(k, *codes.last().unwrap_or(&0));
+        codes
+    };
+    let (lo, hi) = (v[0].0 as f64, v[n - 1].0 as f64);
+    let even = lloyd((0..k).map(|i| lo + (hi - lo) * (i as f64 + 0.5) / k as f64).collect());
+    let quantiles = lloyd({
+        let mut q: Vec<f64> = (0..k)
+            .map(|i| v[sw.partition_point(|&s| s < sw[n] * (i as f64 + 0.5) / k as f64).clamp(1, n) - 1].0 as f64)
+            .collect();
+        q.dedup();
+        q
+    });
+    // the weighted squared error of sorted codes, each value at its nearest code
+    let error = |codes: &[i16]| {
+        let mids: Vec<f64> = codes.windows(2).map(|c| 0.5 * (c[0] as f64 + c[1] as f64)).collect();
+        v.iter()
+            .map(|&(x, w)| w * (x - codes[mids.partition_point(|&m| m < x as f64)] as i64).pow(2) as f64)
+            .sum::<f64>()
+    };
+    if error(&quantiles) < error(&even) {
+        quantiles
+    } else {
+        even
     }
-    let mut codes: Vec<i16> = c.iter().map(|x| x.round() as i16).collect();
-    codes.dedup();
-    codes.resize(k, *codes.last().unwrap_or(&0));
-    codes
 }
 
 /// A model with random weights for tests and benchmarks: He-uniform
@@ -770,10 +836,63 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
 
 #[cfg(test)]
 mod tests {
-    use super::lloyd_max;
+    use super::{lloyd_max, value_weights};
+    use nerf_infer::features::{geometric_resolutions, FeatureGrid};
 
     fn sse(values: &[i16], codes: &[i16]) -> i64 {
         values.iter().map(|&v| codes.iter().map(|&c| (c as i64 - v as i64).pow(2)).min().unwrap()).sum()
+    }
+
+    fn weighted_sse(values: &[i16], weights: &[f64], codes: &[i16]) -> f64 {
+        let err = |v: i16| codes.iter().map(|&c| (c as f64 - v as f64).powi(2)).fold(f64::MAX, f64::min);
+        values.iter().zip(weights).map(|(&v, &w)| w * err(v)).sum()
+    }
+
+    /// Values that count little (weight 10⁻⁴) spread wide around a bunch
+    /// that counts: the weighted codes have less weighted error than codes
+    /// fitted without the weights, and more of them sit in the bunch.
+    #[test]
+    fn weights_pull_the_codes_to_the_values_that_count() {
+        let values: Vec<i16> = (0..4000i32)
+            .map(|i| if i % 2 == 0 { (i * 37 % 401 - 200) as i16 } else { (i * 7919 % 60_001 - 30_000) as i16 })
+            .collect();
+        let weights: Vec<f64> = (0..4000).map(|i| if i % 2 == 0 { 1.0 } else { 1e-4 }).collect();
+        let even = vec![1.0; values.len()];
+        let (weighted, plain) = (lloyd_max(&values, &weights, 16), lloyd_max(&values, &even, 16));
+        let (a, b) = (weighted_sse(&values, &weights, &weighted), weighted_sse(&values, &weights, &plain));
+        println!("weighted error {a:.0} with weighted codes, {b:.0} with plain ones");
+        assert!(a < b, "{a} against {b}");
+        let in_bunch = |codes: &[i16]| codes.iter().filter(|c| c.abs() <= 200).count();
+        println!("codes in the bunch: {} weighted, {} plain", in_bunch(&weighted), in_bunch(&plain));
+        assert!(in_bunch(&weighted) > in_bunch(&plain), "{weighted:?} against {plain:?}");
+    }
+
+    /// With one occupied cell of a 2³ occupancy grid, the vertices of that
+    /// octant (a dense level) take weight; the rest keep only the floor.
+    #[test]
+    fn value_weights_follow_the_occupied_cells() {
+        let shape = FeatureGrid {
+            width: 1,
+            log2_table: 10,
+            frac_bits: 0,
+            resolutions: geometric_resolutions(1, 4, 4),
+            table: &[],
+            narrow: None,
+        };
+        let grid = (2u16, vec![0b0000_0001u8]); // cell (0, 0, 0): x, y, z < 0
+        let w = value_weights(&shape, Some(&grid));
+        assert_eq!(w.len(), 125);
+        let floor = w.iter().cloned().fold(f64::MAX, f64::min);
+        for (e, &v) in w.iter().enumerate() {
+            let vertex = [e % 5, e / 5 % 5, e / 25];
+            // the octant's cells span vertices 0..=2 per axis
+            let inside = vertex.iter().all(|&i| i <= 2);
+            assert_eq!(v > floor * 10.0, inside, "vertex {vertex:?}: weight {v} (floor {floor})");
+        }
+        // without a grid every vertex is read
+        let all = value_weights(&shape, None);
+        let least = all.iter().cloned().fold(f64::MAX, f64::min);
+        assert!(least > 1e-3 * all.iter().sum::<f64>() / 125.0 * 10.0, "{least}");
     }
 
     /// On values bunched near zero with a long tail (as a trained table's
@@ -791,7 +910,7 @@ mod tests {
             .collect();
         let (lo, hi) = (*values.iter().min().unwrap() as f64, *values.iter().max().unwrap() as f64);
         for k in [16usize, 256] {
-            let codes = lloyd_max(&values, k);
+            let codes = lloyd_max(&values, &vec![1.0; values.len()], k);
             assert_eq!(codes.len(), k);
             assert!(codes.windows(2).all(|c| c[0] < c[1]), "{k} codes not sorted and distinct: {codes:?}");
             let even: Vec<i16> =
@@ -806,8 +925,8 @@ mod tests {
     #[test]
     fn lloyd_max_codes_every_value_of_a_small_set() {
         let values = [-7i16, 3, 3, 3, 100, -7, 12];
-        let codes = lloyd_max(&values, 16);
+        let codes = lloyd_max(&values, &[1.0; 7], 16);
         assert_eq!(sse(&values, &codes), 0, "{codes:?}");
-        assert_eq!(lloyd_max(&[], 4), [0; 4]);
+        assert_eq!(lloyd_max(&[], &[], 4), [0; 4]);
     }
 }
