@@ -134,9 +134,7 @@ def table_bits_section():
 `nerf export --bits 8 --table-bits B` (16: i16 values; 8 and 4: indices
 into a codebook of 256 or 16 values per level), and each export evaluated
 with `nerf eval --split val --early-stop 1e-3 --threads 1 --repeat 2` on
-the 10 validation views. Table bytes include the codebooks. The 8- and
-4-bit tables are read by the portable lookup, the i16 one by the AVX2
-lookup.""", t if rs else missing("table-bits"))
+the 10 validation views. Table bytes include the codebooks.""", t if rs else missing("table-bits"))
 
 
 TREATMENTS = """- `auto`: no flag but the preset; the scene model (object box, forward-facing

@@ -56,7 +56,9 @@ pub struct FeatureGrid<'a> {
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct NarrowTable<'a> {
     /// Bits per stored index: 8 (one per byte) or 4 (two per byte, value
-    /// `2m` in the low nibble of byte `m`, `2m + 1` in the high one).
+    /// `2m` in the low nibble of byte `m`, `2m + 1` in the high one). The
+    /// table is padded with zero bytes to whole 4-byte words, so that a
+    /// reader may load the aligned word that holds an entry.
     pub bits: u8,
     /// `levels × 2^bits` i16 LE: level `l`'s value for index `q` at
     /// element `l·2^bits + q`.
@@ -65,9 +67,9 @@ pub struct NarrowTable<'a> {
 }
 
 impl NarrowTable<'_> {
-    /// Bytes of a table of `values` values.
+    /// Bytes of a table of `values` values, padded to whole 4-byte words.
     pub fn bytes(&self, values: usize) -> usize {
-        (values * self.bits as usize).div_ceil(8)
+        (values * self.bits as usize).div_ceil(32) * 4
     }
 
     /// Value `k` of `table`, in level `l`'s codebook: an i16 in
@@ -449,7 +451,7 @@ mod tests {
     /// index's codebook value: 8- and 4-bit indices (the even value of a
     /// byte in its low nibble), each level its own codebook, extreme codes
     /// included; widths 2 and 1 (155 values: an odd count, the last byte's
-    /// high nibble unused).
+    /// high nibble unused), the tables padded to whole 4-byte words.
     #[test]
     fn narrow_indices_read_their_level_codebooks_like_an_i16_table() {
         for (bits, width) in [(8u8, 2u8), (4, 2), (8, 1), (4, 1)] {
@@ -467,16 +469,17 @@ mod tests {
             let n = g.values();
             let index: [usize; N] = core::array::from_fn(|k| ((k * 2_654_435_761usize) >> 7) % codes);
             let at = |k: usize| if k < n { index[k] } else { 0 };
-            let packed: [u8; N] =
+            // padded with zeros to whole 4-byte words
+            let packed: [u8; N + 4] =
                 core::array::from_fn(|b| if bits == 8 { at(b) as u8 } else { (at(2 * b) | at(2 * b + 1) << 4) as u8 });
-            let packed = &packed[..(n * bits as usize).div_ceil(8)];
+            let packed = &packed[..(n * bits as usize).div_ceil(32) * 4];
             let level_of = |k: usize| (0..3).rfind(|&l| k >= g.offset(l) * width as usize).unwrap();
             let wide: [u8; 2 * N] = core::array::from_fn(|b| code(level_of(b / 2), index[b / 2]).to_le_bytes()[b % 2]);
             let narrow = NarrowTable { bits, codebook };
             let gn = FeatureGrid { narrow: Some(narrow), table: packed, ..g.clone() };
             let gw = FeatureGrid { table: &wide[..2 * n], ..g.clone() };
             assert!(gn.is_valid(2) && gw.is_valid(2), "{bits}-bit indices, width {width}");
-            assert_eq!(gn.table_bytes(2), (n * bits as usize).div_ceil(8));
+            assert_eq!(gn.table_bytes(2), (n * bits as usize).div_ceil(32) * 4);
             let (mut on, mut ow) = ([0i16; 6], [0i16; 6]);
             let dim = g.dim();
             for k in 0..3000u32 {

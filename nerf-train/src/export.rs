@@ -666,6 +666,8 @@ pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
         8 => index,
         _ => index.chunks(2).map(|p| p[0] | p.get(1).copied().unwrap_or(0) << 4).collect(),
     };
+    // padded with zeros to whole 4-byte words
+    table.resize(table.len().next_multiple_of(4), 0);
     m.narrow = Some((bits, codebook.iter().flat_map(|c| c.to_le_bytes()).collect()));
     Ok(())
 }

@@ -21,8 +21,8 @@ pub struct Args {
     /// values), or 8 or 4: indices into a codebook of 256 or 16 i16 values
     /// per level, fitted to the values the occupied cells read (Lloyd–Max;
     /// format version 7). About 2× or 4× fewer table bytes, each value
-    /// moved to its nearest code (measure the PSNR with `nerf eval`).
-    /// Renders through the portable lookup, not the AVX2 one.
+    /// moved to its nearest code (measure the PSNR and the time per ray
+    /// with `nerf eval`).
     #[arg(long, value_enum, default_value_t = TableBits::T16)]
     pub table_bits: TableBits,
     /// Coarsen the occupancy grid to this many cells per axis (a divisor of

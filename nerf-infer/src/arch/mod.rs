@@ -136,13 +136,12 @@ pub fn sin_turns_q15_slice(phases: &[u32], out: &mut [i16]) {
 }
 
 /// [`FeatureGrid::encode_fixed`] at every position of `pos`, into
-/// `out[s][at..at + g.dim()]` (bit for bit; with AVX2, width-2 grids of
-/// i16 values take 8 levels per register; narrow tables use the portable
-/// lookup).
+/// `out[s][at..at + g.dim()]` (bit for bit; with AVX2, width-2 grids take
+/// 8 levels per register, i16 or narrow tables).
 #[inline]
 pub fn feature_rows<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    if g.width == 2 && g.narrow.is_none() {
+    if g.width == 2 {
         avx2::features_w2(g, pos, out, at);
         return;
     }

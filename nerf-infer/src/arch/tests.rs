@@ -7,7 +7,7 @@ extern crate std;
 use std::vec::Vec;
 
 use super::*;
-use crate::features::geometric_resolutions;
+use crate::features::{geometric_resolutions, NarrowTable};
 use crate::fixed::{Requant, NPOS_FRAC};
 use crate::layer::{accumulate, requant_rows, Input};
 
@@ -233,9 +233,11 @@ fn requant_vnni(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
 
 // ---- feature-grid lookups
 
-/// A width-2 grid's table and the positions to look up.
+/// A width-2 grid's table (and a narrow table's bits and codebook) and
+/// the positions to look up.
 struct FeatureCase {
     table: Vec<u8>,
+    narrow: Option<(u8, Vec<u8>)>,
     levels: usize,
     min: u16,
     max: u16,
@@ -251,30 +253,48 @@ impl FeatureCase {
             frac_bits: 9,
             resolutions: geometric_resolutions(self.levels, self.min, self.max),
             table: &self.table,
-            narrow: None,
+            narrow: self.narrow.as_ref().map(|(bits, codebook)| NarrowTable { bits: *bits, codebook }),
         }
     }
 }
 
 /// Dense and hashed levels, one and two register groups, extreme table
-/// values; positions beyond the bounds, on the faces and at vertices.
+/// values; i16 tables and narrow ones (8- and 4-bit indices, each level's
+/// codebook with the extreme i16 values); positions beyond the bounds, on
+/// the faces and at vertices.
 fn feature_cases() -> Vec<FeatureCase> {
     let shapes = [(3, 2, 9, 6), (8, 16, 256, 10), (16, 1, 4096, 10), (9, 4, 600, 8)];
     let one = 1i32 << NPOS_FRAC;
     let mut cases = Vec::new();
-    for (shape, (levels, min, max, log2)) in shapes.into_iter().enumerate() {
-        let mut case = FeatureCase { table: Vec::new(), levels, min, max, log2, pos: [[0; 3]; 64] };
+    for (shape, bits) in (0..shapes.len()).flat_map(|s| [(s, 16u8), (s, 8), (s, 4)]) {
+        let (levels, min, max, log2) = shapes[shape];
+        let mut case = FeatureCase { table: Vec::new(), narrow: None, levels, min, max, log2, pos: [[0; 3]; 64] };
         let values = case.grid().values();
-        case.table = (0..2 * values)
-            .map(|b| {
-                let h = (b as u32 ^ (shape as u32) << 20).wrapping_mul(0x9E37_79B9);
-                if shape == 2 {
-                    [0x00, 0x80, 0xFF, 0x7F][(h >> 30) as usize]
-                } else {
-                    (h >> 24) as u8
-                }
-            })
-            .collect();
+        let byte = |b: usize| {
+            let h = (b as u32 ^ (shape as u32) << 20 ^ (bits as u32) << 26).wrapping_mul(0x9E37_79B9);
+            if shape == 2 {
+                [0x00, 0x80, 0xFF, 0x7F][(h >> 30) as usize]
+            } else {
+                (h >> 24) as u8
+            }
+        };
+        if bits == 16 {
+            case.table = (0..2 * values).map(byte).collect();
+        } else {
+            let narrow = NarrowTable { bits, codebook: &[] };
+            case.table = (0..narrow.bytes(values)).map(byte).collect();
+            let codebook = (0..levels << bits)
+                .flat_map(|k| {
+                    match k % (1 << bits) {
+                        0 => i16::MIN,
+                        1 => i16::MAX,
+                        _ => (byte(k + 7) as i16) << 8 | byte(k + 11) as i16,
+                    }
+                    .to_le_bytes()
+                })
+                .collect();
+            case.narrow = Some((bits, codebook));
+        }
         assert!(case.grid().is_valid(2));
         for (k, p) in case.pos.iter_mut().enumerate() {
             let h = |s: u32| (k as u32 ^ s << 8).wrapping_mul(2_654_435_761).rotate_left(s) as i32;

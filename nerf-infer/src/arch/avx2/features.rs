@@ -1,4 +1,6 @@
-//! Feature-grid lookups of width-2 grids on AVX2, 8 levels per register.
+//! Feature-grid lookups of width-2 grids on AVX2, 8 levels per register:
+//! i16 tables, and narrow tables whose codebook values are gathered per
+//! lane (each lane a level with its own codebook).
 
 #![allow(unsafe_code)]
 
@@ -21,24 +23,54 @@ struct LevelLanes {
     mask: [i32; 8],
     /// First entry of the level in the table.
     base: [i32; 8],
+    /// Narrow tables: the level's first code in the codebook (`l·2^bits`).
+    code: [i32; 8],
+}
+
+/// Where a grid's values are: an i16 table, or a narrow table's indices
+/// and codebook (lengths as [`FeatureGrid::is_valid`] checks them: a
+/// narrow table is padded to whole 4-byte words, a codebook holds whole
+/// words).
+#[derive(Clone, Copy)]
+enum Values<'a> {
+    I16(&'a [u8]),
+    Narrow { table: &'a [u8], codebook: &'a [u8], bits: u8 },
 }
 
 /// [`FeatureGrid::encode_fixed`] of a width-2 grid at every position of
 /// `pos`, into `out[s][at..at + g.dim()]`: 8 levels per register, the same
 /// integer steps in lanes (bit-identical), the 8 corners read with gathers.
 pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
-    // the gathers below read entry `base + e` of 4 bytes for e < entries(l)
-    assert!(
-        g.width == 2
-            && g.narrow.is_none()
-            && g.table.len() >= 2 * g.values()
-            && at + g.dim() <= N
-            && pos.len() <= out.len()
-    );
+    // the gathers below read, for e < entries(l): entry `base + e` of 4
+    // bytes (i16), or the aligned 4-byte word holding its indices and the
+    // aligned words holding its codes (narrow)
+    let values = match g.narrow {
+        None => Values::I16(g.table),
+        Some(n) => Values::Narrow { table: g.table, codebook: n.codebook, bits: n.bits },
+    };
+    let in_bounds = match g.narrow {
+        None => g.table.len() >= 2 * g.values(),
+        Some(n) => {
+            matches!(n.bits, 4 | 8)
+                && g.table.len() == n.bytes(g.values())
+                && g.table.len().is_multiple_of(4)
+                && n.codebook.len() == 2 * (g.levels() << n.bits)
+        }
+    };
+    assert!(g.width == 2 && in_bounds && at + g.dim() <= N && pos.len() <= out.len());
+    let bits = g.narrow.map_or(0, |n| n.bits);
     let mut base = 0;
     for l0 in (0..g.levels()).step_by(8) {
         let k = (g.levels() - l0).min(8);
-        let mut c = LevelLanes { res: [1; 8], mul_y: [0; 8], mul_z: [0; 8], dense: [0; 8], mask: [0; 8], base: [0; 8] };
+        let mut c = LevelLanes {
+            res: [1; 8],
+            mul_y: [0; 8],
+            mul_z: [0; 8],
+            dense: [0; 8],
+            mask: [0; 8],
+            base: [0; 8],
+            code: [0; 8],
+        };
         for j in 0..k {
             let res = g.resolutions[l0 + j];
             let (mul, dense) = g.lattice(res);
@@ -47,13 +79,15 @@ pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]],
             c.dense[j] = if dense { -1 } else { 0 };
             c.mask[j] = ((1u32 << g.log2_table) - 1) as i32;
             c.base[j] = base as i32;
+            c.code[j] = ((l0 + j) << bits) as i32;
             base += g.entries(l0 + j);
         }
         for (p, o) in pos.iter().zip(out.iter_mut()) {
             // SAFETY: this module is compiled only with AVX2 enabled; every
             // lane's entry is below its level's count (hashed: masked;
-            // dense: < (N+1)³), so each read is inside the table (asserted).
-            unsafe { levels8(g.table, &c, *p, &mut o[at + 2 * l0..at + 2 * (l0 + k)]) };
+            // dense: < (N+1)³), so each read is inside the table, and each
+            // code inside the codebook (lengths asserted above).
+            unsafe { levels8(values, &c, *p, &mut o[at + 2 * l0..at + 2 * (l0 + k)]) };
         }
     }
 }
@@ -64,9 +98,12 @@ const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
 /// Up to 8 levels (`out.len() / 2`) of one position; see [`features_w2`].
 ///
 /// # Safety
-/// AVX2, and `4·(base + entry + 1) ≤ table.len()` for every lane's entries.
+/// AVX2, and every lane's entry `base + e` below the values' entries: for
+/// an i16 table `4·(base + e + 1) ≤ table.len()`; for a narrow one the
+/// table padded to whole words and the codebook holding `2^bits` codes
+/// for each lane's level.
 #[target_feature(enable = "avx2")]
-unsafe fn levels8(table: &[u8], c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
+unsafe fn levels8(values: Values<'_>, c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
     let one = |v: i32| _mm256_set1_epi32(v);
     // SAFETY: each array is 8 i32 (32 bytes) long.
     let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
@@ -110,9 +147,15 @@ unsafe fn levels8(table: &[u8], c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
         let sum = _mm256_add_epi32(_mm256_add_epi32(x, y), z);
         let hash = _mm256_and_si256(_mm256_xor_si256(_mm256_xor_si256(x, y), z), mask);
         let idx = _mm256_add_epi32(base, _mm256_blendv_epi8(hash, sum, dense));
-        // SAFETY: the caller's contract; each entry is 4 bytes (2 × i16 LE).
-        let v = unsafe { _mm256_i32gather_epi32::<4>(table.as_ptr().cast(), idx) };
-        let (v0, v1) = (_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(v)), _mm256_srai_epi32::<16>(v));
+        let (v0, v1) = match values {
+            Values::I16(table) => {
+                // SAFETY: the caller's contract; each entry is 4 bytes (2 × i16 LE).
+                let v = unsafe { _mm256_i32gather_epi32::<4>(table.as_ptr().cast(), idx) };
+                (_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(v)), _mm256_srai_epi32::<16>(v))
+            }
+            // SAFETY: the caller's contract (entries and codes in bounds, whole words).
+            Values::Narrow { table, codebook, bits } => unsafe { narrow_pair(table, codebook, bits, ld(&c.code), idx) },
+        };
         acc0 = _mm256_add_epi32(acc0, _mm256_mullo_epi32(wc, v0));
         acc1 = _mm256_add_epi32(acc1, _mm256_mullo_epi32(wc, v1));
     }
@@ -124,4 +167,37 @@ unsafe fn levels8(table: &[u8], c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
     // SAFETY: `all` is 16 i16 (32 bytes) long.
     unsafe { _mm256_storeu_si256(all.as_mut_ptr().cast(), packed) };
     out.copy_from_slice(&all[..out.len()]);
+}
+
+/// The two values of entry `idx` of a narrow width-2 table in each lane,
+/// sign-extended to i32: its two indices from the aligned 4-byte word that
+/// holds them (8 bits: 2 bytes at `2·idx`; 4 bits: the low and high nibble
+/// of byte `idx`), then each index's code from the aligned word of the
+/// codebook that holds code `code + q` (its low half when even).
+///
+/// # Safety
+/// AVX2; `table` padded to whole words and covering every lane's entry;
+/// `codebook` holding code `code + 2^bits − 1` of every lane.
+#[target_feature(enable = "avx2")]
+unsafe fn narrow_pair(table: &[u8], codebook: &[u8], bits: u8, code: __m256i, idx: __m256i) -> (__m256i, __m256i) {
+    let one = |v: i32| _mm256_set1_epi32(v);
+    let (word, shift, q_mask, q_step) = if bits == 8 {
+        (_mm256_srli_epi32::<1>(idx), _mm256_slli_epi32::<4>(_mm256_and_si256(idx, one(1))), one(0xFF), 8)
+    } else {
+        (_mm256_srli_epi32::<2>(idx), _mm256_slli_epi32::<3>(_mm256_and_si256(idx, one(3))), one(0xF), 4)
+    };
+    // SAFETY: the caller's contract: the word holding each lane's entry is in the table.
+    let w = unsafe { _mm256_i32gather_epi32::<4>(table.as_ptr().cast(), word) };
+    let q = _mm256_srlv_epi32(w, shift);
+    let q0 = _mm256_and_si256(q, q_mask);
+    let q1 = _mm256_and_si256(_mm256_srlv_epi32(q, _mm256_set1_epi32(q_step)), q_mask);
+    let code_of = |q: __m256i| {
+        let k = _mm256_add_epi32(code, q);
+        // SAFETY: the caller's contract: code k's word is in the codebook.
+        let w = unsafe { _mm256_i32gather_epi32::<4>(codebook.as_ptr().cast(), _mm256_srli_epi32::<1>(k)) };
+        // an even code is the word's low half: moved up before the sign-extending shift
+        let up = _mm256_xor_si256(_mm256_slli_epi32::<4>(_mm256_and_si256(k, one(1))), one(16));
+        _mm256_srai_epi32::<16>(_mm256_sllv_epi32(w, up))
+    };
+    (code_of(q0), code_of(q1))
 }
