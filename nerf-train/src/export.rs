@@ -631,11 +631,13 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
 /// The feature table of an integer model stored as `bits`-bit (8 or 4)
 /// indices into a codebook of `2^bits` i16 values per level (format
 /// version 7, [`NarrowTable`]). Each level's codebook is the Lloyd–Max
-/// quantiser of its values, each value weighted by how much the renders
-/// read it ([`value_weights`]): 1-D k-means from even codes over the
-/// values' range, a local least weighted squared error, so the codes go
-/// where the values that reach the pixels are. Each value stores its
-/// nearest code.
+/// quantiser of its values, each value weighted by how much a lattice of
+/// points in the occupancy grid's occupied cells reads it (the samples a
+/// render evaluates): 1-D k-means from the better of two starts (even
+/// codes over the values' range, their weighted quantiles), a local least
+/// weighted squared error, so the codes go where the values that reach
+/// the pixels are. Each value stores its nearest code; the table is padded
+/// to whole 4-byte words.
 pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
     if !m.coarse.scheme.is_fixed() {
         return Err("a narrow feature table needs an integer model (--bits 16 or 8)".into());
