@@ -501,4 +501,29 @@ mod tests {
             }
         }
     }
+
+    /// A narrow table fills whole 4-byte words: 27 values take 16 bytes of
+    /// 4-bit indices (14 unpadded) or 28 of 8-bit ones (27 unpadded).
+    #[test]
+    fn narrow_tables_are_padded_to_whole_words() {
+        let codebook = [0u8; 2 * 256];
+        let bytes = [0u8; 32];
+        // one level of 2 cells per axis: 27 dense vertices of 1 value
+        let g = FeatureGrid {
+            width: 1,
+            log2_table: 5,
+            frac_bits: 8,
+            resolutions: geometric_resolutions(1, 2, 2),
+            table: &[],
+            narrow: None,
+        };
+        assert_eq!(g.values(), 27);
+        for (bits, padded, unpadded) in [(4u8, 16, 14), (8, 28, 27)] {
+            let narrow = Some(NarrowTable { bits, codebook: &codebook[..2 << bits] });
+            assert!(FeatureGrid { table: &bytes[..padded], narrow, ..g.clone() }.is_valid(2), "{bits} bits");
+            for len in [unpadded, padded - 1, padded + 4] {
+                assert!(!FeatureGrid { table: &bytes[..len], narrow, ..g.clone() }.is_valid(2), "{bits} bits, {len} B");
+            }
+        }
+    }
 }

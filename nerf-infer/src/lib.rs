@@ -24,7 +24,9 @@
 //! and int8 models with integers only after a per-ray setup: positions and
 //! `t` in Q16 (±32768 world units), encoding features in Q15, colours and
 //! opacity in Q15 (`[0, 32768]`, [`PixelFixed`]), transmittance and weights
-//! in Q30, layer activations at per-layer scales fixed at export. Every shift
+//! in Q30, layer activations at per-layer scales fixed at export; the
+//! feature table i16 in the grid's Q format, or 8- or 4-bit indices into a
+//! per-level codebook of such values (format version 7). Every shift
 //! rounds half up and every narrowing saturates; the table and the rounding
 //! rules are in [`fixed`]. The two paths agree within bounds the workspace
 //! tests hold (on lego, int16 within 0.01 dB of f32).
@@ -39,8 +41,8 @@
 //!
 //! # Cargo features
 //!
-//! - `feature-grid` (default): the learned feature grid's lookups (format
-//!   version 3 and 4 models with `features`). Without it such models are
+//! - `feature-grid` (default): the learned feature grid's lookups (models
+//!   of format version 3 and later with `features`). Without it such models are
 //!   refused at load with [`Error::Capacity`], and a Cortex-M3 build is about
 //!   7 KB of flash smaller.
 //! - `alloc`: the model writer (`format::to_bytes`).

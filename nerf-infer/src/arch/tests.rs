@@ -287,7 +287,7 @@ fn feature_cases() -> Vec<FeatureCase> {
                 .flat_map(|k| {
                     match k % (1 << bits) {
                         0 => i16::MIN,
-                        1 => i16::MAX,
+                        q if q == (1 << bits) - 1 => i16::MAX,
                         _ => (byte(k + 7) as i16) << 8 | byte(k + 11) as i16,
                     }
                     .to_le_bytes()

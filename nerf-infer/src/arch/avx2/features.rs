@@ -48,16 +48,9 @@ pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]],
         None => Values::I16(g.table),
         Some(n) => Values::Narrow { table: g.table, codebook: n.codebook, bits: n.bits },
     };
-    let in_bounds = match g.narrow {
-        None => g.table.len() >= 2 * g.values(),
-        Some(n) => {
-            matches!(n.bits, 4 | 8)
-                && g.table.len() == n.bytes(g.values())
-                && g.table.len().is_multiple_of(4)
-                && n.codebook.len() == 2 * (g.levels() << n.bits)
-        }
-    };
-    assert!(g.width == 2 && in_bounds && at + g.dim() <= N && pos.len() <= out.len());
+    // (a valid grid's table and codebook have exactly the lengths they need,
+    // a narrow table in whole words, and its entry indices fit an i32)
+    assert!(g.width == 2 && g.is_valid(2) && at + g.dim() <= N && pos.len() <= out.len());
     let bits = g.narrow.map_or(0, |n| n.bits);
     let mut base = 0;
     for l0 in (0..g.levels()).step_by(8) {
