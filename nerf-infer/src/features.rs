@@ -230,9 +230,10 @@ impl FeatureGrid<'_> {
     }
 
     /// The `dim()` features at the Q24 normalised position `p` (i16 table,
-    /// or a [`NarrowTable`]'s indices of i16 values), as i16 with `frac_bits` fractional bits. Integer only: the cell and
-    /// the fractions (rounded to Q15) come from `u·N` in Q25, each corner
-    /// weight is the product of three Q15 factors rounded once to Q15, the
+    /// or a [`NarrowTable`]'s indices of i16 values), as i16 with
+    /// `frac_bits` fractional bits. Integer only: the cell and the fractions
+    /// (rounded to Q15) come from `u·N` in Q25, each corner weight is the
+    /// product of three Q15 factors rounded once to Q15, the
     /// blend is summed in i32 and rounded once. No overflow: the weights are
     /// ≥ 0 and sum to at most 2¹⁵ + 4 (4 roundings up of ½ beyond the exact
     /// sum 2¹⁵), so |Σ w·t| ≤ (2¹⁵ + 4)·2¹⁵ < 2³¹. Error against the exact

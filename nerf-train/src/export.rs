@@ -659,9 +659,8 @@ pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
         let range = shape.offset(l) * w..shape.offset(l + 1) * w;
         let level: Vec<i16> = range.clone().map(|k| read_i16(table, k)).collect();
         let codes = lloyd_max(&level, &weights[range], 1 << bits);
-        // the nearest code: codes are sorted, so below the first midpoint above the value
-        let mids: Vec<i32> = codes.windows(2).map(|c| (c[0] as i32 + c[1] as i32).div_euclid(2)).collect();
-        index.extend(level.iter().map(|&t| mids.partition_point(|&m| m < t as i32) as u8));
+        let nearest = nearest_code(&codes);
+        index.extend(level.iter().map(|&t| nearest(t as i64) as u8));
         codebook.extend(codes);
     }
     *table = match bits {
@@ -683,9 +682,9 @@ pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
 fn value_weights(shape: &FeatureGrid<'_>, grid: Option<&(u16, Vec<u8>)>) -> Vec<f64> {
     let (res, occupied): (usize, Vec<[usize; 3]>) = match grid {
         Some((r, bits)) => {
+            let g = format::Occupancy { res: *r, bits };
             let r = *r as usize;
-            let cells = (0..r * r * r).filter(|&i| bits[i / 8] >> (i % 8) & 1 == 1);
-            (r, cells.map(|i| [i % r, i / r % r, i / (r * r)]).collect())
+            (r, (0..r * r * r).filter(|&i| g.cell(i)).map(|i| [i % r, i / r % r, i / (r * r)]).collect())
         }
         None => (1, vec![[0; 3]]),
     };
@@ -784,16 +783,21 @@ fn lloyd_max(values: &[i16], weights: &[f64], k: usize) -> Vec<i16> {
     });
     // the weighted squared error of sorted codes, each value at its nearest code
     let error = |codes: &[i16]| {
-        let mids: Vec<f64> = codes.windows(2).map(|c| 0.5 * (c[0] as f64 + c[1] as f64)).collect();
-        v.iter()
-            .map(|&(x, w)| w * (x - codes[mids.partition_point(|&m| m < x as f64)] as i64).pow(2) as f64)
-            .sum::<f64>()
+        let nearest = nearest_code(codes);
+        v.iter().map(|&(x, w)| w * (x - codes[nearest(x)] as i64).pow(2) as f64).sum::<f64>()
     };
     if error(&quantiles) < error(&even) {
         quantiles
     } else {
         even
     }
+}
+
+/// The index of the code nearest a value among sorted `codes`: below the
+/// first midpoint between neighbours that lies above the value.
+fn nearest_code(codes: &[i16]) -> impl Fn(i64) -> usize {
+    let mids: Vec<i64> = codes.windows(2).map(|c| (c[0] as i64 + c[1] as i64).div_euclid(2)).collect();
+    move |x| mids.partition_point(|&m| m < x)
 }
 
 /// A model with random weights for tests and benchmarks: He-uniform

@@ -6,7 +6,7 @@
 
 use core::arch::x86_64::*;
 
-use crate::features::FeatureGrid;
+use crate::features::{FeatureGrid, NarrowTable};
 
 /// Per-lane constants of up to 8 levels of a width-2 feature grid (lanes
 /// past the last level look up entry 0 and are not written).
@@ -27,16 +27,6 @@ struct LevelLanes {
     code: [i32; 8],
 }
 
-/// Where a grid's values are: an i16 table, or a narrow table's indices
-/// and codebook (lengths as [`FeatureGrid::is_valid`] checks them: a
-/// narrow table is padded to whole 4-byte words, a codebook holds whole
-/// words).
-#[derive(Clone, Copy)]
-enum Values<'a> {
-    I16(&'a [u8]),
-    Narrow { table: &'a [u8], codebook: &'a [u8], bits: u8 },
-}
-
 /// [`FeatureGrid::encode_fixed`] of a width-2 grid at every position of
 /// `pos`, into `out[s][at..at + g.dim()]`: 8 levels per register, the same
 /// integer steps in lanes (bit-identical), the 8 corners read with gathers.
@@ -44,10 +34,6 @@ pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]],
     // the gathers below read, for e < entries(l): entry `base + e` of 4
     // bytes (i16), or the aligned 4-byte word holding its indices and the
     // aligned words holding its codes (narrow)
-    let values = match g.narrow {
-        None => Values::I16(g.table),
-        Some(n) => Values::Narrow { table: g.table, codebook: n.codebook, bits: n.bits },
-    };
     // (a valid grid's table and codebook have exactly the lengths they need,
     // a narrow table in whole words, and its entry indices fit an i32)
     assert!(g.width == 2 && g.is_valid(2) && at + g.dim() <= N && pos.len() <= out.len());
@@ -80,7 +66,7 @@ pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]],
             // lane's entry is below its level's count (hashed: masked;
             // dense: < (N+1)³), so each read is inside the table, and each
             // code inside the codebook (lengths asserted above).
-            unsafe { levels8(values, &c, *p, &mut o[at + 2 * l0..at + 2 * (l0 + k)]) };
+            unsafe { levels8(g.table, g.narrow, &c, *p, &mut o[at + 2 * l0..at + 2 * (l0 + k)]) };
         }
     }
 }
@@ -91,12 +77,13 @@ const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
 /// Up to 8 levels (`out.len() / 2`) of one position; see [`features_w2`].
 ///
 /// # Safety
-/// AVX2, and every lane's entry `base + e` below the values' entries: for
-/// an i16 table `4·(base + e + 1) ≤ table.len()`; for a narrow one the
-/// table padded to whole words and the codebook holding `2^bits` codes
-/// for each lane's level.
+/// AVX2, and every lane's entry `base + e` below the table's entries: for
+/// an i16 table (`narrow` none) `4·(base + e + 1) ≤ table.len()`; for a
+/// narrow one the table padded to whole words and the codebook holding
+/// `2^bits` codes for each lane's level (as [`FeatureGrid::is_valid`]
+/// checks them).
 #[target_feature(enable = "avx2")]
-unsafe fn levels8(values: Values<'_>, c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
+unsafe fn levels8(table: &[u8], narrow: Option<NarrowTable<'_>>, c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
     let one = |v: i32| _mm256_set1_epi32(v);
     // SAFETY: each array is 8 i32 (32 bytes) long.
     let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
@@ -127,7 +114,7 @@ unsafe fn levels8(values: Values<'_>, c: &LevelLanes, p: [i32; 3], out: &mut [i1
     let (my, mz) = (ld(&c.mul_y), ld(&c.mul_z));
     let py = [_mm256_mullo_epi32(cell[1], my), _mm256_mullo_epi32(up(cell[1]), my)];
     let pz = [_mm256_mullo_epi32(cell[2], mz), _mm256_mullo_epi32(up(cell[2]), mz)];
-    let (dense, mask, base) = (ld(&c.dense), ld(&c.mask), ld(&c.base));
+    let (dense, mask, base, code) = (ld(&c.dense), ld(&c.mask), ld(&c.base), ld(&c.code));
     let (mut acc0, mut acc1) = (_mm256_setzero_si256(), _mm256_setzero_si256());
     for k in 0..8 {
         let (wxy, wz) = (wxy[k & 3], w[2][k >> 2]);
@@ -140,14 +127,14 @@ unsafe fn levels8(values: Values<'_>, c: &LevelLanes, p: [i32; 3], out: &mut [i1
         let sum = _mm256_add_epi32(_mm256_add_epi32(x, y), z);
         let hash = _mm256_and_si256(_mm256_xor_si256(_mm256_xor_si256(x, y), z), mask);
         let idx = _mm256_add_epi32(base, _mm256_blendv_epi8(hash, sum, dense));
-        let (v0, v1) = match values {
-            Values::I16(table) => {
+        let (v0, v1) = match narrow {
+            None => {
                 // SAFETY: the caller's contract; each entry is 4 bytes (2 × i16 LE).
                 let v = unsafe { _mm256_i32gather_epi32::<4>(table.as_ptr().cast(), idx) };
                 (_mm256_srai_epi32::<16>(_mm256_slli_epi32::<16>(v)), _mm256_srai_epi32::<16>(v))
             }
             // SAFETY: the caller's contract (entries and codes in bounds, whole words).
-            Values::Narrow { table, codebook, bits } => unsafe { narrow_pair(table, codebook, bits, ld(&c.code), idx) },
+            Some(n) => unsafe { narrow_pair(table, n.codebook, n.bits, code, idx) },
         };
         acc0 = _mm256_add_epi32(acc0, _mm256_mullo_epi32(wc, v0));
         acc1 = _mm256_add_epi32(acc1, _mm256_mullo_epi32(wc, v1));
