@@ -193,6 +193,43 @@ fn a_config_file_overrides_the_named_preset() {
 }
 
 #[test]
+fn train_sizes_the_feature_grid_to_the_photos_unless_the_config_does() {
+    let d = tmp("fit-grid");
+    // 300-pixel photos of the built-in scene resolve 416 cells per axis of its bounds: a finest level
+    // of 512, one doubling of the preset's 256 and of its 2^15 table entries
+    let data = blender_scene(&d, 300, 2);
+    let train = |cfg: &str, name: &str, more: &[&str]| {
+        let file = d.join(format!("{name}.json"));
+        std::fs::write(&file, cfg).unwrap();
+        let run = d.join(name);
+        let args =
+            [&["train", "--data", s(&data), "--config", s(&file), "--val-views", "0", "--out", s(&run)], more].concat();
+        let o = support::cli::nerf(&args);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        let v: serde_json::Value = serde_json::from_str(&ok(&["info", s(&run.join("model.nerf")), "--json"])).unwrap();
+        let res = v["features"]["resolutions"].as_array().unwrap().last().unwrap().as_u64().unwrap();
+        (res, v["features"]["log2_table"].as_u64().unwrap(), err)
+    };
+    let (res, table, err) = train(r#"{"feature_levels": 2}"#, "fitted", &["--iters", "1"]);
+    assert_eq!((res, table), (512, 16));
+    assert!(err.contains("feature grid sized to the photos: finest level 512 cells per axis (was 256)"), "{err}");
+    // the same configuration resumes: the checkpoint's is the fitted one
+    let (res, table, _) = train(r#"{"feature_levels": 2}"#, "fitted", &["--iters", "2", "--resume"]);
+    assert_eq!((res, table), (512, 16));
+    // a configuration that names the finest level or the table keeps its grid
+    for (cfg, want) in [
+        (r#"{"feature_levels": 2, "feature_max_res": 256}"#, (256, 15)),
+        (r#"{"feature_levels": 2, "feature_log2_table": 12}"#, (256, 12)),
+    ] {
+        let (res, table, err) = train(cfg, "chosen", &["--iters", "1", "--force"]);
+        assert_eq!((res, table), want, "{cfg}");
+        assert!(!err.contains("sized to the photos"), "{err}");
+    }
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
 fn bad_inputs_give_one_line_errors() {
     let d = tmp("errs");
     std::fs::create_dir_all(&d).unwrap();

@@ -41,6 +41,21 @@ fn blender_layout_round_trips_and_downscales() {
 }
 
 #[test]
+fn the_cells_photos_resolve_follow_their_pixel_footprint() {
+    // the built-in scene: bounds ±1, cameras 4 from their centre, lego's field of view; two cells per
+    // pixel footprint (4 / focal) over the bounds' 2 units is the focal length in pixels: 22.2 at
+    // 16 pixels, 11.1 at 8, rounded up to a power of two
+    let d = tmp("footprint");
+    write_blender(&d, spec()).unwrap();
+    let cells = |downscale| load(&d, Split::Train, opts(Format::Auto, downscale)).unwrap().resolvable_cells();
+    assert_eq!((cells(1), cells(2)), (Some(32), Some(16)));
+    // forward-facing scenes live in NDC, where a world-space footprint says nothing
+    write_llff(&d.join("llff"), spec()).unwrap();
+    let llff = load(&d.join("llff"), Split::Train, opts(Format::Llff, 1)).unwrap();
+    assert_eq!(llff.resolvable_cells(), None);
+}
+
+#[test]
 fn llff_layout_loads_in_ndc_with_holdout() {
     let d = tmp("llff");
     write_llff(&d, spec()).unwrap();

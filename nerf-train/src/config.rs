@@ -226,6 +226,33 @@ impl TrainConfig {
         }
     }
 
+    /// Most table entries per level, as a power of two, that
+    /// [`Self::fit_features_to`] grows a feature grid's table to
+    /// (instant-ngp's largest: 2¹⁹ entries, 4 MiB of f32 per level of 2).
+    pub const FITTED_LOG2_TABLE: u8 = 19;
+
+    /// Sizes the feature grid to photos that resolve `cells` per axis
+    /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
+    /// when `cells` is above `feature_max_res`, the finest level becomes
+    /// `cells` (at most 4096) and the table gains a power of two of
+    /// entries per doubling of it (at most 2^[`Self::FITTED_LOG2_TABLE`]), so
+    /// the finest levels do not share their entries more than before. A
+    /// grid already as fine, or no grid, is left alone; returns whether
+    /// anything changed. On lego at 800×800 the fitted grid (2048 cells,
+    /// 2¹⁸ entries) gains 0.2 dB in 4 minutes where 2048 cells in 2¹⁵
+    /// entries lose 0.7 (docs/EXPERIMENTS.md).
+    pub fn fit_features_to(&mut self, cells: u32) -> bool {
+        let cells = cells.min(MAX_RES as u32) as u16;
+        if self.feature_levels == 0 || cells <= self.feature_max_res {
+            return false;
+        }
+        let doublings = (cells as f32 / self.feature_max_res as f32).log2().ceil() as u8;
+        self.feature_max_res = cells;
+        self.feature_log2_table =
+            self.feature_log2_table.max((self.feature_log2_table + doublings).min(Self::FITTED_LOG2_TABLE));
+        true
+    }
+
     /// The encoding this config trains.
     pub fn encoding(&self) -> Encoding {
         Encoding {
@@ -345,5 +372,35 @@ impl TrainConfig {
             return Err("lr, lr_final_ratio, eps must be positive and betas in [0, 1)".into());
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fitting_the_feature_grid_only_ever_refines_it() {
+        // 256 cells in 2^15 entries: 2048 cells are three doublings, three more powers of two of entries
+        let mut c = TrainConfig::features();
+        assert!(c.fit_features_to(2048));
+        assert_eq!((c.feature_max_res, c.feature_log2_table), (2048, 18));
+        assert!(c.validate().is_ok());
+        // a grid as fine as the photos, or finer, is left alone
+        for cells in [2048, 1024, 1] {
+            assert!(!c.fit_features_to(cells));
+            assert_eq!((c.feature_max_res, c.feature_log2_table), (2048, 18));
+        }
+        // at most MAX_RES cells and 2^19 entries; a table already larger keeps its size
+        let mut c = TrainConfig::features();
+        assert!(c.fit_features_to(1 << 20));
+        assert_eq!((c.feature_max_res, c.feature_log2_table), (MAX_RES, TrainConfig::FITTED_LOG2_TABLE));
+        let mut c = TrainConfig { feature_log2_table: 21, ..TrainConfig::features() };
+        assert!(c.fit_features_to(512));
+        assert_eq!((c.feature_max_res, c.feature_log2_table), (512, 21));
+        // a configuration without a feature grid has nothing to fit
+        let mut c = TrainConfig::grid();
+        assert!(!c.fit_features_to(4096));
+        assert_eq!(c, TrainConfig::grid());
     }
 }

@@ -95,12 +95,35 @@ impl From<PruneArg> for Prune {
     }
 }
 
-fn load_config(a: &Args) -> Result<TrainConfig, String> {
+/// A new run's configuration, from `--preset` and `--config`.
+#[derive(Clone, Debug)]
+struct NewRun {
+    /// The preset with the file's fields on top.
+    cfg: TrainConfig,
+    /// Size the feature grid to the photos ([`TrainConfig::fit_features_to`]):
+    /// unless `--config` names `feature_max_res` or `feature_log2_table`.
+    fit_features: bool,
+}
+
+impl NewRun {
+    /// The configuration to train on `data`: with `fit_features`, its feature
+    /// grid sized to what the photos resolve.
+    fn for_data(&self, data: &Dataset) -> TrainConfig {
+        let mut cfg = self.cfg.clone();
+        if let Some(cells) = data.resolvable_cells().filter(|_| self.fit_features) {
+            cfg.fit_features_to(cells);
+        }
+        cfg
+    }
+}
+
+fn load_config(a: &Args) -> Result<NewRun, String> {
     let base = match &a.preset {
         Some(p) => TrainConfig::preset(p)
             .ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, features, paper)"))?,
         None => TrainConfig::default_preset(),
     };
+    let mut fit_features = true;
     let cfg = match &a.config {
         None => base,
         Some(path) => {
@@ -110,6 +133,7 @@ fn load_config(a: &Args) -> Result<TrainConfig, String> {
             let serde_json::Value::Object(over) = over else {
                 return Err(bad(&"expected a JSON object of configuration fields"));
             };
+            fit_features = !over.contains_key("feature_max_res") && !over.contains_key("feature_log2_table");
             // the preset's fields, then the file's on top of them
             let mut merged = serde_json::to_value(&base).map_err(|e| bad(&e))?;
             if let Some(m) = merged.as_object_mut() {
@@ -119,7 +143,7 @@ fn load_config(a: &Args) -> Result<TrainConfig, String> {
         }
     };
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    Ok(cfg)
+    Ok(NewRun { cfg, fit_features })
 }
 
 /// The validation views, or none if the dataset has no such split.
@@ -164,8 +188,8 @@ fn catch_interrupts() {
     });
 }
 
-/// `--resume` continues the checkpoint's run: a `--downscale`, `--preset`
-/// or `--config` that says otherwise is refused, naming what differs.
+/// `--resume` continues the checkpoint's run: a `--data` or `--downscale`
+/// that says otherwise is refused, naming what differs.
 fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
     let data = data_source(a);
     if tr.data != data {
@@ -178,8 +202,15 @@ fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
     if let Some(d) = a.capture.downscale.filter(|&d| d != tr.downscale) {
         return Err(format!("--downscale {d} differs from the checkpoint's {}: resume without it", tr.downscale));
     }
+    Ok(())
+}
+
+/// `--resume` with `--preset` or `--config`: refused, naming the fields,
+/// unless they give the checkpoint's configuration (its feature grid sized
+/// to `data` as a new run's would be).
+fn check_resume_config(a: &Args, tr: &Trainer, data: &Dataset) -> CmdResult {
     if a.preset.is_some() || a.config.is_some() {
-        let cfg = load_config(a)?;
+        let cfg = load_config(a)?.for_data(data);
         if cfg != tr.cfg {
             let (now, was) =
                 (serde_json::to_value(&cfg).unwrap_or_default(), serde_json::to_value(&tr.cfg).unwrap_or_default());
@@ -235,18 +266,19 @@ impl Args {
 /// Runs `nerf train`.
 pub fn run(a: Args) -> CmdResult {
     // the arguments first (configuration, where the output goes), then the run folder
-    let new_cfg = if a.resume { None } else { Some(load_config(&a)?) };
-    with_threads(a.threads, || train(a, new_cfg))?
+    let new_run = if a.resume { None } else { Some(load_config(&a)?) };
+    with_threads(a.threads, || train(a, new_run))?
 }
 
 /// Runs `nerf train` as a new run of configuration `cfg` (in place of
 /// `--preset` and `--config`).
 pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    with_threads(a.threads, || train(Args { resume: false, ..a }, Some(cfg)))?
+    let run = NewRun { cfg, fit_features: false };
+    with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
 
-fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
+fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
     refuse_inside(&a.out, "--out", &a.data)?;
     create_dir(&a.out)?;
     let _lock = lock_run_dir(&a.out)?;
@@ -266,13 +298,22 @@ fn train(a: Args, new_cfg: Option<TrainConfig>) -> CmdResult {
         })?;
         check_resume(&a, &tr)?;
         let data = load(tr.downscale)?;
+        check_resume_config(&a, &tr, &data)?;
         (tr, data)
     } else if a.resume {
         return Err(format!("{}: no checkpoint to resume from", ckpt.display()));
     } else {
-        let cfg = new_cfg.ok_or("a configuration for a new run")?;
+        let run = new_run.ok_or("a configuration for a new run")?;
         let downscale = a.capture.downscale.unwrap_or(1);
         let data = load(downscale)?;
+        let cfg = run.for_data(&data);
+        if cfg.feature_max_res != run.cfg.feature_max_res {
+            eprintln!(
+                "feature grid sized to the photos: finest level {} cells per axis (was {}), 2^{} table entries per \
+                 level (was 2^{}); set feature_max_res or feature_log2_table with --config to choose",
+                cfg.feature_max_res, run.cfg.feature_max_res, cfg.feature_log2_table, run.cfg.feature_log2_table
+            );
+        }
         let mut tr = Trainer::new(cfg, data.scene, downscale, a.seed);
         tr.data = data_source(&a);
         (tr, data)

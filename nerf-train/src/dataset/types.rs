@@ -177,6 +177,36 @@ impl Dataset {
         hit as f64 / tried.max(1) as f64
     }
 
+    /// Cells per axis the finest level of a feature grid needs to hold
+    /// what these photos resolve: two cells per pixel footprint (the
+    /// median over the views of the distance from the camera to the
+    /// bounds' centre over the focal length, world units) along the bounds'
+    /// longest side, rounded up to a power of two. `None` for forward-facing
+    /// (NDC) and unbounded scenes, whose bounds hold the cameras as well as
+    /// what they look at, and for datasets without views.
+    pub fn resolvable_cells(&self) -> Option<u32> {
+        let s = &self.scene;
+        if s.ndc.is_some() || s.unbounded.is_some() || self.views.is_empty() {
+            return None;
+        }
+        let (lo, hi) = (glam::Vec3::from(s.bounds_min), glam::Vec3::from(s.bounds_max));
+        let centre = (lo + hi) * 0.5;
+        let mut footprints: Vec<f32> = self
+            .views
+            .iter()
+            .map(|v| v.camera.position.distance(centre) / (0.5 * (v.camera.fx + v.camera.fy)))
+            .filter(|f| f.is_finite() && *f > 0.0)
+            .collect();
+        if footprints.is_empty() {
+            return None;
+        }
+        footprints.sort_by(f32::total_cmp);
+        let footprint = footprints[footprints.len() / 2];
+        let cells = 2.0 * (hi - lo).max_element() / footprint;
+        // far beyond any grid: the caller clamps
+        Some((cells.min(1e6) as u32).max(1).next_power_of_two())
+    }
+
     /// Fails, saying why and what to try, if fewer than 1 % of the pixels'
     /// rays meet the scene: training would see almost nothing.
     pub fn check_rays(&self) -> Result<(), String> {
