@@ -17,6 +17,7 @@ names=()
 # name|minutes on 2 cores|command
 steps=(
   "default|25|scripts/lego_default.sh ROOT 10 0 1 && scripts/lego_default.sh ROOT 1 0 1"
+  "full|95|scripts/lego_full.sh ROOT 90 1"
   "tradeoff|12|scripts/tradeoff.sh ROOT 10"
   "int8-loss|15|scripts/int8_loss.sh ROOT 3"
   "table-bits|12|scripts/table_bits.sh ROOT 10"

@@ -84,6 +84,37 @@ of each view). `clear_opacity` is the mean rendered opacity over the pixels
 whose photo is transparent (haze in empty space; 0 is none).""", t if rs else missing("default"))
 
 
+def full_section():
+    rs = sorted(latest(rows("lego_full.csv"), "downscale"), key=lambda r: int(r["downscale"]))
+    size = lambda r: f"{800 // int(r['downscale'])}×{800 // int(r['downscale'])}"
+    body = [[size(r), r["minutes"], thousands(r["steps"]), f"{r['max_res']} / 2^{r['log2_table']}",
+             f"**{r['psnr_f32']}**", r["ssim_f32"], r["psnr_int8"], r["samples_f32"], r["us_f32"], r["us_int8"],
+             thousands(r["bytes_f32"]), thousands(r["bytes_int8"]), thousands(r["peak_rss_mib"]), run(r)] for r in rs]
+    t = table(["size", "minutes", "steps", "finest cells / entries", "PSNR f32", "SSIM f32", "PSNR int8",
+               "samples/ray", "µs/ray f32", "µs/ray int8", "f32 bytes", "int8 bytes", "peak MiB", "<run"], body)
+    curves = []
+    for r in rs:
+        c = []
+        for p in rows("lego_full_curve.csv"):
+            if (p["date"], p["commit"], p["downscale"], p["minutes"]) == (r["date"], r["commit"], r["downscale"],
+                                                                          r["minutes"]):
+                # a run's points are in training order: an earlier time starts a later run
+                if c and float(p["train_minutes"]) < float(c[-1]["train_minutes"]):
+                    c = []
+                c.append(p)
+        if c:
+            curves.append(f"Validation PSNR over training time at {size(r)} (2 views, `train.jsonl`):\n\n" + table(
+                ["minutes"] + [p["train_minutes"] for p in c], [["dB"] + [p["val_psnr"] for p in c]]))
+    return ("The default at full resolution", "full", """`scripts/lego_full.sh DATA_ROOT MINUTES DOWNSCALE`: `nerf train --data lego
+--downscale D --minutes M` with no preset, its feature grid sized to the
+photos (finest level and table entries per level in the table), then
+`nerf export --bits 8` and `nerf eval --split val --early-stop 1e-3
+--threads 1 --repeat 2` on the f32 model and its int8 export: PSNR and
+SSIM on lego's 10 validation views, samples and µs per ray on one core;
+peak MiB is the training process's peak resident memory.""",
+            "\n\n".join([t] + curves) if rs else missing("full"))
+
+
 def tradeoff_section():
     rs = rows("tradeoff_lego8.csv")
     if not rs or "commit" not in rs[0]:
@@ -313,7 +344,7 @@ viewer draws it (early termination at 10⁻³) over its Web Workers and on one
 thread.""", t if rs else missing("web"))
 
 
-SECTIONS = [default_section, tradeoff_section, int8_section, table_bits_section, captures_section, bench_section, train_step_section,
+SECTIONS = [default_section, full_section, tradeoff_section, int8_section, table_bits_section, captures_section, bench_section, train_step_section,
             mesh_section,
             mcu_section, web_section]
 
@@ -338,6 +369,11 @@ def readme_rows():
                             f"{' / '.join(r['us_int8'] for r in rs)} µs per ray "
                             f"({' / '.join(r['samples_int8'] for r in rs)} samples), "
                             f"{thousands(rs[0]['bytes_int8'])} B", "The default on lego"))
+    for r in sorted(latest(rows("lego_full.csv"), "downscale"), key=lambda r: int(r["downscale"])):
+        n = 800 // int(r["downscale"])
+        out.append((f"lego {n}×{n}, held-out views, the default after {r['minutes']} min",
+                    f"{r['psnr_f32']} dB f32, {r['psnr_int8']} dB int8 ({r['us_int8']} µs per ray)",
+                    "The default at full resolution"))
     q = latest(rows("int8_loss.csv"), "preset")
     if q:
         worst = max(abs(float(r["loss_db"])) for r in q)

@@ -49,6 +49,12 @@ fn the_cells_photos_resolve_follow_their_pixel_footprint() {
     write_blender(&d, spec()).unwrap();
     let cells = |downscale| load(&d, Split::Train, opts(Format::Auto, downscale)).unwrap().resolvable_cells();
     assert_eq!((cells(1), cells(2)), (Some(32), Some(16)));
+    // bounds that hold the cameras (cameras 4 from the centre): the centre is not what they look at
+    let mut around = load(&d, Split::Train, opts(Format::Auto, 1)).unwrap();
+    (around.scene.bounds_min, around.scene.bounds_max) = ([-5.0; 3], [5.0; 3]);
+    assert_eq!(around.resolvable_cells(), None);
+    (around.scene.bounds_min, around.scene.bounds_max) = ([-2.0; 3], [2.0; 3]);
+    assert_eq!(around.resolvable_cells(), Some(64), "twice the side, twice the cells: 44.4");
     // forward-facing scenes live in NDC, where a world-space footprint says nothing
     write_llff(&d.join("llff"), spec()).unwrap();
     let llff = load(&d.join("llff"), Split::Train, opts(Format::Llff, 1)).unwrap();

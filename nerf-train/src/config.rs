@@ -207,7 +207,8 @@ impl TrainConfig {
         }
     }
 
-    /// The configuration `nerf train` uses without `--preset`: [`Self::features`],
+    /// The configuration `nerf train` uses without `--preset` (its feature
+    /// grid then sized to the photos, [`Self::fit_features_to`]): [`Self::features`],
     /// the highest held-out PSNR per minute measured on lego and on the real
     /// captures (`scripts/captures.sh`: bird 30.42 dB against `fast`'s 28.98
     /// after 5 minutes at 1/8 size).
@@ -235,19 +236,22 @@ impl TrainConfig {
     /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
     /// when `cells` is above `feature_max_res`, the finest level becomes
     /// `cells` (at most 4096) and the table gains a power of two of
-    /// entries per doubling of it (at most 2^[`Self::FITTED_LOG2_TABLE`]), so
-    /// the finest levels do not share their entries more than before. A
-    /// grid already as fine, or no grid, is left alone; returns whether
-    /// anything changed. On lego at 800×800 the fitted grid (2048 cells,
-    /// 2¹⁸ entries) gains 0.2 dB in 4 minutes where 2048 cells in 2¹⁵
-    /// entries lose 0.7 (docs/EXPERIMENTS.md).
+    /// entries per doubling of it (at most 2^[`Self::FITTED_LOG2_TABLE`]).
+    /// A grid already as fine, a grid of one level (whose only level is
+    /// `feature_min_res`) or no grid is left alone; returns whether
+    /// anything changed. The finest levels share each entry among more
+    /// cells than before (8× the cells, 2× the entries per doubling); on
+    /// lego at 800×800 the fitted grid (2048 cells, 2¹⁸ entries) gains
+    /// 0.2 dB in 4 minutes where 2048 cells in 2¹⁵ entries lose 0.7
+    /// (docs/EXPERIMENTS.md).
     pub fn fit_features_to(&mut self, cells: u32) -> bool {
-        let cells = cells.min(MAX_RES as u32) as u16;
-        if self.feature_levels == 0 || cells <= self.feature_max_res {
+        let cells = cells.min(MAX_RES as u32);
+        let max = self.feature_max_res as u32;
+        if self.feature_levels < 2 || cells <= max {
             return false;
         }
-        let doublings = (cells as f32 / self.feature_max_res as f32).log2().ceil() as u8;
-        self.feature_max_res = cells;
+        let doublings = cells.div_ceil(max.max(1)).next_power_of_two().trailing_zeros() as u8;
+        self.feature_max_res = cells as u16;
         self.feature_log2_table =
             self.feature_log2_table.max((self.feature_log2_table + doublings).min(Self::FITTED_LOG2_TABLE));
         true
@@ -398,9 +402,11 @@ mod tests {
         let mut c = TrainConfig { feature_log2_table: 21, ..TrainConfig::features() };
         assert!(c.fit_features_to(512));
         assert_eq!((c.feature_max_res, c.feature_log2_table), (512, 21));
-        // a configuration without a feature grid has nothing to fit
-        let mut c = TrainConfig::grid();
-        assert!(!c.fit_features_to(4096));
-        assert_eq!(c, TrainConfig::grid());
+        // a configuration without a feature grid, or with one level (at feature_min_res), has nothing to fit
+        for c in [TrainConfig::grid(), TrainConfig { feature_levels: 1, ..TrainConfig::features() }] {
+            let mut fitted = c.clone();
+            assert!(!fitted.fit_features_to(4096));
+            assert_eq!(fitted, c);
+        }
     }
 }

@@ -34,6 +34,8 @@ pub struct Args {
     #[arg(long)]
     pub(crate) preset: Option<String>,
     /// Configuration as JSON: fields of the preset (`features` without `--preset`) to override; see docs/CLI.md.
+    /// A feature grid is sized to the photos of an object scene unless the file names `feature_max_res` or
+    /// `feature_log2_table`.
     #[arg(long)]
     pub(crate) config: Option<PathBuf>,
     /// Train until this many steps in total.

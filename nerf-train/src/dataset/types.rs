@@ -181,15 +181,22 @@ impl Dataset {
     /// what these photos resolve: two cells per pixel footprint (the
     /// median over the views of the distance from the camera to the
     /// bounds' centre over the focal length, world units) along the bounds'
-    /// longest side, rounded up to a power of two. `None` for forward-facing
-    /// (NDC) and unbounded scenes, whose bounds hold the cameras as well as
-    /// what they look at, and for datasets without views.
+    /// longest side, rounded up to a power of two. `None` where the bounds'
+    /// centre is not what the cameras look at from outside: forward-facing
+    /// (NDC) and unbounded scenes, bounds that hold half the cameras or
+    /// more (an instant-ngp capture with `near`/`far` and no `aabb`), and
+    /// datasets without views.
     pub fn resolvable_cells(&self) -> Option<u32> {
         let s = &self.scene;
         if s.ndc.is_some() || s.unbounded.is_some() || self.views.is_empty() {
             return None;
         }
         let (lo, hi) = (glam::Vec3::from(s.bounds_min), glam::Vec3::from(s.bounds_max));
+        let inside =
+            self.views.iter().filter(|v| v.camera.position.cmpge(lo).all() && v.camera.position.cmple(hi).all());
+        if 2 * inside.count() >= self.views.len() {
+            return None;
+        }
         let centre = (lo + hi) * 0.5;
         let mut footprints: Vec<f32> = self
             .views
@@ -204,7 +211,7 @@ impl Dataset {
         let footprint = footprints[footprints.len() / 2];
         let cells = 2.0 * (hi - lo).max_element() / footprint;
         // far beyond any grid: the caller clamps
-        Some((cells.min(1e6) as u32).max(1).next_power_of_two())
+        Some((cells.ceil().min(1e6) as u32).max(1).next_power_of_two())
     }
 
     /// Fails, saying why and what to try, if fewer than 1 % of the pixels'
