@@ -868,12 +868,21 @@ mod tests {
 
     #[test]
     fn a_sized_narrow_table_is_as_large_as_the_fitted_one() {
-        // odd value counts (3 values per entry) pad the 4-bit table to whole words
-        let cfg = TrainConfig { feature_width: 3, feature_levels: 3, feature_log2_table: 9, ..TrainConfig::features() };
+        // a dense level of 3³ entries beside a hashed one of 2⁹, 3 values each: 1 617 values, an odd
+        // count that pads both the 8- and the 4-bit table to whole words
+        let cfg = TrainConfig {
+            feature_width: 3,
+            feature_levels: 2,
+            feature_log2_table: 9,
+            feature_min_res: 2,
+            feature_max_res: 16,
+            ..TrainConfig::features()
+        };
         let m = random_model(&cfg, Scene::blender(1.5, 2.0, 6.0), 1, 1.0).to_bytes().unwrap();
         let m = nerf_infer::Model::from_bytes(&m).unwrap();
-        for bits in [8, 4] {
-            let (mut fitted, mut sized) = (quantise(&m, Scheme::I8).unwrap(), quantise(&m, Scheme::I8).unwrap());
+        assert_eq!(m.features.as_ref().unwrap().values(), 1_617);
+        for (bits, scheme) in [(8, Scheme::I8), (4, Scheme::I8), (4, Scheme::I16)] {
+            let (mut fitted, mut sized) = (quantise(&m, scheme).unwrap(), quantise(&m, scheme).unwrap());
             narrow_table(&mut fitted, bits).unwrap();
             narrow_table_sized(&mut sized, bits).unwrap();
             let (a, b) = (fitted.to_bytes().unwrap(), sized.to_bytes().unwrap());

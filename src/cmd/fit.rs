@@ -338,7 +338,7 @@ fn model_bytes(
 }
 
 /// Feature-table size (log2 entries per level) below which `nerf fit`
-/// coarsens the occupancy grid first: on lego at 64 KiB a 2¹⁰ table with a
+/// coarsens the occupancy grid first: on lego at 64 KiB a 2¹⁰ i16 table with a
 /// 32³ grid reached 28.64 dB in int8 after 10 minutes, where the 64³ grid
 /// with a 2⁸ table fell behind the 4x64 network (docs/EXPERIMENTS.md, "On a
 /// Cortex-M").
@@ -360,7 +360,8 @@ struct Fitted {
 /// codebook indices (on lego as accurate as the i16 table in half its
 /// bytes), then 4-bit ones (on the Cortex-M3, a 2¹³ table in 4-bit codes
 /// scored 0.57 dB more than a 2¹¹ i16 table in the same flash;
-/// docs/EXPERIMENTS.md, "Narrow feature tables"), the table halved down
+/// docs/RESULTS.md, "On a Cortex-M"; 4-bit codes against 8-bit ones at
+/// half the entries are not measured), the table halved down
 /// to 2¹⁰ entries per level ([`TABLE_FLOOR_LOG2`]), the occupancy grid
 /// coarsened down to 32³, the table halved down to 2⁸, the grid coarsened
 /// down to 16³. Returns what it made, or (`Ok(Err)`) the smallest size if
