@@ -268,10 +268,7 @@ fn fit_within_a_byte_budget_keeps_the_most_accurate_model_that_fits_and_says_wha
     let out = ok(&["fit", "--data", s(&data), "--max-bytes", &max.to_string(), "--minutes", "0.002", "--out", s(&run)]);
     // a 64³ occupancy grid alone is 32 KiB: the wider candidates coarsen it, the feature grid shrinks its table
     assert!(out.contains("after giving up occupancy grid 64^3 -> 32^3"), "{out}");
-    assert!(out.contains("feature table values as 4-bit codes") && out.contains("feature table 2^15 -> 2^"), "{out}");
-    let narrow = std::fs::read(run.join("features/model_fixed.nerf")).unwrap();
-    let narrow = nerf_infer::Model::from_bytes(&narrow).unwrap();
-    assert_eq!(narrow.features.and_then(|f| f.narrow).map(|n| n.bits), Some(4), "the trained export is narrowed too");
+    assert!(out.contains("feature table 2^15 -> 2^"), "{out}");
     assert!(out.contains("fit: not training 6x96: it does not fit --max-bytes 40000"), "{out}");
     let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();

@@ -639,18 +639,6 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
 /// the pixels are. Each value stores its nearest code; the table is padded
 /// to whole 4-byte words.
 pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
-    narrow_table_with(m, bits, true)
-}
-
-/// The model [`narrow_table`] makes of `m`, byte for byte as large, with
-/// every index and code 0: the size of a narrow export without the fit of
-/// its codes (`nerf fit` sizes candidates to a byte budget before they
-/// train).
-pub fn narrow_table_sized(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
-    narrow_table_with(m, bits, false)
-}
-
-fn narrow_table_with(m: &mut OwnedModel, bits: u8, fit_codes: bool) -> Result<(), String> {
     if !m.coarse.scheme.is_fixed() {
         return Err("a narrow feature table needs an integer model (--bits 16 or 8)".into());
     }
@@ -662,11 +650,6 @@ fn narrow_table_with(m: &mut OwnedModel, bits: u8, fit_codes: bool) -> Result<()
     };
     if m.narrow.is_some() {
         return Err("the feature table is already narrow".into());
-    }
-    if !fit_codes {
-        *table = vec![0; nerf_infer::features::NarrowTable { bits, codebook: &[] }.bytes(shape.values())];
-        m.narrow = Some((bits, vec![0; (shape.levels() << bits) * 2]));
-        return Ok(());
     }
     let weights = value_weights(shape, m.grid.as_ref());
     let w = shape.width as usize;
@@ -861,36 +844,8 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
 
 #[cfg(test)]
 mod tests {
-    use super::{lloyd_max, narrow_table, narrow_table_sized, quantise, random_model, value_weights};
-    use crate::config::TrainConfig;
+    use super::{lloyd_max, value_weights};
     use nerf_infer::features::{geometric_resolutions, FeatureGrid};
-    use nerf_infer::format::{Scene, Scheme};
-
-    #[test]
-    fn a_sized_narrow_table_is_as_large_as_the_fitted_one() {
-        // a dense level of 3³ entries beside a hashed one of 2⁹, 3 values each: 1 617 values, an odd
-        // count that pads both the 8- and the 4-bit table to whole words
-        let cfg = TrainConfig {
-            feature_width: 3,
-            feature_levels: 2,
-            feature_log2_table: 9,
-            feature_min_res: 2,
-            feature_max_res: 16,
-            ..TrainConfig::features()
-        };
-        let m = random_model(&cfg, Scene::blender(1.5, 2.0, 6.0), 1, 1.0).to_bytes().unwrap();
-        let m = nerf_infer::Model::from_bytes(&m).unwrap();
-        assert_eq!(m.features.as_ref().unwrap().values(), 1_617);
-        for (bits, scheme) in [(8, Scheme::I8), (4, Scheme::I8), (4, Scheme::I16)] {
-            let (mut fitted, mut sized) = (quantise(&m, scheme).unwrap(), quantise(&m, scheme).unwrap());
-            narrow_table(&mut fitted, bits).unwrap();
-            narrow_table_sized(&mut sized, bits).unwrap();
-            let (a, b) = (fitted.to_bytes().unwrap(), sized.to_bytes().unwrap());
-            assert_eq!(a.len(), b.len(), "{bits} bits");
-            assert!(nerf_infer::Model::from_bytes(&b).is_ok(), "{bits} bits");
-            assert_ne!(a, b, "{bits} bits: the fitted codes are not all 0");
-        }
-    }
 
     fn sse(values: &[i16], codes: &[i16]) -> i64 {
         values.iter().map(|&v| codes.iter().map(|&c| (c as i64 - v as i64).pow(2)).min().unwrap()).sum()

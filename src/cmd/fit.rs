@@ -13,17 +13,16 @@
 //! With `--max-bytes`, a device's flash budget: each candidate is first
 //! made to fit it (its model file's size is known before training: a
 //! model with random weights of the same shape is exported): the feature
-//! table's values stored as 8-bit, then 4-bit codebook indices, the table
-//! halved down to 2¹⁰ entries per level, the occupancy grid coarsened down
-//! to 32³, then both further, as far as needed; a candidate that cannot
-//! fit is skipped. Without `--target-psnr` the most
+//! table halved down to 2¹⁰ entries per level, the occupancy grid
+//! coarsened down to 32³, then both further, as far as needed; a
+//! candidate that cannot fit is skipped. Without `--target-psnr` the most
 //! accurate candidate that fits is kept; with it, the fastest that reaches
 //! the target. What each candidate gave up to fit is printed and tabled.
 
 use super::{create_dir, eval, num_in, train, write_atomic, CaptureArgs, CmdResult, FixedBits, SplitArg, WeightBits};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::Split;
-use nerf_train::export::{narrow_table, narrow_table_sized, quantise, random_model, OwnedModel};
+use nerf_train::export::{quantise, random_model, OwnedModel};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nerf fit`.
@@ -131,7 +130,7 @@ fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> Re
 
 /// Trains candidate `name`, quantises it (`model_fixed.nerf` beside the
 /// run's `model.nerf`) and scores both at the trained samples per ray.
-fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig, table_bits: u8) -> Result<Row, String> {
+fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, String> {
     let dir = a.out.join(name);
     create_dir(&dir)?;
     let cfg_path = dir.join("config.json");
@@ -150,9 +149,7 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig, table_bits: u8) -> R
     let bytes = super::read_model(&f32_path)?;
     let m = super::decode(&f32_path, &bytes)?;
     let scheme = WeightBits::from(a.bits).scheme();
-    let q = quantise(&m, scheme)
-        .and_then(|q| narrowed(q, table_bits, true))
-        .and_then(|q| q.to_bytes().map_err(|e| e.to_string()));
+    let q = quantise(&m, scheme).and_then(|q| q.to_bytes().map_err(|e| e.to_string()));
     let q = q.map_err(|e| format!("{}: {e}", f32_path.display()))?;
     let fixed_path = dir.join("model_fixed.nerf");
     write_atomic(&fixed_path, &q)?;
@@ -298,28 +295,10 @@ fn save(a: &Args, rows: &[Row]) -> CmdResult {
     write_atomic(&a.out.join("fit.md"), md.as_bytes())
 }
 
-/// `q` with its feature table stored as `table_bits`-bit codebook indices
-/// (8 or 4; 16 keeps the i16 table), the codes fitted ([`narrow_table`]) or
-/// only sized ([`narrow_table_sized`]: a size before training).
-fn narrowed(mut q: OwnedModel, table_bits: u8, fit_codes: bool) -> Result<OwnedModel, String> {
-    match (table_bits, fit_codes) {
-        (16, _) => {}
-        (_, true) => narrow_table(&mut q, table_bits)?,
-        (_, false) => narrow_table_sized(&mut q, table_bits)?,
-    }
-    Ok(q)
-}
-
-/// The fixed-point model file's size for configuration `cfg` on `scene`
-/// with a `table_bits`-bit feature table: a model of that shape with random
-/// weights, exported as `nerf fit` exports a trained one (an upper bound:
-/// training can only prune).
-fn model_bytes(
-    cfg: &TrainConfig,
-    scene: nerf_infer::format::Scene,
-    bits: FixedBits,
-    table_bits: u8,
-) -> Result<usize, String> {
+/// The fixed-point model file's size for configuration `cfg` on `scene`:
+/// a model of that shape with random weights, exported as `nerf fit`
+/// exports a trained one (an upper bound: training can only prune).
+fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedBits) -> Result<usize, String> {
     let mut twin = random_model(cfg, scene, 0, 1.0);
     // the records a trained model may carry, at their largest (varints): the size is then an upper bound
     twin.meta.iterations = u32::MAX;
@@ -333,68 +312,46 @@ fn model_bytes(
     });
     let f = twin.to_bytes().map_err(|e| e.to_string())?;
     let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
-    let q = narrowed(quantise(&m, WeightBits::from(bits).scheme())?, table_bits, false)?;
+    let q = quantise(&m, WeightBits::from(bits).scheme())?;
     Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
 }
 
 /// Feature-table size (log2 entries per level) below which `nerf fit`
-/// coarsens the occupancy grid first: on lego at 64 KiB a 2¹⁰ i16 table with a
+/// coarsens the occupancy grid first: on lego at 64 KiB a 2¹⁰ table with a
 /// 32³ grid reached 28.64 dB in int8 after 10 minutes, where the 64³ grid
 /// with a 2⁸ table fell behind the 4x64 network (docs/EXPERIMENTS.md, "On a
 /// Cortex-M").
 pub const TABLE_FLOOR_LOG2: u8 = 10;
 
-/// What [`fit_budget`] made of a candidate: its configuration, the bits of
-/// its feature table's values (16: i16; 8 or 4: codebook indices), what it
-/// gave up, and its model file's size in bytes.
-#[derive(Debug)]
-struct Fitted {
-    cfg: TrainConfig,
-    table_bits: u8,
-    gave: Vec<String>,
-    bytes: usize,
-}
-
 /// `cfg` shrunk until its model fits `max` bytes, in this order, each
-/// step only as far as needed: the feature table's values as 8-bit
-/// codebook indices (on lego as accurate as the i16 table in half its
-/// bytes), then 4-bit ones (on the Cortex-M3, a 2¹³ table in 4-bit codes
-/// scored 0.57 dB more than a 2¹¹ i16 table in the same flash;
-/// docs/RESULTS.md, "On a Cortex-M"; 4-bit codes against 8-bit ones at
-/// half the entries are not measured), the table halved down
-/// to 2¹⁰ entries per level ([`TABLE_FLOOR_LOG2`]), the occupancy grid
-/// coarsened down to 32³, the table halved down to 2⁸, the grid coarsened
-/// down to 16³. Returns what it made, or (`Ok(Err)`) the smallest size if
-/// the candidate cannot fit.
+/// step only as far as needed: the feature table halved down to 2¹⁰
+/// entries per level ([`TABLE_FLOOR_LOG2`]), the occupancy grid coarsened
+/// down to 32³, the table halved down to 2⁸, the grid coarsened down to
+/// 16³. Returns the configuration, what it gave up, and its size, or
+/// (`Ok(Err)`) the smallest size if it cannot fit.
+#[allow(clippy::type_complexity)]
 fn fit_budget(
     cfg: &TrainConfig,
     scene: nerf_infer::format::Scene,
     bits: FixedBits,
     max: usize,
-) -> Result<Result<Fitted, usize>, String> {
-    let (mut c, mut table_bits) = (cfg.clone(), 16);
-    let mut bytes = model_bytes(&c, scene, bits, table_bits)?;
-    while bytes > max && c.feature_levels > 0 && table_bits > 4 {
-        table_bits /= 2;
-        bytes = model_bytes(&c, scene, bits, table_bits)?;
-    }
+) -> Result<Result<(TrainConfig, Vec<String>, usize), usize>, String> {
+    let mut c = cfg.clone();
+    let mut bytes = model_bytes(&c, scene, bits)?;
     for (table_floor, grid_floor) in [(TABLE_FLOOR_LOG2, 32), (8, 16)] {
         while bytes > max && c.feature_levels > 0 && c.feature_log2_table > table_floor {
             c.feature_log2_table -= 1;
-            bytes = model_bytes(&c, scene, bits, table_bits)?;
+            bytes = model_bytes(&c, scene, bits)?;
         }
         while bytes > max && c.grid_res > grid_floor {
             c.grid_res /= 2;
-            bytes = model_bytes(&c, scene, bits, table_bits)?;
+            bytes = model_bytes(&c, scene, bits)?;
         }
     }
     if bytes > max {
         return Ok(Err(bytes));
     }
     let mut gave = Vec::new();
-    if table_bits < 16 {
-        gave.push(format!("feature table values as {table_bits}-bit codes"));
-    }
     if c.feature_log2_table != cfg.feature_log2_table {
         gave.push(format!(
             "feature table 2^{} -> 2^{} entries per level",
@@ -404,7 +361,7 @@ fn fit_budget(
     if c.grid_res != cfg.grid_res {
         gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid_res, c.grid_res));
     }
-    Ok(Ok(Fitted { cfg: c, table_bits, gave, bytes }))
+    Ok(Ok((c, gave, bytes)))
 }
 
 /// Runs `nerf fit`.
@@ -428,14 +385,14 @@ pub fn run(a: Args) -> CmdResult {
     // without a target: name, samples, PSNR, µs/ray of every candidate trained
     let mut accurate: Vec<(&'static str, u16, f64, f64)> = Vec::new();
     for (name, cfg) in candidates() {
-        let (cfg, table_bits, gave_up) = match a.max_bytes {
-            None => (cfg, 16, Vec::new()),
+        let (cfg, gave_up) = match a.max_bytes {
+            None => (cfg, Vec::new()),
             Some(max) => match fit_budget(&cfg, scene, a.bits, max).map_err(|e| format!("{name}: {e}"))? {
-                Ok(Fitted { cfg, table_bits, gave, bytes }) => {
+                Ok((c, gave, bytes)) => {
                     let what =
                         if gave.is_empty() { String::new() } else { format!(" after giving up {}", gave.join(", ")) };
                     out!("fit: {name} fits --max-bytes {max}: {bytes} bytes{what}");
-                    (cfg, table_bits, gave)
+                    (c, gave)
                 }
                 Err(smallest) => {
                     out!("fit: not training {name}: it does not fit --max-bytes {max} ({smallest} bytes at its smallest)");
@@ -451,7 +408,7 @@ pub fn run(a: Args) -> CmdResult {
             }
         }
         out!("fit: training {name} ({} MAC/sample, cost {}) for {} min", macs(&cfg), cost(&cfg), a.minutes);
-        let row = Row { gave_up: gave_up.join("; "), ..try_one(&a, name, &cfg, table_bits)? };
+        let row = Row { gave_up: gave_up.join("; "), ..try_one(&a, name, &cfg)? };
         report(&a, &row);
         if let Some(max) = a.max_bytes.filter(|&m| row.bytes > m) {
             // the trained model came out larger than its random-weight twin (not expected: kept out of the choice)
@@ -520,34 +477,18 @@ mod tests {
     }
 
     #[test]
-    fn a_byte_budget_narrows_the_feature_table_before_it_halves_it_or_coarsens_the_occupancy_grid() {
+    fn a_byte_budget_coarsens_the_occupancy_grid_before_the_feature_table_goes_below_its_floor() {
         let f = TrainConfig::features();
-        let fit = |max| fit_budget(&f, lego_scene(), FixedBits::I8, max).unwrap();
-        let shape = |r: &Fitted| (r.table_bits, r.cfg.feature_log2_table, r.cfg.grid_res);
-        // a roomy budget gives up nothing: the i16 table of 2^15 entries per level, about 900 kB
-        let roomy = fit(1 << 21).unwrap();
-        assert!((shape(&roomy), roomy.gave.len()) == ((16, 15, 64), 0) && roomy.bytes > 900_000, "{roomy:?}");
-        // 8-bit codes hold the same entries in about half the bytes, 4-bit codes in about a quarter
-        let eight = fit(600_000).unwrap();
-        assert_eq!(
-            (shape(&eight), &eight.gave[..]),
-            ((8, 15, 64), &["feature table values as 8-bit codes".to_string()][..])
-        );
-        let four = fit(300_000).unwrap();
-        assert!(shape(&four) == (4, 15, 64) && four.bytes <= 300_000, "{four:?}");
-        // 64 KiB: 4-bit codes and a 2^10 table beside the 64^3 grid; 40 000 B: the grid coarsened too
-        let small = fit(65_536).unwrap();
-        assert!(shape(&small) == (4, TABLE_FLOOR_LOG2, 64) && small.bytes <= 65_536, "{small:?}");
-        assert_eq!(small.gave[1], "feature table 2^15 -> 2^10 entries per level");
-        let smaller = fit(40_000).unwrap();
-        assert!(shape(&smaller) == (4, TABLE_FLOOR_LOG2, 32) && smaller.bytes <= 40_000, "{smaller:?}");
-        assert_eq!(smaller.gave.last().unwrap(), "occupancy grid 64^3 -> 32^3");
-        // below that the table goes under its floor; the layers alone exceed 20 000 B
-        let least = fit(30_000).unwrap();
-        assert!(least.cfg.feature_log2_table < TABLE_FLOOR_LOG2 && least.bytes <= 30_000, "{least:?}");
-        assert!(fit(20_000).is_err());
-        // a network without a feature grid has no table to narrow
-        let g = fit_budget(&TrainConfig::grid(), lego_scene(), FixedBits::I8, 40_000).unwrap().unwrap();
-        assert_eq!((g.table_bits, g.cfg.grid_res), (16, 32));
+        // 64 KiB: a 2^10 table (32 KiB) and a 32^3 grid (4 KiB) fit, a 64^3 grid (32 KiB) beside it does not
+        let (c, gave, bytes) = fit_budget(&f, lego_scene(), FixedBits::I8, 65_536).unwrap().unwrap();
+        assert_eq!((c.feature_log2_table, c.grid_res), (TABLE_FLOOR_LOG2, 32), "{gave:?}");
+        assert!(bytes <= 65_536);
+        assert_eq!(gave, ["feature table 2^15 -> 2^10 entries per level", "occupancy grid 64^3 -> 32^3"]);
+        // a roomy budget gives up nothing; a tight one goes below the floor; the layers alone exceed 4 000 B
+        let (c, gave, _) = fit_budget(&f, lego_scene(), FixedBits::I8, 1 << 20).unwrap().unwrap();
+        assert_eq!((c.feature_log2_table, c.grid_res, gave.len()), (15, 64, 0));
+        let (c, _, bytes) = fit_budget(&f, lego_scene(), FixedBits::I8, 40_000).unwrap().unwrap();
+        assert!(c.feature_log2_table < TABLE_FLOOR_LOG2 && c.grid_res == 32 && bytes <= 40_000, "{c:?}");
+        assert!(fit_budget(&f, lego_scene(), FixedBits::I8, 4_000).unwrap().is_err());
     }
 }
