@@ -84,9 +84,20 @@ of each view). `clear_opacity` is the mean rendered opacity over the pixels
 whose photo is transparent (haze in empty space; 0 is none).""", t if rs else missing("default"))
 
 
+def full_rows():
+    """The latest docs/lego_full.csv row of each downscale, finest first."""
+    return sorted(latest(rows("lego_full.csv"), "downscale"), key=lambda r: int(r["downscale"]))
+
+
+def lego_size(r):
+    """Lego's 800×800 photos at the row's downscale, as `N×N`."""
+    n = 800 // int(r["downscale"])
+    return f"{n}×{n}"
+
+
 def full_section():
-    rs = sorted(latest(rows("lego_full.csv"), "downscale"), key=lambda r: int(r["downscale"]))
-    size = lambda r: f"{800 // int(r['downscale'])}×{800 // int(r['downscale'])}"
+    rs = full_rows()
+    size = lego_size
     body = [[size(r), r["minutes"], thousands(r["steps"]), f"{r['max_res']} / 2^{r['log2_table']}",
              f"**{r['psnr_f32']}**", r["ssim_f32"], r["psnr_int8"], r["samples_f32"], r["us_f32"], r["us_int8"],
              thousands(r["bytes_f32"]), thousands(r["bytes_int8"]), thousands(r["peak_rss_mib"]), run(r)] for r in rs]
@@ -369,9 +380,8 @@ def readme_rows():
                             f"{' / '.join(r['us_int8'] for r in rs)} µs per ray "
                             f"({' / '.join(r['samples_int8'] for r in rs)} samples), "
                             f"{thousands(rs[0]['bytes_int8'])} B", "The default on lego"))
-    for r in sorted(latest(rows("lego_full.csv"), "downscale"), key=lambda r: int(r["downscale"])):
-        n = 800 // int(r["downscale"])
-        out.append((f"lego {n}×{n}, held-out views, the default after {r['minutes']} min",
+    for r in full_rows():
+        out.append((f"lego {lego_size(r)}, held-out views, the default after {r['minutes']} min",
                     f"{r['psnr_f32']} dB f32, {r['psnr_int8']} dB int8 ({r['us_int8']} µs per ray)",
                     "The default at full resolution"))
     q = latest(rows("int8_loss.csv"), "preset")

@@ -98,7 +98,7 @@ impl From<PruneArg> for Prune {
 }
 
 /// A new run's configuration, from `--preset` and `--config`.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 struct NewRun {
     /// The preset with the file's fields on top.
     cfg: TrainConfig,
