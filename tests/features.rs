@@ -128,6 +128,41 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
 }
 
 #[test]
+fn a_table_entry_moves_only_in_the_steps_whose_rays_touch_it() {
+    let d = std::env::temp_dir().join(format!("nerf-sparse-adam-test-{}", std::process::id()));
+    write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    // few rays per step, a fine hashed level: most entries are touched now and then
+    let cfg =
+        TrainConfig { batch_rays: 16, feature_log2_table: 14, lr: 1e-2, eps: 1e-15, beta2: 0.99, ..feature_config() };
+    let mut tr = Trainer::new(cfg, data.scene, 1, 4);
+    let table = tr.mlp().table;
+    let entries: usize = tr.mlp().table_entries().iter().sum();
+    let w = (tr.params.len() - table) / entries;
+    let (mut moved, mut kept) = (0, 0);
+    for _ in 0..30 {
+        let (before, steps) = (tr.params.clone(), tr.adam.entry_steps.clone());
+        tr.train_step(&data, 0.0);
+        for (e, (&now, &then)) in tr.adam.entry_steps.iter().zip(&steps).enumerate() {
+            let range = table + e * w..table + (e + 1) * w;
+            assert!(now - then <= 1, "entry {e} counted twice in a step");
+            if now > then {
+                moved += 1;
+            } else {
+                assert_eq!(tr.params[range.clone()], before[range], "entry {e} moved without a gradient");
+                kept += (then > 0) as usize;
+            }
+        }
+    }
+    println!("{moved} entry updates, {kept} times an entry touched before kept its value");
+    assert!(moved > 1000 && kept > 1000, "{moved} updates, {kept} kept");
+    assert!(tr.adam.entry_steps.contains(&0), "some entries were never touched");
+    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    assert_eq!(back.adam.entry_steps, tr.adam.entry_steps);
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
 fn int16_render_of_a_random_feature_grid_model_is_within_40_db_of_f32() {
     for seed in [1, 2] {
         let f32_bytes = random_model(&feature_config(), unit_scene(), seed, 8.0).to_bytes().unwrap();
