@@ -58,16 +58,17 @@ fn models() -> Vec<OwnedModel> {
 #[test]
 fn a_full_grid_changes_nothing_and_an_empty_one_shows_the_background() {
     for m in models() {
-        // int8 exports carry 16-bit parts (version 6) with or without a grid
+        // int8 exports carry 16-bit parts (the density head's: version 8)
+        // with or without a grid
         let precise = m.coarse.precise.is_some();
         assert_eq!(precise, m.coarse.scheme == Scheme::I8);
         let plain = with_grid(&m, None);
-        let plain_version = if precise { 6 } else { 1 };
+        let plain_version = if precise { 8 } else { 1 };
         assert_eq!(u16::from_le_bytes([plain[4], plain[5]]), plain_version, "no grid: still format version 1");
         let (base, evals) = render(&plain);
         assert_eq!(evals, (N * N) as u64 * 40);
         let full = with_grid(&m, Some((4, vec![0xFF; 8])));
-        assert_eq!(u16::from_le_bytes([full[4], full[5]]), if precise { 6 } else { 2 });
+        assert_eq!(u16::from_le_bytes([full[4], full[5]]), if precise { 8 } else { 2 });
         assert_eq!(render(&full), (base.clone(), evals), "{:?}: a full grid changed the render", m.coarse.scheme);
         let (bg, evals) = render(&with_grid(&m, Some((4, vec![0; 8]))));
         assert_eq!(evals, 0);

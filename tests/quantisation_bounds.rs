@@ -7,10 +7,11 @@
 
 mod support;
 
+use nerf_infer::format::sigma_layer;
 use nerf_infer::{Model, Scheme};
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
-use nerf_train::export::quantise_acts;
+use nerf_train::export::{quantise_acts, quantise_layers};
 use std::path::Path;
 use support::{psnr, render};
 
@@ -90,9 +91,9 @@ fn the_shipped_grid_model_renders_in_fixed_point_within_the_same_bounds() {
 }
 
 /// The int8 export's 16-bit parts (format version 6: the view layer's
-/// direction rows, the colour head) bring its render closer to the f32
-/// one than the same int8 weights without them, on both shipped f32
-/// models.
+/// direction rows, the colour head; version 8: the density head) bring its
+/// render closer to the f32 one than the same int8 weights without them, on
+/// both shipped f32 models.
 #[test]
 fn int8_16_bit_parts_bring_the_render_closer_to_f32() {
     let dir = std::env::temp_dir().join(format!("nerf-qbounds-precise-{}", std::process::id()));
@@ -117,6 +118,35 @@ fn int8_16_bit_parts_bring_the_render_closer_to_f32() {
         let (pw, po) = (psnr(&rw, &rf), psnr(&ro, &rf));
         println!("{name}: int8 vs f32 {pw:.2} dB with the 16-bit parts, {po:.2} dB without");
         assert!(pw > po + 1.0, "{name}: {pw:.2} dB with the 16-bit parts, {po:.2} dB without");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The 16-bit density head of an int8 model (format version 8) is the
+/// int16 model's density head: an int16 export with that layer rounded to
+/// int8 precision (`nerf export --bits 16 --int8-layers D`, which then
+/// carries the 16-bit head beside it, as the int8 export does) renders bit
+/// for bit as the plain int16 export, on both shipped f32 models.
+#[test]
+fn a_16_bit_density_head_renders_as_the_int16_models_density_head() {
+    let dir = std::env::temp_dir().join(format!("nerf-qbounds-density-{}", std::process::id()));
+    write_blender(&dir, SceneSpec::default()).unwrap();
+    let test = load(&dir, Split::Test, LoadOptions::default()).unwrap();
+    for name in ["scene.nerf", "scene_grid.nerf"] {
+        let f = model(name);
+        let mf = Model::from_bytes(&f).unwrap();
+        let si = sigma_layer(&mf.topology);
+        let plain = quantise_acts(&mf, Scheme::I16, 16).unwrap();
+        let listed = quantise_layers(&mf, Scheme::I16, 16, &[si]).unwrap();
+        // the listed layer's own weights did take int8 precision
+        assert_ne!(plain.coarse.layers[si], listed.coarse.layers[si], "{name}");
+        let (plain, listed) = (plain.to_bytes().unwrap(), listed.to_bytes().unwrap());
+        assert_eq!((listed[4], listed[5]), (8, 0), "{name}: format version 8");
+        let (mp, ml) = (Model::from_bytes(&plain).unwrap(), Model::from_bytes(&listed).unwrap());
+        assert!(ml.coarse.precise.and_then(|p| p.density).is_some());
+        for v in test.views.iter().take(3) {
+            assert_eq!(render(&mp, &v.camera), render(&ml, &v.camera), "{name}: a view differs");
+        }
     }
     std::fs::remove_dir_all(&dir).ok();
 }

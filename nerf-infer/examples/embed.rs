@@ -5,7 +5,7 @@
 //!     cargo run -p nerf-infer --example embed > view.ppm
 //!
 //! The model is the workspace's int8 model of the built-in scene
-//! (`models/scene_int8.nerf`, 56 KB); any `.nerf` file that `nerf train` or
+//! (`models/scene_int8.nerf`, 58 KiB); any `.nerf` file that `nerf train` or
 //! `nerf export` writes works the same way. Without `std` (a
 //! microcontroller), the same calls render into a caller-owned buffer:
 //! see `examples/cortex-m` in the workspace.

@@ -3,9 +3,11 @@
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
-/// The newest format version this build reads and writes (it reads 1 to 6 too).
-pub const FORMAT_VERSION: u16 = 7;
-/// The version of models without a narrow feature table.
+/// The newest format version this build reads and writes (it reads 1 to 7 too).
+pub const FORMAT_VERSION: u16 = 8;
+/// The version of models without a 16-bit density head.
+pub const FORMAT_VERSION_NO_DENSITY16: u16 = 7;
+/// The version of models without a narrow feature table or a 16-bit density head.
 pub const FORMAT_VERSION_NO_NARROW: u16 = 6;
 /// The version of unbounded models without 16-bit parts.
 pub const FORMAT_VERSION_NO_PRECISE: u16 = 5;

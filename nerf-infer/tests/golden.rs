@@ -50,6 +50,18 @@ fn int8_golden_pixels_with_16_bit_parts_are_bit_exact() {
     assert_ne!(expected::GOLDEN8_PRECISE, expected::GOLDEN8);
 }
 
+/// An int8 model with the 16-bit density head of format version 8 beside
+/// the parts of version 6: what `nerf export --bits 8` writes.
+#[test]
+fn int8_golden_pixels_with_a_16_bit_density_head_are_bit_exact() {
+    let blob = include_bytes!("data/golden8_density.nerf");
+    assert_eq!(u16::from_le_bytes([blob[4], blob[5]]), 8);
+    check::<8>(blob, &expected::GOLDEN8_DENSITY);
+    check::<1>(blob, &expected::GOLDEN8_DENSITY);
+    check::<3>(blob, &expected::GOLDEN8_DENSITY);
+    assert_ne!(expected::GOLDEN8_DENSITY, expected::GOLDEN8_PRECISE);
+}
+
 fn render_with<const B: usize>(blob: &[u8], early_stop: f32) -> [PixelFixed; 256] {
     let model = Model::from_bytes(blob).unwrap();
     let opts = RenderOptions { early_stop, ..RenderOptions::from_model(&model) };
@@ -69,6 +81,7 @@ fn early_termination_does_not_depend_on_the_block_size() {
         &include_bytes!("data/golden.nerf")[..],
         include_bytes!("data/golden8.nerf"),
         include_bytes!("data/golden8_precise.nerf"),
+        include_bytes!("data/golden8_density.nerf"),
     ];
     for blob in blobs {
         let one = render_with::<1>(blob, 0.05);

@@ -14,12 +14,14 @@
 //! multiplier and a shift. The `2²⁹` bias bound keeps int8 layers with up
 //! to 355 inputs inside i32: `355·127·2¹⁵ + 2²⁹ < 2³¹`.
 //!
-//! Two parts of an int8 network are also written at 16 bits (format
-//! version 6): the view layer's direction rows, `round(W'/S · 2⁸)`, summed
-//! once per ray, so the 256× finer step costs nothing per sample (their
-//! weights are small beside the feature rows', which set `S`, and 8 bits
-//! left them a few steps each); and the colour head, quantised as in an
-//! int16 model (3 outputs, evaluated only for samples with weight).
+//! Three parts of an int8 network are also written at 16 bits: the view
+//! layer's direction rows, `round(W'/S · 2⁸)`, summed once per ray, so
+//! the 256× finer step costs nothing per sample (their weights are small
+//! beside the feature rows', which set `S`, and 8 bits left them a few
+//! steps each); the colour head, quantised as in an int16 model (3
+//! outputs, evaluated only for samples with weight; both format version
+//! 6); and the density head, quantised as in an int16 model (one output;
+//! format version 8: 8-bit density weights cost lego at 800×800 3.5 dB).
 
 use crate::mlp::Mlp;
 use crate::train::Trainer;
@@ -58,7 +60,7 @@ pub struct OwnedNetwork {
     pub act_bits: u8,
     /// Layers.
     pub layers: Vec<OwnedLayer>,
-    /// The parts kept at 16 bits (format version 6).
+    /// The parts kept at 16 bits (format version 6; the density head: 8).
     pub precise: Option<OwnedPrecise>,
 }
 
@@ -69,6 +71,8 @@ pub struct OwnedPrecise {
     pub view_dirs: Vec<u8>,
     /// The colour head with i16 weights.
     pub colour: Option<OwnedLayer>,
+    /// The density head with i16 weights (format version 8).
+    pub density: Option<OwnedLayer>,
 }
 
 impl OwnedLayer {
@@ -99,11 +103,19 @@ impl OwnedLayer {
 
 impl OwnedPrecise {
     fn view(&self) -> format::PreciseNet<'_> {
-        format::PreciseNet { view_dirs: &self.view_dirs, colour: self.colour.as_ref().map(OwnedLayer::view) }
+        format::PreciseNet {
+            view_dirs: &self.view_dirs,
+            colour: self.colour.as_ref().map(OwnedLayer::view),
+            density: self.density.as_ref().map(OwnedLayer::view),
+        }
     }
 
     fn from_view(p: &format::PreciseNet<'_>) -> Self {
-        Self { view_dirs: p.view_dirs.to_vec(), colour: p.colour.as_ref().map(OwnedLayer::from_view) }
+        Self {
+            view_dirs: p.view_dirs.to_vec(),
+            colour: p.colour.as_ref().map(OwnedLayer::from_view),
+            density: p.density.as_ref().map(OwnedLayer::from_view),
+        }
     }
 }
 
@@ -189,6 +201,12 @@ impl OwnedModel {
                 fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()).map(OwnedPrecise::view),
             }),
             narrow,
+            precise_density: self.coarse.precise.as_ref().and_then(|p| p.density.as_ref()).map(|d| {
+                format::PreciseDensity {
+                    coarse: d.view(),
+                    fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()?.density.as_ref()).map(OwnedLayer::view),
+                }
+            }),
         };
         format::to_bytes(&m)
     }
@@ -443,6 +461,7 @@ fn quantise_network(
     };
     let t = &m.topology;
     let (view, colour) = (t.view_dependent.then(|| sigma_layer(t) + 2), net.layers.len() - 1);
+    let density = sigma_layer(t);
     let (mut layers, mut precise) = (Vec::new(), OwnedPrecise::default());
     for (i, l) in net.layers.iter().enumerate() {
         let (cols, target) = layer_scales(t, &m.encoding, net, i, act_bits, grid_frac);
@@ -454,18 +473,22 @@ fn quantise_network(
             ));
         }
         // int8 precision, as in the int8 model: 8-bit steps plus the 16-bit
-        // parts (the view layer's direction rows, a 16-bit colour head)
+        // parts (the view layer's direction rows, 16-bit colour and density
+        // heads)
         let eight = qmax == 127.0 || eight_bit.contains(&i);
         let q = quantise_layer(l, &cols, target, if eight { 127.0 } else { 32767.0 });
         if eight && i == colour {
             precise.colour = Some(quantise_layer(l, &cols, target, 32767.0).to_layer(2));
+        }
+        if eight && i == density {
+            precise.density = Some(quantise_layer(l, &cols, target, 32767.0).to_layer(2));
         }
         if eight && Some(i) == view {
             precise.view_dirs = fine_rows(l, &cols, &q, m.encoding.dir_dim());
         }
         layers.push(q.to_layer(scheme.weight_bytes()));
     }
-    let any = !precise.view_dirs.is_empty() || precise.colour.is_some();
+    let any = !precise.view_dirs.is_empty() || precise.colour.is_some() || precise.density.is_some();
     Ok(OwnedNetwork { scheme, act_bits, layers, precise: any.then_some(precise) })
 }
 

@@ -35,8 +35,9 @@ pub struct Args {
     /// density head, then the feature, view and colour layers; `nerf info
     /// --json` lists them), to find which layers 8-bit weights cost PSNR.
     /// The int8 export keeps the view layer's direction rows and the colour
-    /// head at 16 bits, and so does this. Listing every layer renders
-    /// exactly as `--bits 8` does.
+    /// and density heads at 16 bits, and so does this (listing the density
+    /// head leaves it at 16 bits). Listing every layer renders exactly as
+    /// `--bits 8` does.
     #[arg(long, value_delimiter = ',')]
     int8_layers: Vec<usize>,
     /// Set the model's default stratified samples per ray (2..=256; what a

@@ -61,6 +61,7 @@ pub fn run(a: Args) -> CmdResult {
         "fine": m.fine.as_ref().map(net),
         "precise": m.coarse.precise.map(|p| serde_json::json!({
             "view_dirs_bytes": p.view_dirs.len(), "colour_head": p.colour.is_some(),
+            "density_head": p.density.is_some(),
             "bytes": p.bytes() + m.fine.as_ref().and_then(|f| f.precise).map_or(0, |p| p.bytes()),
         })),
     });
@@ -163,11 +164,12 @@ pub fn run(a: Args) -> CmdResult {
         let parts: Vec<&str> = [
             (!p.view_dirs.is_empty()).then_some("the view layer's direction rows"),
             p.colour.map(|_| "the colour head"),
+            p.density.map(|_| "the density head"),
         ]
         .into_iter()
         .flatten()
         .collect();
-        println!("  at 16 bits: {} ({} bytes)", parts.join(" and "), info["precise"]["bytes"]);
+        println!("  at 16 bits: {} ({} bytes)", parts.join(", "), info["precise"]["bytes"]);
     }
     println!("  parameters: {} per network", info["coarse"]["parameters"]);
     println!("  pruning: {}", pruning(&m));

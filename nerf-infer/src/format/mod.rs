@@ -1,11 +1,11 @@
-//! The model file format (versions 1 to 7). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 8). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–7)  |
+//! | 4      | 2    | format version, u16 little-endian (1–8)  |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
@@ -15,8 +15,10 @@
 //! the optional record of the training capture's split ([`Capture`]);
 //! version 5 unbounded space ([`Unbounded`]); version 6 the parts of an
 //! int8 model kept at 16 bits ([`Precise`]); version 7 a feature table
-//! stored as 8- or 4-bit codebook indices ([`NarrowTable`]). A model is written as the
-//! oldest version that holds it (no narrow table: 6; no 16-bit parts
+//! stored as 8- or 4-bit codebook indices ([`NarrowTable`]); version 8 the
+//! density heads at 16 bits ([`PreciseDensity`]). A model is written as the
+//! oldest version that holds it (no 16-bit density head: 7; no narrow
+//! table either: 6; no 16-bit parts
 //! either: 5; not
 //! unbounded either: 4; no capture record
 //! either: 3; no feature grid either: 2; no occupancy grid and no pruned
@@ -36,8 +38,8 @@ pub use header::crc32;
 use header::{check_header, Padded};
 pub use layers::{expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network};
 pub use records::{
-    CameraConvention, Capture, Encoding, Framing, Meta, Ndc, Precise, PreciseNet, Samples, Scene, Scheme, Topology,
-    Unbounded,
+    CameraConvention, Capture, Encoding, Framing, Meta, Ndc, Precise, PreciseDensity, PreciseNet, Samples, Scene,
+    Scheme, Topology, Unbounded,
 };
 
 use crate::error::{Error, Result};
@@ -46,9 +48,9 @@ pub use crate::occupancy::Occupancy;
 use serde::{Deserialize, Serialize};
 
 pub use crate::limits::{
-    FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_FEATURES, FORMAT_VERSION_NO_GRID,
-    FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE,
-    MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
+    FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_DENSITY16, FORMAT_VERSION_NO_FEATURES,
+    FORMAT_VERSION_NO_GRID, FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED,
+    HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_WIDTH,
 };
 pub use crate::tensor::{read_f32, read_i16, read_i32};
 
@@ -93,6 +95,10 @@ pub struct Model<'a> {
     /// version 7), the same as `features.narrow`.
     #[serde(borrow)]
     pub narrow: Option<NarrowTable<'a>>,
+    /// The density heads at 16 bits (format version 8), the same as each
+    /// network's `precise.density` (and `precise`'s); only beside `precise`.
+    #[serde(borrow)]
+    pub precise_density: Option<PreciseDensity<'a>>,
 }
 
 impl<'a> Model<'a> {
@@ -107,6 +113,12 @@ impl<'a> Model<'a> {
         model.scene.unbounded = model.unbounded;
         if let Some(f) = &mut model.features {
             f.narrow = model.narrow;
+        }
+        if let (Some(p), Some(d)) = (&mut model.precise, model.precise_density) {
+            p.coarse.density = Some(d.coarse);
+            if let Some(f) = &mut p.fine {
+                f.density = d.fine;
+            }
         }
         if let Some(p) = model.precise {
             model.coarse.precise = Some(p.coarse);
@@ -153,7 +165,8 @@ impl<'a> Model<'a> {
             n.precise.map_or(0, |p| {
                 let (din, _) = expected_shape(t, e, n.layers.len() - 1);
                 let dirs = if p.view_dirs.is_empty() { 0 } else { e.dir_dim() * t.view_width as usize * 2 };
-                dirs + p.colour.map_or(0, |_| din * 3 * 2 + 3 * 16)
+                let density = p.density.map_or(0, |_| expected_shape(t, e, sigma_layer(t)).0 * 2 + 16);
+                dirs + p.colour.map_or(0, |_| din * 3 * 2 + 3 * 16) + density
             })
         };
         core::iter::once(&self.coarse)
@@ -162,12 +175,15 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 7 with a narrow feature
-    /// table, 6 with 16-bit parts, 5 with unbounded space, 4 with a capture record, 3
-    /// with a feature grid, 2 with an occupancy grid or pruned layers, else 1.
+    /// The format version this model is written as: 8 with 16-bit density
+    /// heads, 7 with a narrow feature table, 6 with 16-bit parts, 5 with
+    /// unbounded space, 4 with a capture record, 3 with a feature grid, 2
+    /// with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.narrow.is_some() {
+        if self.precise_density.is_some() {
             FORMAT_VERSION
+        } else if self.narrow.is_some() {
+            FORMAT_VERSION_NO_DENSITY16
         } else if self.precise.is_some() {
             FORMAT_VERSION_NO_NARROW
         } else if self.unbounded.is_some() {
@@ -302,6 +318,47 @@ mod tests {
         let mut f = m.clone();
         f.coarse.scheme = Scheme::F32;
         assert!(matches!(f.validate(), Err(Error::InvalidTopology(s)) if s.contains("f32")));
+    }
+
+    /// A 16-bit density head makes a version-8 file that re-encodes byte
+    /// for byte and reads back into the networks; a head of the wrong
+    /// shape or length, one without the other 16-bit parts, or one that
+    /// differs from the networks' is refused.
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn a_16_bit_density_head_is_version_8_and_checked() {
+        let blob = include_bytes!("../../tests/data/golden8_density.nerf");
+        let m = Model::from_bytes(blob).unwrap();
+        assert_eq!(m.format_version(), 8);
+        assert_eq!(to_bytes(&m).unwrap(), blob);
+        let d = m.precise_density.unwrap();
+        assert_eq!(m.coarse.precise.and_then(|p| p.density), Some(d.coarse));
+        assert_eq!((d.coarse.out_dim, d.coarse.in_dim), (1, m.coarse.layers[sigma_layer(&m.topology)].in_dim));
+        assert_eq!(m.fine.as_ref().and_then(|f| f.precise?.density), d.fine);
+        let refused = |m: &Model<'_>| Model::from_bytes(&encode(m).unwrap()).unwrap_err();
+        fn with<'a>(m: &Model<'a>, coarse: Layer<'a>) -> Model<'a> {
+            let mut bad = m.clone();
+            let (d, p) = (m.precise_density.unwrap(), m.precise.unwrap());
+            bad.precise_density = Some(PreciseDensity { coarse, ..d });
+            bad.precise = Some(Precise { coarse: PreciseNet { density: Some(coarse), ..p.coarse }, ..p });
+            bad
+        }
+        // one weight short, one input too many
+        let short = Layer { weights: &d.coarse.weights[..d.coarse.weights.len() - 2], ..d.coarse };
+        assert!(matches!(refused(&with(&m, short)), Error::TensorLength(_)));
+        let wide = Layer { in_dim: d.coarse.in_dim + 1, ..d.coarse };
+        assert!(matches!(refused(&with(&m, wide)), Error::LayerShape(_)));
+        // without the other 16-bit parts
+        let mut bad = m.clone();
+        bad.precise = None;
+        assert!(matches!(refused(&bad), Error::InvalidTopology(_)));
+        // the record and the networks disagree
+        let mut bad = m.clone();
+        bad.precise_density = None;
+        assert!(matches!(bad.validate(), Err(Error::InvalidTopology(_))));
+        // the version-7 reader's view of it: older files still read
+        let old = Model::from_bytes(include_bytes!("../../tests/data/golden8_precise.nerf")).unwrap();
+        assert!(old.precise_density.is_none() && old.coarse.precise.unwrap().density.is_none());
     }
 
     /// Without the `feature-grid` feature a model with a feature grid is

@@ -121,7 +121,8 @@ pub struct Unbounded {
 
 /// The parts of an integer model's networks kept at 16 bits (format
 /// version 6): the two where 8-bit weights cost the most PSNR and the
-/// least time at 16 bits.
+/// least time at 16 bits; the density head joins them from version 8
+/// ([`PreciseDensity`]).
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct Precise<'a> {
     /// The coarse network's.
@@ -150,6 +151,27 @@ pub struct PreciseNet<'a> {
     /// network's last layer; `None`: that layer.
     #[serde(borrow)]
     pub colour: Option<Layer<'a>>,
+    /// The density head with i16 weights (format version 8, quantised as
+    /// in an int16 model), used instead of the network's density head;
+    /// `None`: that layer. Not stored here: set from
+    /// [`Model::precise_density`](super::Model::precise_density) when a
+    /// model is decoded.
+    #[serde(skip)]
+    pub density: Option<Layer<'a>>,
+}
+
+/// The density heads of an integer model kept at 16 bits (format version
+/// 8): in an int8 model, 8-bit density weights cost the most PSNR of any
+/// layer once training has sharpened the density (lego at 800×800: 3.5
+/// dB; docs/EXPERIMENTS.md), and the head is one output wide.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct PreciseDensity<'a> {
+    /// The coarse network's.
+    #[serde(borrow)]
+    pub coarse: Layer<'a>,
+    /// The fine network's, present iff the model has a fine network.
+    #[serde(borrow)]
+    pub fine: Option<Layer<'a>>,
 }
 
 impl PreciseNet<'_> {
@@ -159,8 +181,8 @@ impl PreciseNet<'_> {
 
     /// Tensor bytes held.
     pub fn bytes(&self) -> usize {
-        self.view_dirs.len()
-            + self.colour.map_or(0, |l| l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len())
+        let layer = |l: Layer<'_>| l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len();
+        self.view_dirs.len() + self.colour.map_or(0, layer) + self.density.map_or(0, layer)
     }
 }
 

@@ -107,8 +107,25 @@ impl Model<'_> {
             if nets.into_iter().any(|n| n.precise.is_some()) {
                 return Err(Error::InvalidTopology("a network has 16-bit parts the model does not"));
             }
+            if self.precise_density.is_some() {
+                return Err(Error::InvalidTopology("a 16-bit density head without the other 16-bit parts"));
+            }
             return Ok(());
         };
+        // the density heads: in both networks or neither, as the record says
+        let density_ok = match self.precise_density {
+            None => p.coarse.density.is_none() && p.fine.is_none_or(|f| f.density.is_none()),
+            Some(d) => {
+                p.coarse.density == Some(d.coarse)
+                    && match p.fine {
+                        Some(f) => d.fine.is_some() && f.density == d.fine,
+                        None => d.fine.is_none(),
+                    }
+            }
+        };
+        if !density_ok {
+            return Err(Error::InvalidTopology("the 16-bit density heads differ from the model's record of them"));
+        }
         if !self.scheme().is_fixed() {
             return Err(Error::InvalidTopology("16-bit parts in an f32 model"));
         }
@@ -139,6 +156,27 @@ impl Model<'_> {
                     || (0..3).any(|k| !(c.scale(k).is_finite() && c.scale(k) > 0.0 && c.requant(k).is_valid()))
                 {
                     return Err(Error::InvalidScale(ci));
+                }
+            }
+            if let Some(d) = pn.density {
+                let si = sigma_layer(t);
+                // the layer count is checked after the 16-bit parts
+                let Some(head) = n.layers.get(si) else { return Err(Error::LayerShape(si as u8)) };
+                if d.in_dim != head.in_dim || d.out_dim != 1 {
+                    return Err(Error::LayerShape(si as u8));
+                }
+                if [d.weights.len(), d.bias.len(), d.scales.len(), d.requant.len()] != [d.in_dim as usize * 2, 4, 4, 8]
+                {
+                    return Err(Error::TensorLength(si as u8));
+                }
+                let scale = d.scale(0);
+                if !(d.act_max.is_finite()
+                    && d.act_max >= 0.0
+                    && scale.is_finite()
+                    && scale > 0.0
+                    && d.requant(0).is_valid())
+                {
+                    return Err(Error::InvalidScale(si as u8));
                 }
             }
         }

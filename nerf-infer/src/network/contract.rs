@@ -75,9 +75,13 @@ pub trait LayerKernel<N: Numbers> {
         out: &mut [[N::X; MAX_WIDTH]],
         act: Act,
     );
-    /// The density head on the trunk's first `w` outputs.
+    /// The density head on the trunk's first `w` outputs: `l`, or `head16`
+    /// when given (the 16-bit density head of an integer model of format 8,
+    /// [`crate::format::PreciseNet::density`]).
+    #[allow(clippy::too_many_arguments)]
     fn sigma_head<const B: usize>(
         l: &Layer<'_>,
+        head16: Option<&Layer<'_>>,
         trunk: &[[N::X; MAX_WIDTH]],
         w: usize,
         n: usize,

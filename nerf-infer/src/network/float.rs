@@ -105,6 +105,7 @@ impl LayerKernel<F32> for F32 {
 
     fn sigma_head<const B: usize>(
         l: &Layer<'_>,
+        _head16: Option<&Layer<'_>>,
         trunk: &[[f32; MAX_WIDTH]],
         w: usize,
         n: usize,

@@ -87,12 +87,16 @@ impl<W: IntKernel> LayerKernel<Fixed> for W {
 
     fn sigma_head<const B: usize>(
         l: &Layer<'_>,
+        head16: Option<&Layer<'_>>,
         trunk: &[[i16; MAX_WIDTH]],
         w: usize,
         n: usize,
         acc: &mut FixedAcc<B>,
         sigma: &mut [i32; B],
     ) {
+        if let Some(l16) = head16 {
+            return sigma16(l16, &trunk[..n], w, &mut sigma[..n]);
+        }
         let acc = W::pick(&mut acc.a64, &mut acc.a32);
         init_int::<W>(l, None, n, acc);
         accumulate_int::<W, MAX_WIDTH>(l, Input { rows: trunk, row0: 0, width: w, n }, acc);
@@ -183,6 +187,22 @@ fn fold_rows16(l: &Layer<'_>, rows16: &[u8], dir: &[i16], view: &mut [i64; MAX_W
     let half = 1i64 << (PreciseNet::SHIFT - 1);
     for (c, v) in sums.iter_mut().enumerate() {
         *v = read_i32(l.bias, c) as i64 + ((*v + half) >> PreciseNet::SHIFT);
+    }
+}
+
+/// `sigma[s]`: the 16-bit density head `l` (format 8) on the first `w`
+/// values of each trunk row, `bias + Σ_j x[j]·w[j]` in i64 requantised
+/// to Q10. A plain loop out of line, as [`head16_sums`].
+#[inline(never)]
+fn sigma16(l: &Layer<'_>, trunk: &[[i16; MAX_WIDTH]], w: usize, sigma: &mut [i32]) {
+    let (bias, r) = (read_i32(l.bias, 0) as i64, l.requant(0));
+    for (x, s) in trunk.iter().zip(sigma.iter_mut()) {
+        let mut acc = bias;
+        for (&v, wt) in x[..w].iter().zip(l.weights.chunks_exact(2)) {
+            // an i16 · i16 product fits i32 (at most 2³⁰)
+            acc += (v as i32 * i16::from_le_bytes([wt[0], wt[1]]) as i32) as i64;
+        }
+        *s = sat_i32(r.apply(acc));
     }
 }
 

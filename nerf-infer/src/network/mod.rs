@@ -118,7 +118,8 @@ impl<N: Numbers, const B: usize> Block<N, B> {
         debug_assert_eq!(in_h, trunk_in_h(t.depth));
         let trunk = if in_h { &*h } else { &*g };
         let si = sigma_layer(t);
-        K::sigma_head::<B>(&layers[si], trunk, width(si - 1), n, acc, sigma);
+        let head16 = net.precise.and_then(|p| p.density);
+        K::sigma_head::<B>(&layers[si], head16.as_ref(), trunk, width(si - 1), n, acc, sigma);
     }
 
     /// The colour branch for samples `rows` (ascending, each < the count
