@@ -26,7 +26,9 @@
 //! opacity in Q15 (`[0, 32768]`, [`PixelFixed`]), transmittance and weights
 //! in Q30, layer activations at per-layer scales fixed at export; the
 //! feature table i16 in the grid's Q format, or 8- or 4-bit indices into a
-//! per-level codebook of such values (format version 7). Every shift
+//! per-level codebook of such values (format version 7); int8 models keep
+//! the view layer's direction rows and the colour and density heads at 16
+//! bits (format versions 6 and 8). Every shift
 //! rounds half up and every narrowing saturates; the table and the rounding
 //! rules are in [`fixed`]. The two paths agree within bounds the workspace
 //! tests hold (on lego, int16 within 0.01 dB of f32).

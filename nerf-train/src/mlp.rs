@@ -14,7 +14,6 @@
 //! rays with `S/R` consecutive samples per ray (the view direction is per
 //! ray). Matrix products go through [`crate::gemm::matmul`].
 
-use crate::adam::TableGrad;
 use crate::gemm::{matmul, View};
 use nerf_infer::encoding::encode_f32;
 use nerf_infer::features::{Corners, FeatureGrid};
@@ -50,13 +49,6 @@ pub struct Mlp {
     pub table: usize,
     /// Total parameter count.
     pub n_params: usize,
-}
-
-/// Adds an entry's gradient to `gl`, the dense gradient of one level's
-/// entries (`width` values each).
-fn add_to(gl: &mut [f32], width: u8) -> impl FnMut(usize, &[f32]) + '_ {
-    let w = width as usize;
-    move |e, v| gl[e * w..(e + 1) * w].iter_mut().zip(v).for_each(|(g, v)| *g += v)
 }
 
 /// The feature-grid part of one chunk's backward pass, for
@@ -196,17 +188,17 @@ impl Mlp {
         let mut gt = &mut g[self.table..];
         for l in 0..f.levels() {
             let (level, rest) = gt.split_at_mut(f.entries(l) * f.width as usize);
-            self.scatter_level(l, &a.corners[l * a.s..(l + 1) * a.s], &a.dgf, add_to(level, f.width));
+            self.scatter_level(l, &a.corners[l * a.s..(l + 1) * a.s], &a.dgf, level);
             gt = rest;
         }
     }
 
-    /// Passes level `l`'s share of a chunk's grid-value gradient (`dgf`,
+    /// Adds level `l`'s share of a chunk's grid-value gradient (`dgf`,
     /// `S × grid_dim`, with the level's `S` corners from the forward pass)
-    /// to `add(entry, gradient of its width values)`, entry by entry.
-    /// Consecutive samples in the same cell (a ray's samples in a coarse
-    /// level) are summed first and passed once.
-    fn scatter_level(&self, l: usize, corners: &[Corners], dgf: &[f32], mut add: impl FnMut(usize, &[f32])) {
+    /// to `gl`, the gradient of that level's entries (`entries(l) × width`
+    /// values). Consecutive samples in the same cell (a ray's samples in a
+    /// coarse level) are summed first and written once.
+    fn scatter_level(&self, l: usize, corners: &[Corners], dgf: &[f32], gl: &mut [f32]) {
         let Some(f) = &self.features else { return };
         // values per entry: at most 8 (`TrainConfig::feature_width`)
         const W: usize = 8;
@@ -215,7 +207,8 @@ impl Mlp {
         let mut cell: Option<[u32; 8]> = None;
         let mut flush = |entry: &[u32; 8], acc: &mut [[f32; W]; 8]| {
             for (e, a) in entry.iter().zip(acc.iter_mut()) {
-                add(*e as usize, &a[..w]);
+                let e = *e as usize * w;
+                gl[e..e + w].iter_mut().zip(&a[..w]).for_each(|(g, v)| *g += v);
                 *a = [0.0; W];
             }
         };
@@ -261,25 +254,9 @@ impl Mlp {
         }
         levels.into_par_iter().for_each(|(l, gl)| {
             for g in grads {
-                self.scatter_level(l, &g.corners[l * g.s..(l + 1) * g.s], &g.dgf, add_to(gl, f.width));
+                self.scatter_level(l, &g.corners[l * g.s..(l + 1) * g.s], &g.dgf, gl);
             }
         });
-    }
-
-    /// [`Mlp::scatter_table`] into `gt`, which lists the entries touched
-    /// (the step's sums are the same, in the same order): the table's
-    /// gradient without a pass over the whole table.
-    pub fn scatter_table_sparse(&self, grads: &[GridGrad], gt: &mut TableGrad) {
-        gt.levels().into_par_iter().enumerate().for_each(|(l, mut gl)| {
-            for g in grads {
-                self.scatter_level(l, &g.corners[l * g.s..(l + 1) * g.s], &g.dgf, |e, v| gl.add(e, v));
-            }
-        });
-    }
-
-    /// The entries per level of the feature grid's table (none without one).
-    pub fn table_entries(&self) -> Vec<usize> {
-        self.features.as_ref().map_or(Vec::new(), |f| (0..f.levels()).map(|l| f.entries(l)).collect())
     }
 
     /// Initial density bias of bounded scenes (σ in 1/world units before
@@ -714,24 +691,5 @@ mod tests {
         assert!(table.iter().filter(|v| **v != 0.0).count() > 20);
         assert_eq!(&whole[..m.table], &layers[..]);
         assert_eq!(&whole[m.table..], &table[..]);
-        // the listed scatter: the same sums, every entry with a gradient listed once
-        let mut sparse = TableGrad::new(m.table_entries(), 2);
-        m.scatter_table_sparse(&grads, &mut sparse);
-        assert_eq!(sparse.values, table);
-        let mut start = 0;
-        for (l, (&n, touched)) in sparse.entries().iter().zip(&sparse.touched).enumerate() {
-            let mut listed: Vec<u32> = touched.clone();
-            listed.sort_unstable();
-            listed.dedup();
-            assert_eq!(listed.len(), touched.len(), "level {l} lists an entry twice");
-            let nonzero = (0..n as u32).filter(|&e| table[(start + e as usize) * 2..][..2].iter().any(|v| *v != 0.0));
-            assert!(nonzero.clone().all(|e| listed.binary_search(&e).is_ok()), "level {l} misses an entry");
-            assert!(listed.len() >= nonzero.count() && !listed.is_empty(), "level {l}");
-            start += n;
-        }
-        sparse.clear();
-        assert!(sparse.values.iter().all(|v| *v == 0.0) && sparse.touched.iter().all(|t| t.is_empty()));
-        m.scatter_table_sparse(&grads, &mut sparse);
-        assert_eq!(sparse.values, table, "a cleared gradient fills again");
     }
 }

@@ -11,7 +11,7 @@
 //! rayon; each chunk draws its jitter from a hash of (seed, step, chunk), so
 //! a run is reproducible whatever the thread count.
 
-use crate::adam::{Adam, TableGrad};
+use crate::adam::Adam;
 use crate::config::TrainConfig;
 use crate::dataset::Dataset;
 use crate::grid::DensityGrid;
@@ -97,10 +97,6 @@ pub struct Trainer {
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
-    /// The feature table's gradient of a step, zero between steps (not
-    /// checkpointed).
-    #[serde(skip)]
-    table_grad: TableGrad,
 }
 
 /// Zeroed gradient buffers and chunks' grid-value gradients reused from
@@ -291,7 +287,9 @@ impl Trainer {
         if cfg.n_fine > 0 {
             params.extend(init(network_seed(seed, 1)));
         }
-        let adam = Adam::new(params.len(), &net.table_entries());
+        // a feature grid's table (the last parameters; such runs have one network)
+        let table = if net.features.is_some() { params.len() - net.table } else { 0 };
+        let adam = Adam::new(params.len(), table);
         let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
         Self {
             cfg,
@@ -306,7 +304,6 @@ impl Trainer {
             grid,
             data: String::new(),
             pool: GradPool::default(),
-            table_grad: TableGrad::default(),
         }
     }
 
@@ -393,18 +390,7 @@ impl Trainer {
         let (n, how) = (self.cfg.batch_rays, Draw::of(&self.cfg));
         let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
-        let (grad, sq_c, sq_f, samples, grids) = self.chunk_gradients(&batch, step_key, &mut times);
-        let net = self.mlp();
-        if net.features.is_some() {
-            let start = std::time::Instant::now();
-            let entries = net.table_entries();
-            if self.table_grad.entries() != entries {
-                self.table_grad = TableGrad::new(entries, net.features.as_ref().map_or(0, |f| f.width as usize));
-            }
-            net.scatter_table_sparse(&grids, &mut self.table_grad);
-            self.pool.give_grids(grids);
-            times.scatter += start.elapsed().as_secs_f64();
-        }
+        let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
         let mse_f = if self.cfg.n_fine > 0 { sq_f / n } else { sq_c / n };
         let loss = (sq_c + sq_f) / n;
@@ -416,22 +402,14 @@ impl Trainer {
             skipped: false,
             times,
         };
-        let finite = grad.iter().all(|g| g.is_finite()) && self.table_grad.is_finite();
-        if !loss.is_finite() || !finite {
+        if !loss.is_finite() || grad.iter().any(|g| !g.is_finite()) {
             self.skipped += 1;
             stats.skipped = true;
         } else {
             let lr = self.learning_rate(progress);
-            let (c, dense) = (&self.cfg, grad.len());
-            timed(&mut stats.times.adam, || {
-                let (layers, table) = self.params.split_at_mut(dense);
-                self.adam.update(layers, &grad, lr, c.beta1, c.beta2, c.eps);
-                if net.features.is_some() {
-                    self.adam.update_entries(table, &self.table_grad, lr, c.beta1, c.beta2, c.eps);
-                }
-            });
+            let c = &self.cfg;
+            timed(&mut stats.times.adam, || self.adam.update(&mut self.params, &grad, lr, c.beta1, c.beta2, c.eps));
         }
-        self.table_grad.clear();
         self.pool.give(grad);
         self.step += 1;
         stats
@@ -452,32 +430,6 @@ impl Trainer {
     /// [`Trainer::gradients`], adding the time of its stages to `times`
     /// (`chunks` and its split, `scatter`).
     fn gradients_timed(&self, batch: &[Sample], step_key: u32, times: &mut StepTimes) -> (Vec<f32>, f64, f64, usize) {
-        let (dense_grad, sq_c, sq_f, samples, grids) = self.chunk_gradients(batch, step_key, times);
-        let np = self.params.len();
-        if dense_grad.len() == np {
-            return (dense_grad, sq_c, sq_f, samples);
-        }
-        let start = std::time::Instant::now();
-        let mut grad = self.pool.take(np);
-        grad[..dense_grad.len()].copy_from_slice(&dense_grad);
-        self.pool.give(dense_grad);
-        self.mlp().scatter_table(&grids, &mut grad[self.mlp().table..]);
-        self.pool.give_grids(grids);
-        times.scatter += start.elapsed().as_secs_f64();
-        (grad, sq_c, sq_f, samples)
-    }
-
-    /// The chunks' part of [`Trainer::gradients`]: the gradient of every
-    /// parameter but a feature grid's table, the summed squared errors, the
-    /// network evaluations, and the chunks' grid-value gradients in chunk
-    /// order (for [`Mlp::scatter_table`]; empty without a feature grid).
-    #[allow(clippy::type_complexity)]
-    fn chunk_gradients(
-        &self,
-        batch: &[Sample],
-        step_key: u32,
-        times: &mut StepTimes,
-    ) -> (Vec<f32>, f64, f64, usize, Vec<GridGrad>) {
         let start = std::time::Instant::now();
         let net = self.mlp();
         let np = self.params.len();
@@ -517,9 +469,19 @@ impl Trainer {
             );
         times.add(&split);
         times.chunks += start.elapsed().as_secs_f64();
+        if dense == np {
+            return (dense_grad, sq_c, sq_f, samples);
+        }
+        let start = std::time::Instant::now();
+        let mut grad = self.pool.take(np);
+        grad[..dense].copy_from_slice(&dense_grad);
+        self.pool.give(dense_grad);
         grids.sort_unstable_by_key(|(ci, _)| *ci);
-        let grids = grids.into_iter().map(|(_, g)| g).collect();
-        (dense_grad, sq_c, sq_f, samples, grids)
+        let grids: Vec<GridGrad> = grids.into_iter().map(|(_, g)| g).collect();
+        net.scatter_table(&grids, &mut grad[dense..]);
+        self.pool.give_grids(grids);
+        times.scatter += start.elapsed().as_secs_f64();
+        (grad, sq_c, sq_f, samples)
     }
 
     /// Density σ threshold of the grid: the density at which a sample of
@@ -773,7 +735,7 @@ impl Trainer {
             && t.params.len() == t.mlp().n_params * nets
             && t.params.len() == t.adam.m.len()
             && t.params.len() == t.adam.v.len()
-            && t.adam.entry_steps.len() == t.mlp().table_entries().iter().sum::<usize>();
+            && t.adam.steps.len() == if t.mlp().features.is_some() { t.params.len() - t.mlp().table } else { 0 };
         (sizes_ok && grid_ok).then_some(t)
     }
 }
