@@ -356,6 +356,10 @@ mod tests {
         let mut bad = m.clone();
         bad.precise_density = None;
         assert!(matches!(bad.validate(), Err(Error::InvalidTopology(_))));
+        // a crafted file with too few layers is refused, not read past its end
+        let mut bad = m.clone();
+        bad.coarse.layers.truncate(1);
+        assert!(Model::from_bytes(&encode(&bad).unwrap()).is_err());
         // the version-7 reader's view of it: older files still read
         let old = Model::from_bytes(include_bytes!("../../tests/data/golden8_precise.nerf")).unwrap();
         assert!(old.precise_density.is_none() && old.coarse.precise.unwrap().density.is_none());
