@@ -67,6 +67,16 @@ pub fn network_seed(seed: u64, k: usize) -> u64 {
     }
 }
 
+/// How many of a run's `params` parameters are a feature grid's table: the
+/// last ones (a run with a feature grid has one network), none without one.
+fn table_values(net: &Mlp, params: usize) -> usize {
+    if net.features.is_some() {
+        params - net.table
+    } else {
+        0
+    }
+}
+
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Trainer {
@@ -287,9 +297,7 @@ impl Trainer {
         if cfg.n_fine > 0 {
             params.extend(init(network_seed(seed, 1)));
         }
-        // a feature grid's table (the last parameters; such runs have one network)
-        let table = if net.features.is_some() { params.len() - net.table } else { 0 };
-        let adam = Adam::new(params.len(), table);
+        let adam = Adam::new(params.len(), table_values(&net, params.len()));
         let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
         Self {
             cfg,
@@ -735,7 +743,7 @@ impl Trainer {
             && t.params.len() == t.mlp().n_params * nets
             && t.params.len() == t.adam.m.len()
             && t.params.len() == t.adam.v.len()
-            && t.adam.steps.len() == if t.mlp().features.is_some() { t.params.len() - t.mlp().table } else { 0 };
+            && t.adam.steps.len() == table_values(&t.mlp(), t.params.len());
         (sizes_ok && grid_ok).then_some(t)
     }
 }

@@ -143,41 +143,13 @@ impl Model<'_> {
                 }
             }
             if let Some(c) = pn.colour {
-                let ci = n.layers.len() as u8 - 1;
-                let din = last.in_dim as usize;
-                if c.in_dim != last.in_dim || c.out_dim != 3 {
-                    return Err(Error::LayerShape(ci));
-                }
-                let lengths = [c.weights.len(), c.bias.len(), c.scales.len(), c.requant.len()];
-                if lengths != [din * 3 * 2, 12, 12, 24] {
-                    return Err(Error::TensorLength(ci));
-                }
-                if !(c.act_max.is_finite() && c.act_max >= 0.0)
-                    || (0..3).any(|k| !(c.scale(k).is_finite() && c.scale(k) > 0.0 && c.requant(k).is_valid()))
-                {
-                    return Err(Error::InvalidScale(ci));
-                }
+                check_head16(&c, last, 3, n.layers.len() as u8 - 1)?;
             }
             if let Some(d) = pn.density {
                 let si = sigma_layer(t);
                 // the layer count is checked after the 16-bit parts
                 let Some(head) = n.layers.get(si) else { return Err(Error::LayerShape(si as u8)) };
-                if d.in_dim != head.in_dim || d.out_dim != 1 {
-                    return Err(Error::LayerShape(si as u8));
-                }
-                if [d.weights.len(), d.bias.len(), d.scales.len(), d.requant.len()] != [d.in_dim as usize * 2, 4, 4, 8]
-                {
-                    return Err(Error::TensorLength(si as u8));
-                }
-                let scale = d.scale(0);
-                if !(d.act_max.is_finite()
-                    && d.act_max >= 0.0
-                    && scale.is_finite()
-                    && scale > 0.0
-                    && d.requant(0).is_valid())
-                {
-                    return Err(Error::InvalidScale(si as u8));
-                }
+                check_head16(&d, head, 1, si as u8)?;
             }
         }
         Ok(())
@@ -237,4 +209,23 @@ impl Model<'_> {
         }
         Ok(())
     }
+}
+
+/// A 16-bit head `h` read in place of layer `index` (`layer`): its shape
+/// (`layer`'s inputs, `outs` outputs), its tensors' lengths (i16 weights,
+/// i32 bias, f32 scales, Q0.31 requantisation per output) and its scales.
+fn check_head16(h: &Layer<'_>, layer: &Layer<'_>, outs: usize, index: u8) -> Result<()> {
+    if h.in_dim != layer.in_dim || h.out_dim as usize != outs {
+        return Err(Error::LayerShape(index));
+    }
+    let lengths = [h.weights.len(), h.bias.len(), h.scales.len(), h.requant.len()];
+    if lengths != [h.in_dim as usize * outs * 2, 4 * outs, 4 * outs, 8 * outs] {
+        return Err(Error::TensorLength(index));
+    }
+    if !(h.act_max.is_finite() && h.act_max >= 0.0)
+        || (0..outs).any(|k| !(h.scale(k).is_finite() && h.scale(k) > 0.0 && h.requant(k).is_valid()))
+    {
+        return Err(Error::InvalidScale(index));
+    }
+    Ok(())
 }
