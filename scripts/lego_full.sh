@@ -6,9 +6,10 @@
 # exports it to int8, and evaluates both on the 10 validation views with
 # early termination at 1e-3 on one thread. Appends one row to
 # docs/lego_full.csv (date, commit, CPU, cores, downscale, minutes, steps,
-# the grid's finest level and table size, PSNR and SSIM of f32 and int8,
-# samples and µs per ray, bytes of each model, the training process's
-# peak resident memory) and the validation PSNR over time to
+# the grid's finest level and table size, the model's stratified samples
+# per ray, PSNR and SSIM of f32 and int8, samples evaluated and µs per
+# ray, bytes of each model, the training process's peak resident memory)
+# and the validation PSNR over time to
 # docs/lego_full_curve.csv.
 #
 #   scripts/lego_full.sh [DATA_ROOT] [MINUTES] [DOWNSCALE]
@@ -23,7 +24,7 @@ downscale=${3:-1}
 out_csv=docs/lego_full.csv
 curve_csv=docs/lego_full_curve.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,downscale,minutes,steps,max_res,log2_table,psnr_f32,ssim_f32,\
-psnr_int8,ssim_int8,samples_f32,us_f32,us_int8,bytes_f32,bytes_int8,peak_rss_mib" > "$out_csv"
+psnr_int8,ssim_int8,samples_f32,us_f32,us_int8,bytes_f32,bytes_int8,peak_rss_mib,coarse" > "$out_csv"
 [ -f "$curve_csv" ] || echo "date,commit,cpu,cores,downscale,minutes,train_minutes,step,val_psnr" > "$curve_csv"
 run="$work/run"
 val_secs=$(python3 -c "print($minutes * 5)")
@@ -49,7 +50,8 @@ grid = info["features"]
 with open(out_csv, "a") as o:
     o.write(f"{stamp},{downscale},{minutes},{steps},{grid['resolutions'][-1]},{grid['log2_table']},"
             f"{f['psnr']:.2f},{f['ssim']:.3f},{q['psnr']:.2f},{q['ssim']:.3f},{f['samples_per_ray']:.2f},"
-            f"{f['us_per_ray']:.2f},{q['us_per_ray']:.2f},{f['model_bytes']},{q['model_bytes']},{rss}\n")
+            f"{f['us_per_ray']:.2f},{q['us_per_ray']:.2f},{f['model_bytes']},{q['model_bytes']},{rss},"
+            f"{info['samples']['coarse']}\n")
 with open(curve_csv, "a") as o:
     for line in open(f"{run}/train.jsonl"):
         r = json.loads(line)

@@ -98,11 +98,11 @@ def lego_size(r):
 def full_section():
     rs = full_rows()
     size = lego_size
-    body = [[size(r), r["minutes"], thousands(r["steps"]), f"{r['max_res']} / 2^{r['log2_table']}",
+    body = [[size(r), r["minutes"], thousands(r["steps"]), f"{r['max_res']} / 2^{r['log2_table']}", r["coarse"],
              f"**{r['psnr_f32']}**", r["ssim_f32"], r["psnr_int8"], r["samples_f32"], r["us_f32"], r["us_int8"],
              thousands(r["bytes_f32"]), thousands(r["bytes_int8"]), thousands(r["peak_rss_mib"]), run(r)] for r in rs]
-    t = table(["size", "minutes", "steps", "finest cells / entries", "PSNR f32", "SSIM f32", "PSNR int8",
-               "samples/ray", "µs/ray f32", "µs/ray int8", "f32 bytes", "int8 bytes", "peak MiB", "<run"], body)
+    t = table(["size", "minutes", "steps", "finest cells / entries", "samples", "PSNR f32", "SSIM f32", "PSNR int8",
+               "evaluated/ray", "µs/ray f32", "µs/ray int8", "f32 bytes", "int8 bytes", "peak MiB", "<run"], body)
     curves = []
     for r in rs:
         c = []
@@ -118,7 +118,9 @@ def full_section():
                 ["minutes"] + [p["train_minutes"] for p in c], [["dB"] + [p["val_psnr"] for p in c]]))
     return ("The default at full resolution", "full", """`scripts/lego_full.sh DATA_ROOT MINUTES DOWNSCALE`: `nerf train --data lego
 --downscale D --minutes M` with no preset, its feature grid sized to the
-photos (finest level and table entries per level in the table), then
+photos (finest level and table entries per level in the table) and its
+samples per ray set for them (`samples`; the network evaluates the
+`evaluated/ray` of them in occupied cells before early termination), then
 `nerf export --bits 8` and `nerf eval --split val --early-stop 1e-3
 --threads 1 --repeat 2` on the f32 model and its int8 export: PSNR and
 SSIM on lego's 10 validation views, samples and µs per ray on one core;

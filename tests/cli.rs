@@ -130,7 +130,13 @@ fn scene_train_resume_eval_export_info_render() {
     assert!(few_spr > 4.0 && few_spr <= 16.0 && few_spr < spr, "{few_spr}");
     let o = support::cli::nerf(&["export", s(&model), "--bits", "8", "--coarse", "1", "--out", s(&d.join("x.nerf"))]);
     let e = String::from_utf8(o.stderr).unwrap();
-    assert!(!o.status.success() && e.contains("'1' for '--coarse") && e.contains("2..=256"), "{e}");
+    assert!(!o.status.success() && e.contains("'1' for '--coarse") && e.contains("2..=1024"), "{e}");
+    // this model has a fine network: at most 256 coarse samples
+    let o =
+        support::cli::nerf(&["export", s(&model), "--bits", "16", "--coarse", "257", "--out", s(&d.join("x.nerf"))]);
+    let e = String::from_utf8(o.stderr).unwrap();
+    assert!(!o.status.success() && e.contains("x.nerf") && e.contains("sample counts"), "{e}");
+    assert!(!d.join("x.nerf").exists());
 
     let t = d.join("trade");
     let table = ok(&[

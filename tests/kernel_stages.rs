@@ -263,3 +263,50 @@ fn wrong_path_and_bad_options_are_typed_errors() {
     o.early_stop = f32::NAN;
     assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
 }
+
+#[test]
+fn one_pass_models_march_up_to_1024_samples_and_two_pass_models_256() {
+    use nerf_infer::format::{MAX_COARSE, MAX_MARCH};
+    let cfg = TrainConfig { n_coarse: MAX_MARCH as u16, n_fine: 0, ..small_config() };
+    cfg.validate().unwrap();
+    let (f, q16, _) = models(&cfg, 5);
+    let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
+    assert_eq!((mf.samples.coarse, mf.samples.fine), (MAX_MARCH as u16, 0));
+    // every sample of the longest march is evaluated, in both paths, and they agree
+    let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
+    let rq = RendererFixed::new(&mq, RenderOptions::from_model(&mq)).unwrap();
+    let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
+    let cam = orbit_camera(&mf.scene, 0.3, 8, 8);
+    let (mut worst, mut marched) = (0.0f32, 0);
+    for (x, y) in (0..8).flat_map(|y| (0..8).map(move |x| (x, y))) {
+        let (o, d) = cam.ray(x, y);
+        let before = (sf.evaluations, sq.evaluations);
+        let a = rf.render_ray(o, d, (x, y), &mut sf);
+        let b = rq.render_ray(o, d, (x, y), &mut sq).to_pixel();
+        worst = (0..3).fold(worst, |w, c| w.max((a.rgb[c] - b.rgb[c]).abs()));
+        // a ray that meets the bounds evaluates every sample (no grid, no
+        // early termination); one that misses them, none
+        let n = (sf.evaluations - before.0, sq.evaluations - before.1);
+        assert!(n == (0, 0) || n == (MAX_MARCH as u64, MAX_MARCH as u64), "pixel ({x}, {y}): {n:?}");
+        marched += (n.0 > 0) as u32;
+    }
+    assert!(marched >= 32, "{marched} of 64 rays met the bounds");
+    assert!(worst < 0.02, "worst |Δrgb| {worst}");
+    let mut o = RenderOptions::from_model(&mf);
+    o.coarse = MAX_MARCH + 1;
+    assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
+    // with a fine pass the coarse samples stop at 256: in the trainer's
+    // config, the renderer's options and the decoder
+    let two = small_config();
+    assert!(TrainConfig { n_coarse: MAX_COARSE as u16 + 1, ..two.clone() }.validate().is_err());
+    let (f2, _, _) = models(&two, 6);
+    let m2 = Model::from_bytes(&f2).unwrap();
+    let mut o = RenderOptions::from_model(&m2);
+    o.coarse = MAX_COARSE + 1;
+    assert_eq!(RendererF32::new(&m2, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
+    o.fine = 0; // the coarse network alone is one pass
+    RendererF32::new(&m2, o).unwrap();
+    let mut owned = random_model(&two, unit_scene(), 6, 6.0);
+    owned.samples.coarse = MAX_COARSE as u16 + 1;
+    assert_eq!(owned.to_bytes().unwrap_err(), nerf_infer::Error::InvalidSamples);
+}

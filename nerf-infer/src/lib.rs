@@ -15,7 +15,8 @@
 //!
 //! Memory: nothing is allocated. Working memory is a scratch value the
 //! caller owns ([`ScratchF32`], [`ScratchFixed`]), sized by the constants in
-//! [`format`](mod@format) (`MAX_WIDTH = 256`, `MAX_COARSE = MAX_FINE = 256`) and a block
+//! [`format`](mod@format) (`MAX_WIDTH = 256`, `MAX_COARSE = MAX_FINE = 256`,
+//! `MAX_MARCH = 1024` samples per ray without a fine pass) and a block
 //! size `B` (samples evaluated together).
 //!
 //! # Numeric formats

@@ -31,10 +31,24 @@ pub const MAX_WIDTH: usize = 256;
 pub const MAX_INPUT: usize = MAX_WIDTH + 3 + 6 * MAX_FREQS + MAX_FEATURES;
 /// Highest number of encoding frequencies `L` (per coordinate).
 pub const MAX_FREQS: usize = 16;
-/// Most coarse samples per ray.
+/// Most coarse samples per ray of a model with a fine network.
 pub const MAX_COARSE: usize = 256;
 /// Most fine samples per ray (in addition to the coarse ones).
 pub const MAX_FINE: usize = 256;
+/// Most samples per ray of a model without a fine network (one pass): the
+/// scratch's sample buffer, which a two-pass render splits into the
+/// coarse, fine and merged samples, holds this many.
+pub const MAX_MARCH: usize = 2 * (MAX_COARSE + MAX_FINE);
+
+/// Most coarse samples per ray for a model with `fine` importance samples
+/// per ray: [`MAX_MARCH`] without a fine pass, [`MAX_COARSE`] with one.
+pub const fn max_coarse(fine: usize) -> usize {
+    if fine == 0 {
+        MAX_MARCH
+    } else {
+        MAX_COARSE
+    }
+}
 
 // The learned feature grid ([`crate::features`]).
 

@@ -29,7 +29,7 @@ pub struct TrainConfig {
     pub view_dependent: bool,
     /// Width of the view layer (the paper: 128).
     pub view_width: u16,
-    /// Coarse samples per ray `N_c`.
+    /// Coarse samples per ray `N_c` (2..=1024; 2..=256 with a fine network).
     pub n_coarse: u16,
     /// Fine samples per ray `N_f` (0: one network, no hierarchical sampling).
     pub n_fine: u16,
@@ -257,6 +257,28 @@ impl TrainConfig {
         true
     }
 
+    /// Cells of the finest feature level per stratified sample that
+    /// [`Self::fit_samples_to`] aims for along the bounds' longest side.
+    pub const FITTED_CELLS_PER_SAMPLE: u32 = 4;
+
+    /// Sets the samples per ray for photos that resolve `cells` per axis
+    /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
+    /// one per [`Self::FITTED_CELLS_PER_SAMPLE`] cells (two pixel
+    /// footprints) along the bounds' longest side, at most
+    /// [`MAX_MARCH`](nerf_infer::format::MAX_MARCH). Only a one-pass
+    /// configuration with an occupancy grid is changed, and only upwards;
+    /// returns whether anything changed. On lego at 800×800 (2048 cells)
+    /// this is 512 samples per ray where the preset has 192
+    /// (docs/EXPERIMENTS.md).
+    pub fn fit_samples_to(&mut self, cells: u32) -> bool {
+        let fitted = (cells / Self::FITTED_CELLS_PER_SAMPLE).min(nerf_infer::format::MAX_MARCH as u32) as u16;
+        if self.grid_res == 0 || self.n_fine > 0 || fitted <= self.n_coarse {
+            return false;
+        }
+        self.n_coarse = fitted;
+        true
+    }
+
     /// The encoding this config trains.
     pub fn encoding(&self) -> Encoding {
         Encoding {
@@ -320,8 +342,9 @@ impl TrainConfig {
         if self.skips.iter().any(|&s| s == 0 || s >= self.depth) {
             return Err("skips must name trunk layers 1..depth".into());
         }
-        if !(2..=256).contains(&self.n_coarse) || self.n_fine > 256 {
-            return Err("n_coarse must be 2..=256 and n_fine at most 256".into());
+        let most = nerf_infer::format::max_coarse(self.n_fine as usize);
+        if !(2..=most).contains(&(self.n_coarse as usize)) || self.n_fine as usize > nerf_infer::format::MAX_FINE {
+            return Err("n_coarse must be 2..=1024 (2..=256 with n_fine) and n_fine at most 256".into());
         }
         if self.batch_rays == 0 || self.chunk_rays == 0 {
             return Err("batch_rays and chunk_rays must be positive".into());
@@ -382,6 +405,30 @@ impl TrainConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fitted_samples_only_ever_grow_and_only_in_one_pass_marches_over_a_grid() {
+        let mut c = TrainConfig::features();
+        // lego at 100×100 resolves 256 cells: the preset's 192 samples stay
+        assert!(!c.fit_samples_to(256));
+        assert_eq!(c.n_coarse, 192);
+        // at 800×800, 2048 cells: one sample per four cells
+        assert!(c.fit_samples_to(2048));
+        assert_eq!(c.n_coarse, 512);
+        assert!(c.validate().is_ok());
+        assert!(!c.fit_samples_to(1024));
+        assert_eq!(c.n_coarse, 512);
+        // at most the march's capacity
+        assert!(c.fit_samples_to(1 << 20));
+        assert_eq!(c.n_coarse as usize, nerf_infer::format::MAX_MARCH);
+        assert!(c.validate().is_ok());
+        // no occupancy grid, or a fine pass: left alone
+        for c in [TrainConfig::fast(), TrainConfig { grid_res: 0, ..TrainConfig::features() }] {
+            let mut fitted = c.clone();
+            assert!(!fitted.fit_samples_to(4096));
+            assert_eq!(fitted, c);
+        }
+    }
 
     #[test]
     fn fitting_the_feature_grid_only_ever_refines_it() {

@@ -28,8 +28,9 @@ pub struct Args {
     /// Write each render and its ground truth as PNG into this directory.
     #[arg(long)]
     pub(crate) save: Option<PathBuf>,
-    /// Coarse samples per ray (default: the model's).
-    #[arg(long, value_name = "2..=256", value_parser = num_in(2usize, nerf_infer::format::MAX_COARSE))]
+    /// Coarse samples per ray (default: the model's; at most 256 with a
+    /// fine pass).
+    #[arg(long, value_name = "2..=1024", value_parser = num_in(2usize, nerf_infer::format::MAX_MARCH))]
     pub(crate) coarse: Option<usize>,
     /// Fine samples per ray (default: the model's).
     #[arg(long, value_name = "0..=256", value_parser = num_in(0usize, nerf_infer::format::MAX_FINE))]

@@ -40,10 +40,11 @@ pub struct Args {
     /// `--bits 8` does.
     #[arg(long, value_delimiter = ',')]
     int8_layers: Vec<usize>,
-    /// Set the model's default stratified samples per ray (2..=256; what a
-    /// renderer uses unless told otherwise): fewer samples, less time per
-    /// ray, some PSNR (measure with `nerf eval --coarse`).
-    #[arg(long, value_parser = clap::value_parser!(u16).range(2..=256))]
+    /// Set the model's default stratified samples per ray (2..=1024, at
+    /// most 256 with a fine network; what a renderer uses unless told
+    /// otherwise): fewer samples, less time per ray, some PSNR (measure
+    /// with `nerf eval --coarse`).
+    #[arg(long, value_name = "2..=1024", value_parser = clap::value_parser!(u16).range(2..=1024))]
     pub(crate) coarse: Option<u16>,
     /// Output file.
     #[arg(long)]

@@ -35,7 +35,7 @@ pub struct Args {
     pub(crate) preset: Option<String>,
     /// Configuration as JSON: fields of the preset (`features` without `--preset`) to override; see docs/CLI.md.
     /// A feature grid is sized to the photos of an object scene unless the file names `feature_max_res` or
-    /// `feature_log2_table`.
+    /// `feature_log2_table`, and so are the samples per ray unless it names `n_coarse`.
     #[arg(long)]
     pub(crate) config: Option<PathBuf>,
     /// Train until this many steps in total.
@@ -105,6 +105,9 @@ struct NewRun {
     /// Size the feature grid to the photos ([`TrainConfig::fit_features_to`]):
     /// unless `--config` names `feature_max_res` or `feature_log2_table`.
     fit_features: bool,
+    /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]):
+    /// unless `--config` names `n_coarse`.
+    fit_samples: bool,
 }
 
 impl NewRun {
@@ -112,8 +115,13 @@ impl NewRun {
     /// grid sized to what the photos resolve.
     fn for_data(&self, data: &Dataset) -> TrainConfig {
         let mut cfg = self.cfg.clone();
-        if let Some(cells) = data.resolvable_cells().filter(|_| self.fit_features) {
-            cfg.fit_features_to(cells);
+        if let Some(cells) = data.resolvable_cells() {
+            if self.fit_features {
+                cfg.fit_features_to(cells);
+            }
+            if self.fit_samples {
+                cfg.fit_samples_to(cells);
+            }
         }
         cfg
     }
@@ -125,7 +133,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
             .ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, features, paper)"))?,
         None => TrainConfig::default_preset(),
     };
-    let mut fit_features = true;
+    let (mut fit_features, mut fit_samples) = (true, true);
     let cfg = match &a.config {
         None => base,
         Some(path) => {
@@ -136,6 +144,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
                 return Err(bad(&"expected a JSON object of configuration fields"));
             };
             fit_features = !over.contains_key("feature_max_res") && !over.contains_key("feature_log2_table");
+            fit_samples = !over.contains_key("n_coarse");
             // the preset's fields, then the file's on top of them
             let mut merged = serde_json::to_value(&base).map_err(|e| bad(&e))?;
             if let Some(m) = merged.as_object_mut() {
@@ -145,7 +154,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
         }
     };
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    Ok(NewRun { cfg, fit_features })
+    Ok(NewRun { cfg, fit_features, fit_samples })
 }
 
 /// The validation views, or none if the dataset has no such split.
@@ -276,7 +285,7 @@ pub fn run(a: Args) -> CmdResult {
 /// `--preset` and `--config`).
 pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    let run = NewRun { cfg, fit_features: false };
+    let run = NewRun { cfg, fit_features: false, fit_samples: false };
     with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
 
@@ -314,6 +323,12 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
                 "feature grid sized to the photos: finest level {} cells per axis (was {}), 2^{} table entries per \
                  level (was 2^{}); set feature_max_res or feature_log2_table with --config to choose",
                 cfg.feature_max_res, run.cfg.feature_max_res, cfg.feature_log2_table, run.cfg.feature_log2_table
+            );
+        }
+        if cfg.n_coarse != run.cfg.n_coarse {
+            eprintln!(
+                "samples per ray set for the photos: {} (was {}); set n_coarse with --config to choose",
+                cfg.n_coarse, run.cfg.n_coarse
             );
         }
         let mut tr = Trainer::new(cfg, data.scene, downscale, a.seed);

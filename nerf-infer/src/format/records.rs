@@ -250,7 +250,8 @@ impl Topology {
 /// Default sample counts per ray.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Samples {
-    /// Stratified samples evaluated by the coarse network (2..=256).
+    /// Stratified samples evaluated by the coarse network (2..=256 with a
+    /// fine network, 2..=1024 without).
     pub coarse: u16,
     /// Importance samples added for the fine network (0..=256; 0: no fine pass).
     pub fine: u16,

@@ -60,7 +60,7 @@ impl Model<'_> {
             return Err(Error::InvalidTopology("skip mask names a layer outside 1..depth"));
         }
         let sm = &self.samples;
-        if sm.coarse < 2 || sm.coarse as usize > MAX_COARSE || sm.fine as usize > MAX_FINE {
+        if sm.coarse < 2 || sm.coarse as usize > max_coarse(sm.fine as usize) || sm.fine as usize > MAX_FINE {
             return Err(Error::InvalidSamples);
         }
         if (sm.fine > 0) != self.fine.is_some() {

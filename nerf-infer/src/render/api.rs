@@ -2,14 +2,15 @@
 //! point every numeric path implements.
 
 use crate::error::{Error, Result};
-use crate::format::{Model, MAX_COARSE, MAX_FINE};
+use crate::format::{max_coarse, Model, MAX_FINE};
 use crate::sampling::ray_key;
 use glam::Vec3;
 
 /// Render-time knobs; [`RenderOptions::from_model`] gives the model's defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
-    /// Stratified samples for the coarse pass (2..=256).
+    /// Stratified samples for the coarse pass (2..=256 with a fine pass,
+    /// 2..=1024 without).
     pub coarse: usize,
     /// Importance samples for the fine pass (0..=256; 0 renders the coarse
     /// network only; must be 0 if the model has no fine network).
@@ -32,7 +33,7 @@ impl RenderOptions {
     pub(super) fn validate(&self, model: &Model<'_>) -> Result<()> {
         let fine_ok = self.fine <= MAX_FINE && (self.fine == 0 || model.fine.is_some());
         let stop_ok = self.early_stop.is_finite() && (0.0..1.0).contains(&self.early_stop);
-        if !(2..=MAX_COARSE).contains(&self.coarse) || !fine_ok || !stop_ok {
+        if !(2..=max_coarse(self.fine)).contains(&self.coarse) || !fine_ok || !stop_ok {
             return Err(Error::InvalidSamples);
         }
         Ok(())

@@ -5,7 +5,7 @@
 
 use super::path::NumericPath;
 use super::renderer::Renderer;
-use super::scratch::Scratch;
+use super::scratch::{two_pass, Scratch, TwoPass};
 use crate::camera::Ray;
 use crate::composite::Compositor;
 use crate::format::Network;
@@ -38,13 +38,14 @@ pub(super) fn render<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     let span = P::span(lo, hi);
     let pr = P::ray(ray);
     let nc = r.opts.coarse;
-    let Scratch { t_coarse, w_coarse, cdf, t_fine, t_all, block, evaluations } = s;
+    let Scratch { t, w_coarse, cdf, block, evaluations } = s;
     let fine = if r.opts.fine > 0 { m.fine.as_ref() } else { None };
     let Some(fine_net) = fine else {
         // one pass: only the samples around the span are generated
-        let t = P::samples_around(&pr, nc, key, span, t_coarse);
+        let t = P::samples_around(&pr, nc, key, span, t);
         return pass::<P, K, B>(r, &m.coarse, &pr, t, span, true, block, None, evaluations);
     };
+    let TwoPass { coarse: t_coarse, fine: t_fine, all: t_all } = two_pass(t);
     let t_c = &mut t_coarse[..nc];
     P::samples(&pr, key, t_c);
     pass::<P, K, B>(r, &m.coarse, &pr, t_c, span, false, block, Some(&mut w_coarse[..nc]), evaluations);

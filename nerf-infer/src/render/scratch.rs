@@ -1,7 +1,7 @@
 //! The working memory of a render, owned by the caller.
 
 use super::path::NumericPath;
-use crate::format::{MAX_COARSE, MAX_FINE};
+use crate::format::{MAX_COARSE, MAX_FINE, MAX_MARCH};
 use crate::network::Block;
 
 /// Working memory of a renderer on path `P` for blocks of `B` samples:
@@ -10,24 +10,40 @@ use crate::network::Block;
 /// ≈ 14 KiB for `B = 1`).
 #[derive(Clone)]
 pub struct Scratch<P: NumericPath, const B: usize = 8> {
-    pub(super) t_coarse: [P::T; MAX_COARSE],
+    /// Sample positions `t`: up to [`MAX_MARCH`] in a one-pass render; a
+    /// two-pass render splits it into the coarse, the fine and the merged
+    /// samples ([`two_pass`]).
+    pub(super) t: [P::T; MAX_MARCH],
     pub(super) w_coarse: [P::W; MAX_COARSE],
     pub(super) cdf: [P::Cdf; MAX_COARSE],
-    pub(super) t_fine: [P::T; MAX_FINE],
-    pub(super) t_all: [P::T; MAX_COARSE + MAX_FINE],
     pub(super) block: Block<P, B>,
     /// Network evaluations performed since creation (for samples/ray).
     pub evaluations: u64,
 }
 
+/// The sample buffers of a two-pass render, borrowed from one scratch.
+pub(super) struct TwoPass<'s, T> {
+    /// Coarse samples, up to [`MAX_COARSE`].
+    pub coarse: &'s mut [T],
+    /// Importance samples, up to [`MAX_FINE`].
+    pub fine: &'s mut [T],
+    /// Coarse and importance samples merged, up to their sum.
+    pub all: &'s mut [T],
+}
+
+/// A scratch's sample buffer split for a two-pass render.
+pub(super) fn two_pass<T>(t: &mut [T; MAX_MARCH]) -> TwoPass<'_, T> {
+    let (coarse, rest) = t.split_at_mut(MAX_COARSE);
+    let (fine, all) = rest.split_at_mut(MAX_FINE);
+    TwoPass { coarse, fine, all }
+}
+
 impl<P: NumericPath, const B: usize> Default for Scratch<P, B> {
     fn default() -> Self {
         Self {
-            t_coarse: [P::T::default(); MAX_COARSE],
+            t: [P::T::default(); MAX_MARCH],
             w_coarse: [P::W::default(); MAX_COARSE],
             cdf: [P::Cdf::default(); MAX_COARSE],
-            t_fine: [P::T::default(); MAX_FINE],
-            t_all: [P::T::default(); MAX_COARSE + MAX_FINE],
             block: Block::default(),
             evaluations: 0,
         }
