@@ -135,6 +135,7 @@ fn option_sets(m: &Model<'_>) -> Vec<RenderOptions> {
         RenderOptions::from_model(m),
         RenderOptions { coarse: 2, fine: 0, early_stop: 0.0, seed: None },
         RenderOptions { coarse: 256, fine: fine(256), early_stop: 0.0, seed: Some(3) },
+        RenderOptions { coarse: nerf_infer::format::MAX_MARCH, fine: 0, early_stop: 0.0, seed: Some(5) },
         RenderOptions { coarse: 3, fine: fine(1), early_stop: 0.999, seed: Some(u32::MAX) },
     ]
 }

@@ -58,7 +58,7 @@ fn shipped_int16_and_int8_models_stay_within_their_bounds() {
 #[test]
 fn the_shipped_grid_model_renders_in_fixed_point_within_the_same_bounds() {
     // scene_grid.nerf: one network and an occupancy grid (models/README.md);
-    // issue 6 holds its int8 render to 0.5 dB of the f32 one
+    // its int8 render is held to 0.5 dB of the f32 one
     let dir = std::env::temp_dir().join(format!("nerf-qbounds-grid-{}", std::process::id()));
     write_blender(&dir, SceneSpec::default()).unwrap();
     let test = load(&dir, Split::Test, LoadOptions::default()).unwrap();

@@ -74,7 +74,11 @@ impl fmt::Display for Error {
             }
             Error::Capacity(w) => write!(f, "model exceeds this build's capacity: {w}"),
             Error::InvalidSamples => {
-                write!(f, "sample counts are zero or exceed the kernel's capacity")
+                write!(
+                    f,
+                    "sample counts are zero or exceed the kernel's capacity (2..=1024 coarse samples in one pass, \
+                     2..=256 coarse and 0..=256 fine in two)"
+                )
             }
             Error::WrongNumericPath => {
                 write!(f, "the model's numeric scheme does not match this renderer")

@@ -257,18 +257,21 @@ impl TrainConfig {
         true
     }
 
-    /// Cells of the finest feature level per stratified sample that
-    /// [`Self::fit_samples_to`] aims for along the bounds' longest side.
+    /// Resolvable cells (two per pixel footprint) per stratified sample
+    /// that [`Self::fit_samples_to`] aims for along the bounds' longest side.
     pub const FITTED_CELLS_PER_SAMPLE: u32 = 4;
 
     /// Sets the samples per ray for photos that resolve `cells` per axis
     /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
-    /// one per [`Self::FITTED_CELLS_PER_SAMPLE`] cells (two pixel
+    /// one per [`Self::FITTED_CELLS_PER_SAMPLE`] of those cells (two pixel
     /// footprints) along the bounds' longest side, at most
-    /// [`MAX_MARCH`](nerf_infer::format::MAX_MARCH). Only a one-pass
-    /// configuration with an occupancy grid is changed, and only upwards;
-    /// returns whether anything changed. On lego at 800×800 (2048 cells)
-    /// this is 512 samples per ray where the preset has 192
+    /// [`MAX_MARCH`](nerf_infer::format::MAX_MARCH), whether or not a
+    /// feature grid is sized to them. Only a one-pass configuration with
+    /// an occupancy grid is changed, and only upwards; returns whether
+    /// anything changed. The occupancy grid's density threshold follows
+    /// the step ([`Trainer::grid_threshold`](crate::train::Trainer::grid_threshold)):
+    /// at 512 samples it is 512/192 times the preset's. On lego at 800×800
+    /// (2048 cells) this is 512 samples per ray where the preset has 192
     /// (docs/EXPERIMENTS.md).
     pub fn fit_samples_to(&mut self, cells: u32) -> bool {
         let fitted = (cells / Self::FITTED_CELLS_PER_SAMPLE).min(nerf_infer::format::MAX_MARCH as u32) as u16;

@@ -206,7 +206,7 @@ impl Dispatch for Fixed {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::format::MAX_COARSE;
+    use crate::format::{MAX_COARSE, MAX_MARCH};
     use crate::sampling::hash32;
 
     /// What makes a pass over the samples around the span bit-identical to
@@ -215,14 +215,14 @@ mod tests {
     /// first sample) and ends after it (or at the last).
     #[test]
     fn the_samples_around_the_span_are_a_run_of_the_full_set_covering_it() {
-        let mut out = [0i32; MAX_COARSE];
-        let mut full = [0i32; MAX_COARSE];
+        let mut out = [0i32; MAX_MARCH];
+        let mut full = [0i32; MAX_MARCH];
         let mut shortened = 0;
         for case in 0..4000u32 {
             let h = |k: u32| hash32(case.wrapping_mul(7919) ^ k);
             let near = (h(1) % (8 << 16)) as i32;
             let far = near + (h(2) % (8 << 16)) as i32;
-            let n = [2, 3, 5, 64, 192, MAX_COARSE][(h(3) % 6) as usize];
+            let n = [2, 3, 5, 64, 192, MAX_COARSE, 512, MAX_MARCH][(h(3) % 8) as usize];
             let key = (h(4) % 2 == 0).then(|| h(5));
             let a = near - (1 << 16) + (h(6) % (10 << 16)) as i32;
             let span = (a, a + (h(7) % (4 << 16)) as i32);

@@ -31,6 +31,9 @@ pub(super) struct TwoPass<'s, T> {
     pub all: &'s mut [T],
 }
 
+// a two-pass render's coarse, fine and merged samples fit the one buffer
+const _: () = assert!(MAX_MARCH >= 2 * (MAX_COARSE + MAX_FINE));
+
 /// A scratch's sample buffer split for a two-pass render.
 pub(super) fn two_pass<T>(t: &mut [T; MAX_MARCH]) -> TwoPass<'_, T> {
     let (coarse, rest) = t.split_at_mut(MAX_COARSE);
