@@ -58,6 +58,16 @@ impl BiasCorrections {
     }
 }
 
+/// One parameter's update with gradient `g` and bias corrections `bc`
+/// (`1 − β₁ᵗ`, `1 − β₂ᵗ`): the moments, then the parameter.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn step(p: &mut f32, g: f32, m: &mut f32, v: &mut f32, bc: (f32, f32), lr: f32, b1: f32, b2: f32, eps: f32) {
+    *m = b1 * *m + (1.0 - b1) * g;
+    *v = b2 * *v + (1.0 - b2) * g * g;
+    *p -= lr * (*m / bc.0) / ((*v / bc.1).sqrt() + eps);
+}
+
 /// `1 − βᵏ` in f32, as [`Adam::update`] computes it for its step count.
 fn correction(b: f32, k: u32) -> f32 {
     1.0 - (b as f64).powi(k.min(i32::MAX as u32) as i32) as f32
@@ -82,7 +92,7 @@ impl Adam {
         assert!(p.len() == self.m.len() && g.len() == self.m.len(), "{} parameters, {} gradients", p.len(), g.len());
         self.t += 1;
         let k = self.t.min(u32::MAX as u64) as u32;
-        let (bc1, bc2) = (correction(b1, k), correction(b2, k));
+        let bc = (correction(b1, k), correction(b2, k));
         let from = self.m.len() - self.steps.len();
         // element-wise: split in blocks across threads (a feature grid's
         // table makes millions of parameters)
@@ -93,10 +103,8 @@ impl Adam {
         let (v, vs) = self.v.split_at_mut(from);
         let blocks = p.par_chunks_mut(BLOCK).zip(g.par_chunks(BLOCK)).zip(m.par_chunks_mut(BLOCK));
         blocks.zip(v.par_chunks_mut(BLOCK)).for_each(|(((p, g), m), v)| {
-            for (((p, g), m), v) in p.iter_mut().zip(g).zip(m).zip(v) {
-                *m = b1 * *m + (1.0 - b1) * g;
-                *v = b2 * *v + (1.0 - b2) * g * g;
-                *p -= lr * (*m / bc1) / ((*v / bc2).sqrt() + eps);
+            for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m).zip(v) {
+                step(p, g, m, v, bc, lr, b1, b2, eps);
             }
         });
         if self.steps.is_empty() {
@@ -112,10 +120,7 @@ impl Adam {
                     continue;
                 }
                 *k = k.saturating_add(1);
-                let (bc1, bc2) = bias.at(*k);
-                *m = b1 * *m + (1.0 - b1) * g;
-                *v = b2 * *v + (1.0 - b2) * g * g;
-                *p -= lr * (*m / bc1) / ((*v / bc2).sqrt() + eps);
+                step(p, g, m, v, bias.at(*k), lr, b1, b2, eps);
             }
         });
     }

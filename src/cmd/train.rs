@@ -112,7 +112,8 @@ struct NewRun {
 
 impl NewRun {
     /// The configuration to train on `data`: with `fit_features`, its feature
-    /// grid sized to what the photos resolve.
+    /// grid sized to what the photos resolve; with `fit_samples`, its
+    /// samples per ray set for them.
     fn for_data(&self, data: &Dataset) -> TrainConfig {
         let mut cfg = self.cfg.clone();
         if let Some(cells) = data.resolvable_cells() {
