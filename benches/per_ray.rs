@@ -23,7 +23,7 @@ use nerf_infer::{render_tile, Tile};
 use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, Scheme, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, random_model, OwnedModel};
-use nerf_train::path::orbit_camera;
+use nerf_train::path::{orbit, orbit_camera};
 use std::hint::black_box;
 
 fn scene() -> Scene {
@@ -49,7 +49,7 @@ fn macs_per_ray(m: &Model<'_>) -> usize {
 const TILE: Tile = Tile { x0: 12, y0: 12, width: 8, height: 8 };
 
 fn bench(c: &mut Criterion) {
-    let cam = orbit_camera(&scene(), 0.2, 32, 32);
+    let cam = orbit_camera(&orbit(&scene(), None), 0.2, 32, 32);
     let rays: Vec<_> = (0..64u32).map(|k| (cam.ray(8 + k % 16, 8 + k / 4), (k, 0))).collect();
     let presets =
         [("paper", TrainConfig::paper()), ("fast", TrainConfig::fast()), ("features", TrainConfig::features())];
@@ -128,7 +128,7 @@ fn bench_grid(c: &mut Criterion) {
         bytes.push((format!("{label}/grid"), m.to_bytes().unwrap()));
         bytes.push((format!("{label}/no-grid"), OwnedModel { grid: None, ..m.clone() }.to_bytes().unwrap()));
     }
-    let cam = orbit_camera(&mf.scene, 0.2, 32, 32);
+    let cam = orbit_camera(&orbit(&mf.scene, None), 0.2, 32, 32);
     let frame = Tile { x0: 0, y0: 0, width: 32, height: 32 };
     let mut g = c.benchmark_group("frame/grid-model");
     g.sample_size(10).throughput(Throughput::Elements(frame.len() as u64));

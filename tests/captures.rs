@@ -329,7 +329,8 @@ fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
     assert_eq!(depth.color(), image::ColorType::L16);
     // a forward-facing model's orbit is a circle in front of the capture: every ray meets the scene
     let llff = load(&scene.join("llff"), Split::Train, opts(Format::Auto)).unwrap();
-    let cam = nerf_train::path::orbit_camera(&llff.scene, 0.3, 8, 6);
+    let spiral = nerf_train::path::orbit(&llff.scene, None);
+    let cam = nerf_train::path::orbit_camera(&spiral, 0.3, 8, 6);
     for (x, y) in [(0, 0), (7, 5), (4, 3)] {
         let (o, d) = cam.ray(x, y);
         assert!(nerf_infer::Ray::new(&llff.scene, o, d).is_some(), "({x},{y})");
@@ -342,7 +343,7 @@ fn a_model_records_how_its_capture_was_split_and_eval_reuses_it() {
     let flags = ["--llffhold", "3", "--scene", "object", "--ignore-distortion"];
     let (data, model) = trained_capture(&root, "7", "colmap", "2", &flags);
     let info = json(&["info", s(&model), "--json"]);
-    assert_eq!(info["format_version"], 4);
+    assert_eq!(info["format_version"], nerf_infer::format::FORMAT_VERSION, "a capture record and a fitted orbit");
     let c = &info["capture"];
     assert_eq!(
         (c["holdout"].as_u64(), c["framing"].as_str(), c["lens"].as_bool()),
@@ -374,10 +375,37 @@ fn a_capture_all_around_trains_unbounded_and_both_paths_render_it() {
     let (data, model) = trained_capture(&root, "6", "room", "3", &[]);
     let run = model.parent().unwrap().to_path_buf();
     let info = json(&["info", s(&model), "--json"]);
-    assert_eq!(info["format_version"], 5);
+    assert_eq!(info["format_version"], nerf_infer::format::FORMAT_VERSION, "unbounded, with a fitted orbit");
     let lin = info["scene"]["unbounded"]["linear_until"].as_f64().expect("an unbounded scene");
     let far = info["scene"]["far"].as_f64().unwrap();
     assert!(lin > 1.0 && far >= 100.0 * lin, "linear until {lin}, far {far}");
+    // the orbit is fitted to the training cameras: up their mean up, their field of view, about the
+    // median camera's distance (1 in fitted units) and a height above the centre (they look down at it)
+    let o = &info["orbit"];
+    let num = |k: &str| o[k].as_f64().unwrap();
+    let v = |k: &str| -> Vec<f64> { o[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+    let (centre, up) = (v("centre"), v("up"));
+    let train = load(&data, Split::Train, LoadOptions { holdout: 8, ..opts(Format::Auto) }).unwrap();
+    let mean_up = train.views.iter().map(|v| v.camera.rotation.y_axis).sum::<glam::Vec3>().normalize();
+    assert!((0..3).all(|k| (up[k] - mean_up[k] as f64).abs() < 1e-5), "{up:?} against {mean_up}");
+    let fov = |c: &nerf_infer::Camera| 2.0 * (0.5 * c.width as f64 / c.fx as f64).atan();
+    let (lo, hi) =
+        train.views.iter().map(|v| fov(&v.camera)).fold((f64::MAX, 0.0f64), |(a, b), f| (a.min(f), b.max(f)));
+    assert!(num("fov_x") >= lo - 1e-6 && num("fov_x") <= hi + 1e-6, "{} outside {lo}..{hi}", num("fov_x"));
+    let (radius, height) = (num("radius"), num("height"));
+    assert!((radius.hypot(height) - 1.0).abs() < 0.2 && height > 0.1, "radius {radius}, height {height}");
+    // and the video's cameras follow it
+    let out = root.join("orbit-fitted");
+    support::cli::ok(&["render", s(&model), "--orbit", "3", "--size", "8", "--out", s(&out)]);
+    let path: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("camera_path.json")).unwrap()).unwrap();
+    for c in path["camera_path"].as_array().unwrap() {
+        let m: Vec<f64> = c["camera_to_world"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+        let rel: Vec<f64> = (0..3).map(|r| m[4 * r + 3] - centre[r]).collect();
+        let h: f64 = (0..3).map(|r| rel[r] * up[r]).sum();
+        let d = rel.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!((h - height).abs() < 1e-3 && (d - radius.hypot(height)).abs() < 1e-3, "height {h}, distance {d}");
+    }
     let int8 = run.join("int8.nerf");
     support::cli::ok(&["export", s(&model), "--bits", "8", "--out", s(&int8)]);
     for m in [&model, &int8] {

@@ -354,8 +354,11 @@ fn export_stores_the_feature_table_as_8_or_4_bit_codebook_indices() {
         ok(&["export", s(&model), "--bits", "8", "--table-bits", bits, "--out", s(&out)]);
         let i = info(&out);
         assert_eq!(i["features"]["value_bits"].to_string(), bits, "{i}");
-        // int8 exports carry the 16-bit density head of version 8, with any table
-        assert_eq!(i["format_version"], 8, "{i}");
+        // int8 exports carry the 16-bit density head (version 8), with any table, and keep the
+        // orbit fitted to the training cameras (version 9)
+        assert_eq!(i["precise"]["density_head"], true, "{i}");
+        assert!(i["orbit"]["radius"].as_f64().is_some_and(|r| r > 0.0), "{i}");
+        assert_eq!(i["format_version"], nerf_infer::format::FORMAT_VERSION, "{i}");
         table_bytes.push(i["features"]["bytes"].as_u64().unwrap());
         let text = ok(&["info", s(&out)]);
         assert_eq!(text.contains(&format!("{bits}-bit indices into a codebook")), bits != "16", "{text}");

@@ -10,7 +10,7 @@ use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::score_view;
 use nerf_train::export::{narrow_table, quantise, random_model, trainer_model, OwnedModel, Prune};
-use nerf_train::path::orbit_camera;
+use nerf_train::path::{orbit, orbit_camera};
 use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Trainer};
 use support::*;
@@ -178,7 +178,7 @@ fn int16_render_of_a_random_feature_grid_model_is_within_40_db_of_f32() {
         let plain_bytes = plain.to_bytes().unwrap();
         let mp = Model::from_bytes(&plain_bytes).unwrap();
         for turn in [0.1, 0.6] {
-            let cam = orbit_camera(&m32.scene, turn, 32, 32);
+            let cam = orbit_camera(&orbit(&m32.scene, None), turn, 32, 32);
             let (a, b) = (render(&m32, &cam), render(&m16, &cam));
             let p = psnr(&a, &b);
             let without = psnr(&a, &render(&mp, &cam));
@@ -239,7 +239,7 @@ fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
         let mut owned = wide.clone();
         narrow_table(&mut owned, bits).unwrap();
         let bytes = owned.to_bytes().unwrap();
-        assert_eq!(version(&bytes), nerf_infer::format::FORMAT_VERSION);
+        assert_eq!(version(&bytes), nerf_infer::format::FORMAT_VERSION_NO_ORBIT);
         let mn = Model::from_bytes(&bytes).unwrap();
         assert_eq!(OwnedModel::from_model(&mn), owned, "{bits}-bit table: the file round trips");
         let values = mw.features.as_ref().unwrap().values();
@@ -255,7 +255,7 @@ fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
         let as_i16_bytes = as_i16.to_bytes().unwrap();
         let me = Model::from_bytes(&as_i16_bytes).unwrap();
         for turn in [0.2, 0.7] {
-            let cam = orbit_camera(&mn.scene, turn, 24, 24);
+            let cam = orbit_camera(&orbit(&mn.scene, None), turn, 24, 24);
             assert_eq!(render(&mn, &cam), render(&me, &cam), "{bits}-bit table, view {turn}");
         }
         // a narrow table is not narrowed again
@@ -304,7 +304,7 @@ fn a_corrupted_narrow_table_model_is_refused_or_renders_in_range() {
         match Model::from_bytes(&b) {
             Ok(m) => {
                 decoded += 1;
-                let cam = orbit_camera(&m.scene, 0.3, 6, 6);
+                let cam = orbit_camera(&orbit(&m.scene, None), 0.3, 6, 6);
                 if let Ok(img) = nerf_train::eval::render_view(&m, RenderOptions::from_model(&m), &cam) {
                     assert!(img.rgb.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "flip {k} at {pos}");
                 }

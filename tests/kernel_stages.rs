@@ -12,7 +12,7 @@ use nerf_infer::network::{BlockF32, BlockFixed, F32, W16, W8};
 use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, quantise_acts, random_model};
-use nerf_train::path::orbit_camera;
+use nerf_train::path::{orbit, orbit_camera};
 use proptest::prelude::*;
 use support::*;
 
@@ -219,7 +219,7 @@ fn full_rays_fixed_against_f32_and_degenerate_rays() {
     let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
     let rq = RendererFixed::new(&mq, RenderOptions::from_model(&mq)).unwrap();
     let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
-    let cam = orbit_camera(&mf.scene, 0.3, 24, 24);
+    let cam = orbit_camera(&orbit(&mf.scene, None), 0.3, 24, 24);
     let mut worst = 0.0f32;
     for y in 0..24 {
         for x in 0..24 {
@@ -276,7 +276,7 @@ fn one_pass_models_march_up_to_1024_samples_and_two_pass_models_256() {
     let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
     let rq = RendererFixed::new(&mq, RenderOptions::from_model(&mq)).unwrap();
     let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
-    let cam = orbit_camera(&mf.scene, 0.3, 8, 8);
+    let cam = orbit_camera(&orbit(&mf.scene, None), 0.3, 8, 8);
     let (mut worst, mut marched) = (0.0f32, 0);
     for (x, y) in (0..8).flat_map(|y| (0..8).map(move |x| (x, y))) {
         let (o, d) = cam.ray(x, y);

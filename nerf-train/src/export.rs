@@ -146,6 +146,8 @@ pub struct OwnedModel {
     /// The feature table's index bits and codebook bytes when its values
     /// are codebook indices (format version 7, [`NarrowTable`]).
     pub narrow: Option<(u8, Vec<u8>)>,
+    /// The orbit fitted to the training cameras (format version 9).
+    pub orbit: Option<format::FittedOrbit>,
 }
 
 /// `shape` with `table` as its table (i16 or f32 values; no codebook).
@@ -207,6 +209,7 @@ impl OwnedModel {
                     fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()?.density.as_ref()).map(OwnedLayer::view),
                 }
             }),
+            orbit: self.orbit,
         };
         format::to_bytes(&m)
     }
@@ -225,6 +228,7 @@ impl OwnedModel {
             features: m.features.as_ref().map(|f| (with_table(f, &[]), f.table.to_vec())),
             capture: m.capture,
             narrow: m.narrow.map(|n| (n.bits, n.codebook.to_vec())),
+            orbit: m.orbit,
         }
     }
 }
@@ -295,6 +299,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
             .map(|f| (f.clone(), f32_bytes(tr.params[mlp.table..mlp.n_params].iter().copied()))),
         capture: None,
         narrow: None,
+        orbit: None,
     }
 }
 

@@ -1,4 +1,4 @@
-//! Camera paths for videos: an orbit fitted to the scene, the capture's
+//! Camera paths for videos: an orbit fitted to the capture ([`orbit`]), the capture's
 //! own trajectory smoothed, and nerfstudio's `camera_path.json` (its
 //! rendered camera list, read and written, so a path made here can be
 //! edited elsewhere and rendered again; or its keyframes, interpolated).
@@ -7,12 +7,13 @@
 //! nerfstudio's), fields of view in degrees.
 
 use glam::{Mat3, Quat, Vec3};
-use nerf_infer::format::Scene;
 use nerf_infer::Camera;
 use std::path::Path;
 
 pub mod keyframes;
+mod orbit;
 use keyframes::Keyframe;
+pub use orbit::{fit_orbit, orbit, orbit_camera, orbit_rays, Orbit};
 
 /// `n ≥ 1` cameras along the trajectory of `cams` (in capture order),
 /// smoothed: positions and orientations are Gaussian-weighted means over
@@ -194,86 +195,6 @@ fn perspective(width: u32, fov: f32, aspect: f32, c2w: [[f32; 4]; 3]) -> Option<
     let f = 0.5 * height as f32 / (0.5 * fov.to_radians()).tan();
     let (w, h) = (width as f32, height as f32);
     Camera::new(width, height, f, f, w / 2.0, h / 2.0, c2w).ok()
-}
-
-/// Rays of `views` cameras on a circle around the scene centre, `size`²
-/// pixels each, with zero ground truth (for calibration).
-pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::Sample> {
-    let mut out = Vec::new();
-    for k in 0..views {
-        let cam = orbit_camera(scene, k as f32 / views as f32, size, size);
-        for y in 0..size {
-            for x in 0..size {
-                let (o, d) = cam.ray(x, y);
-                if let Some(r) = nerf_infer::Ray::new(scene, o, d) {
-                    out.push(crate::train::Sample::on_scene(scene, r, [0.0; 3]));
-                }
-            }
-        }
-    }
-    out
-}
-
-/// The path [`orbit_camera`] follows around a scene.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Orbit {
-    /// `circle`: around `centre` at `elevation`, looking at it, up +z;
-    /// `spiral` (forward-facing scenes): the camera at
-    /// `(radius·cos a, ½·radius·sin a, 0)` looking down −z.
-    pub kind: &'static str,
-    /// The point looked at, world units.
-    pub centre: [f32; 3],
-    /// Distance from the centre (circle) or the spiral's radius, world units.
-    pub radius: f32,
-    /// Elevation above the xy plane, radians.
-    pub elevation: f32,
-    /// Horizontal field of view, radians.
-    pub fov_x: f32,
-}
-
-/// The orbit of `scene`. Scenes seen from all around (Blender, fitted
-/// captures, whose up is +z): at 30° elevation on a circle around the
-/// bounds' centre at the middle of the near..far range (unbounded scenes,
-/// whose bounds hold the cameras: at 0.45 of the bounds' smaller
-/// horizontal extent), looking at the centre, field of view 0.69 rad as
-/// lego's. Forward-facing (NDC) scenes: a small circle in the image plane
-/// of the capture's average pose, looking down −z with the capture's
-/// field of view (LLFF's spiral without the depth motion).
-pub fn orbit(scene: &Scene) -> Orbit {
-    if let Some(n) = scene.ndc {
-        // the capture is normalised so its nearest depth is 1/0.75: move by a tenth of it
-        let fov_x = 2.0 * (0.5 * n.width / n.focal).atan();
-        return Orbit { kind: "spiral", centre: [0.0; 3], radius: 0.1, elevation: 0.0, fov_x };
-    }
-    let lo = glam::Vec3::from(scene.bounds_min);
-    let hi = glam::Vec3::from(scene.bounds_max);
-    // an unbounded scene's bounds hold the capture's cameras: orbit inside them
-    let radius = match scene.unbounded {
-        Some(_) => 0.45 * (hi - lo).x.min((hi - lo).y),
-        None => 0.5 * (scene.near + scene.far),
-    };
-    let centre = (0.5 * (lo + hi)).to_array();
-    Orbit { kind: "circle", centre, radius, elevation: 30f32.to_radians(), fov_x: 0.691_111_2 }
-}
-
-/// A camera on the scene's [`orbit`], `turn` (fraction of the path)
-/// along it, `width × height` pixels.
-pub fn orbit_camera(scene: &Scene, turn: f32, width: u32, height: u32) -> nerf_infer::Camera {
-    let az = turn * std::f32::consts::TAU;
-    let o = orbit(scene);
-    if scene.ndc.is_some() {
-        let r = o.radius;
-        let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
-        return nerf_infer::Camera::from_fov(width, height, o.fov_x, m).expect("spiral camera is rigid");
-    }
-    let centre = glam::Vec3::from(o.centre);
-    let el = o.elevation;
-    let eye = centre + o.radius * glam::Vec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-    let mut m = crate::dataset::synthetic::look_at(eye - centre);
-    for (r, c) in m.iter_mut().zip(eye.to_array()) {
-        r[3] = c;
-    }
-    nerf_infer::Camera::from_fov(width, height, o.fov_x, m).expect("orbit camera is rigid")
 }
 
 #[cfg(test)]

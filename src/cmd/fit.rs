@@ -310,6 +310,17 @@ fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedB
         framing: nerf_infer::format::Framing::Unbounded,
         lens: true,
     });
+    // an orbit record has a fixed size; forward-facing scenes have none
+    if scene.ndc.is_none() {
+        let orbit = nerf_infer::format::FittedOrbit {
+            centre: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            radius: 1.0,
+            height: 0.0,
+            fov_x: 1.0,
+        };
+        twin.orbit = Some(orbit);
+    }
     let f = twin.to_bytes().map_err(|e| e.to_string())?;
     let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
     let q = quantise(&m, WeightBits::from(bits).scheme())?;

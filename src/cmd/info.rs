@@ -57,6 +57,9 @@ pub fn run(a: Args) -> CmdResult {
             "holdout": c.holdout, "views": c.views, "held_out_crc": c.held_out_crc,
             "framing": format!("{:?}", c.framing), "lens": c.lens,
         })),
+        "orbit": m.orbit.map(|o| serde_json::json!({
+            "centre": o.centre, "up": o.up, "radius": o.radius, "height": o.height, "fov_x": o.fov_x,
+        })),
         "coarse": net(&m.coarse),
         "fine": m.fine.as_ref().map(net),
         "precise": m.coarse.precise.map(|p| serde_json::json!({
@@ -158,6 +161,17 @@ pub fn run(a: Args) -> CmdResult {
             c.holdout,
             c.framing,
             if c.lens { "applied" } else { "ignored" }
+        );
+    }
+    if let Some(o) = m.orbit {
+        let v = |v: [f32; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
+        println!(
+            "  orbit (fitted to the training cameras): around {} with up {}, radius {:.3}, height {:.3}, {:.1}° across",
+            v(o.centre),
+            v(o.up),
+            o.radius,
+            o.height,
+            o.fov_x.to_degrees()
         );
     }
     if let Some(p) = m.coarse.precise {

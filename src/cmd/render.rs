@@ -9,7 +9,7 @@ use nerf_infer::{Camera, RenderOptions};
 use nerf_train::dataset::save_png_rgb;
 use nerf_train::dataset::Split;
 use nerf_train::eval::{render_view, PixelRays, Rendered};
-use nerf_train::path::orbit_camera;
+use nerf_train::path::{orbit, orbit_camera};
 use nerf_train::path::{read_camera_path, smooth_trajectory, to_camera_path};
 use std::path::{Path, PathBuf};
 
@@ -27,7 +27,9 @@ pub struct Args {
     pub(crate) split: Option<SplitArg>,
     #[command(flatten)]
     pub(crate) capture: CaptureArgs,
-    /// Render N views on an orbit around the scene (a small circle in front for forward-facing scenes).
+    /// Render N views on an orbit around the scene: the circle fitted to the training cameras (their centre, up,
+    /// radius, height and field of view; `nerf info` shows it), or 30° above the bounds' centre for a model without
+    /// one; a small circle in front for forward-facing scenes.
     #[arg(long, value_name = "1..=10000", value_parser = num_in(1usize, 10_000))]
     pub(crate) orbit: Option<usize>,
     /// Render N views along the capture's own camera trajectory (its views in name order, smoothed), with the
@@ -110,7 +112,8 @@ pub fn run(a: Args) -> CmdResult {
     let ds = a.capture.downscale_for(&model);
     let path: Option<Vec<Camera>> = match (&a.data, a.orbit, a.trajectory, &a.camera_path) {
         (_, Some(n), _, _) => {
-            Some((0..n).map(|k| orbit_camera(&model.scene, k as f32 / n as f32, a.size, a.size)).collect())
+            let o = orbit(&model.scene, model.orbit.as_ref());
+            Some((0..n).map(|k| orbit_camera(&o, k as f32 / n as f32, a.size, a.size)).collect())
         }
         (Some(dir), _, Some(n), _) => {
             // every view: holdout 1 makes the whole capture the test split

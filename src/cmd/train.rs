@@ -12,6 +12,7 @@ use nerf_train::dataset::{Dataset, Split};
 use nerf_train::eval::score_view;
 use nerf_train::export::{trainer_model, OwnedModel, Prune};
 use nerf_train::mlp::Mlp;
+use nerf_train::path::fit_orbit;
 use nerf_train::rng::Rng;
 use nerf_train::timing::StepTimes;
 use nerf_train::train::{Draw, Trainer};
@@ -179,10 +180,13 @@ fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::S
 }
 
 /// Writes the checkpoint and the model; `data` is the training split (the
-/// model records how its capture was split).
+/// model records how its capture was split and the orbit fitted to its
+/// cameras).
 fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Prune, data: &Dataset) -> CmdResult {
     write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes())?;
-    let model = OwnedModel { capture: data.capture, ..trainer_model(tr, calib, prune) };
+    let cams: Vec<_> = data.views.iter().map(|v| v.camera).collect();
+    let orbit = fit_orbit(&data.scene, &cams);
+    let model = OwnedModel { capture: data.capture, orbit, ..trainer_model(tr, calib, prune) };
     let bytes = model.to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
     write_atomic(&out.join("model.nerf"), &bytes)
 }

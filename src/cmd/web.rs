@@ -57,7 +57,8 @@ pub fn run(a: Args) -> CmdResult {
     new_or_empty(&a.out)?;
     let bytes = read_model(&a.model)?;
     let m = decode(&a.model, &bytes)?;
-    let cam = orbit_camera(&m.scene, 0.0, CHECK_SIZE, CHECK_SIZE);
+    let o = orbit(&m.scene, m.orbit.as_ref());
+    let cam = orbit_camera(&o, 0.0, CHECK_SIZE, CHECK_SIZE);
     // fx fy cx cy, then [R | t] row by row
     let r = cam.rotation.transpose();
     let mut values = vec![cam.fx, cam.fy, cam.cx, cam.cy];
@@ -66,7 +67,7 @@ pub fn run(a: Args) -> CmdResult {
     }
     let view = serde_json::json!({
         "scheme": format!("{:?}", m.scheme()),
-        "orbit": orbit(&m.scene),
+        "orbit": o,
         "check": {
             "width": CHECK_SIZE,
             "height": CHECK_SIZE,

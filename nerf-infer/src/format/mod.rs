@@ -1,11 +1,11 @@
-//! The model file format (versions 1 to 8). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 9). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–8)  |
+//! | 4      | 2    | format version, u16 little-endian (1–9)  |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
@@ -16,8 +16,9 @@
 //! version 5 unbounded space ([`Unbounded`]); version 6 the parts of an
 //! int8 model kept at 16 bits ([`Precise`]); version 7 a feature table
 //! stored as 8- or 4-bit codebook indices ([`NarrowTable`]); version 8 the
-//! density heads at 16 bits ([`PreciseDensity`]). A model is written as the
-//! oldest version that holds it (no 16-bit density head: 7; no narrow
+//! density heads at 16 bits ([`PreciseDensity`]); version 9 the orbit fitted
+//! to the training cameras ([`FittedOrbit`]). A model is written as the
+//! oldest version that holds it (no fitted orbit: 8; no 16-bit density head: 7; no narrow
 //! table either: 6; no 16-bit parts
 //! either: 5; not
 //! unbounded either: 4; no capture record
@@ -38,8 +39,8 @@ pub use header::crc32;
 use header::{check_header, Padded};
 pub use layers::{expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network};
 pub use records::{
-    CameraConvention, Capture, Encoding, Framing, Meta, Ndc, Precise, PreciseDensity, PreciseNet, Samples, Scene,
-    Scheme, Topology, Unbounded,
+    CameraConvention, Capture, Encoding, FittedOrbit, Framing, Meta, Ndc, Precise, PreciseDensity, PreciseNet, Samples,
+    Scene, Scheme, Topology, Unbounded,
 };
 
 use crate::error::{Error, Result};
@@ -49,8 +50,9 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::limits::{
     max_coarse, FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_DENSITY16, FORMAT_VERSION_NO_FEATURES,
-    FORMAT_VERSION_NO_GRID, FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED,
-    HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_MARCH, MAX_WIDTH,
+    FORMAT_VERSION_NO_GRID, FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_ORBIT, FORMAT_VERSION_NO_PRECISE,
+    FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_MARCH,
+    MAX_WIDTH,
 };
 pub use crate::tensor::{read_f32, read_i16, read_i32};
 
@@ -99,6 +101,9 @@ pub struct Model<'a> {
     /// network's `precise.density` (and `precise`'s); only beside `precise`.
     #[serde(borrow)]
     pub precise_density: Option<PreciseDensity<'a>>,
+    /// The orbit fitted to the training cameras (format version 9), for
+    /// videos and viewers; `None`: the scene's own.
+    pub orbit: Option<FittedOrbit>,
 }
 
 impl<'a> Model<'a> {
@@ -175,13 +180,15 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 8 with 16-bit density
-    /// heads, 7 with a narrow feature table, 6 with 16-bit parts, 5 with
+    /// The format version this model is written as: 9 with a fitted orbit,
+    /// 8 with 16-bit density heads, 7 with a narrow feature table, 6 with 16-bit parts, 5 with
     /// unbounded space, 4 with a capture record, 3 with a feature grid, 2
     /// with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.precise_density.is_some() {
+        if self.orbit.is_some() {
             FORMAT_VERSION
+        } else if self.precise_density.is_some() {
+            FORMAT_VERSION_NO_ORBIT
         } else if self.narrow.is_some() {
             FORMAT_VERSION_NO_DENSITY16
         } else if self.precise.is_some() {
@@ -265,8 +272,9 @@ mod tests {
         assert_eq!(Model::from_bytes(b"XXXXXXXXXXXXXXXXXX").unwrap_err(), Error::BadMagic);
         let mut h = [0u8; 14];
         h[..4].copy_from_slice(&MAGIC);
-        h[4] = 9;
-        assert_eq!(Model::from_bytes(&h).unwrap_err(), Error::UnsupportedVersion(9));
+        let newer = FORMAT_VERSION + 1;
+        h[4..6].copy_from_slice(&newer.to_le_bytes());
+        assert_eq!(Model::from_bytes(&h).unwrap_err(), Error::UnsupportedVersion(newer));
     }
 
     /// A capture record makes a version-4 file that decodes to the same
@@ -285,6 +293,37 @@ mod tests {
         assert_eq!(Model::from_bytes(&bytes).unwrap(), m);
         m.capture = Some(Capture { holdout: 0, ..c });
         assert!(matches!(Model::from_bytes(&encode(&m).unwrap()), Err(Error::InvalidScene(_))));
+    }
+
+    /// A fitted orbit makes a version-9 file that decodes to the same model;
+    /// the files of every older version read as before and re-encode byte
+    /// for byte; an orbit out of range, or in a forward-facing scene, is
+    /// refused.
+    #[cfg(feature = "alloc")]
+    #[test]
+    fn a_fitted_orbit_is_version_9_and_checked() {
+        let golden = include_bytes!("../../tests/data/golden8_density.nerf");
+        let mut m = Model::from_bytes(golden).unwrap();
+        assert_eq!(m.format_version(), FORMAT_VERSION_NO_ORBIT);
+        assert_eq!(to_bytes(&m).unwrap(), golden);
+        let o = FittedOrbit { centre: [0.1, -0.2, 0.3], up: [0.0, 0.6, 0.8], radius: 1.5, height: 0.4, fov_x: 0.9 };
+        m.orbit = Some(o);
+        let bytes = to_bytes(&m).unwrap();
+        assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 9);
+        assert_eq!(bytes.len(), golden.len() + 1 + 9 * 4, "one tag byte and nine f32");
+        assert_eq!(Model::from_bytes(&bytes).unwrap(), m);
+        let refused = |o: FittedOrbit| {
+            let bad = Model { orbit: Some(o), ..m.clone() };
+            matches!(Model::from_bytes(&encode(&bad).unwrap()), Err(Error::InvalidScene(_)))
+        };
+        assert!(refused(FittedOrbit { up: [0.0, 0.0, 2.0], ..o }));
+        assert!(refused(FittedOrbit { radius: 0.0, ..o }));
+        assert!(refused(FittedOrbit { height: 151.0, ..o }));
+        assert!(refused(FittedOrbit { fov_x: 3.2, ..o }));
+        assert!(refused(FittedOrbit { centre: [f32::NAN, 0.0, 0.0], ..o }));
+        let mut ndc = m.clone();
+        ndc.scene.ndc = Some(Ndc { focal: 50.0, width: 64.0, height: 48.0 });
+        assert!(matches!(ndc.validate(), Err(Error::InvalidScene(s)) if s.contains("NDC")));
     }
 
     /// 16-bit parts make a version-6 file that re-encodes byte for byte;

@@ -119,6 +119,41 @@ pub struct Unbounded {
     pub linear_until: f32,
 }
 
+/// The circle a video's cameras follow around the scene, fitted to the
+/// training cameras (format version 9): around `centre` in the plane
+/// perpendicular to `up`, at `radius` from its axis and `height` above
+/// `centre` along it, each camera looking at `centre` with `up` as its up.
+/// World units (the model's frame); a model without one orbits as its
+/// scene suggests.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct FittedOrbit {
+    /// The point the cameras look at.
+    pub centre: [f32; 3],
+    /// The orbit's up, a unit vector (within 10⁻³).
+    pub up: [f32; 3],
+    /// Distance from the axis through `centre` along `up` (> 0).
+    pub radius: f32,
+    /// Height above `centre` along `up` (either sign, |height| ≤ 100·radius).
+    pub height: f32,
+    /// Horizontal field of view, radians (0 < fov_x < π).
+    pub fov_x: f32,
+}
+
+impl FittedOrbit {
+    /// Whether every field is finite and in its range.
+    pub fn is_valid(&self) -> bool {
+        let finite =
+            self.centre.iter().chain(&self.up).chain(&[self.radius, self.height, self.fov_x]).all(|v| v.is_finite());
+        let norm2 = self.up.iter().map(|v| v * v).sum::<f32>();
+        finite
+            && (norm2 - 1.0).abs() < 2e-3
+            && self.radius > 0.0
+            && self.height.abs() <= 100.0 * self.radius
+            && self.fov_x > 0.0
+            && self.fov_x < core::f32::consts::PI
+    }
+}
+
 /// The parts of an integer model's networks kept at 16 bits (format
 /// version 6): the two where 8-bit weights cost the most PSNR and the
 /// least time at 16 bits; the density head joins them from version 8

@@ -88,6 +88,14 @@ impl Model<'_> {
         if self.capture.is_some_and(|c| c.holdout == 0 || c.holdout > Capture::MAX_HOLDOUT || c.views == 0) {
             return Err(Error::InvalidScene("capture record: holdout outside 1..=100000 or no views"));
         }
+        if self.orbit.is_some_and(|o| !o.is_valid()) {
+            return Err(Error::InvalidScene(
+                "fitted orbit: not finite, up not a unit vector, radius or fov_x out of range",
+            ));
+        }
+        if self.orbit.is_some() && self.scene.ndc.is_some() {
+            return Err(Error::InvalidScene("a fitted orbit in a forward-facing (NDC) scene"));
+        }
         self.validate_precise()?;
         self.validate_network(&self.coarse)?;
         if let Some(f) = &self.fine {

@@ -1,0 +1,223 @@
+//! The orbit a video follows around the scene: fitted to the training
+//! cameras when the model was trained ([`fit_orbit`], stored in the model
+//! as a [`FittedOrbit`]), or, for a model without one, chosen from its
+//! scene ([`orbit`]).
+
+use crate::dataset::fit::{focus_point, Pose};
+use glam::Vec3;
+use nerf_infer::format::{FittedOrbit, Scene};
+use nerf_infer::Camera;
+
+/// The path [`orbit_camera`] follows around a scene.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Orbit {
+    /// `circle`: around `centre` at `elevation` above the plane
+    /// perpendicular to `up`, looking at it; `spiral` (forward-facing
+    /// scenes): the camera at `(radius·cos a, ½·radius·sin a, 0)` looking
+    /// down −z.
+    pub kind: &'static str,
+    /// The point looked at, world units.
+    pub centre: [f32; 3],
+    /// The circle's axis and the cameras' up, a unit vector.
+    pub up: [f32; 3],
+    /// Distance from the centre (circle) or the spiral's radius, world units.
+    pub radius: f32,
+    /// Elevation above the plane through `centre` perpendicular to `up`, radians.
+    pub elevation: f32,
+    /// Horizontal field of view, radians.
+    pub fov_x: f32,
+}
+
+/// The orbit of a model with scene `scene` and fitted orbit `fitted`.
+///
+/// - With a fitted orbit: that circle (its centre, up, radius and height,
+///   the training cameras' field of view).
+/// - Forward-facing (NDC) scenes: a small circle in the image plane of the
+///   capture's average pose, looking down −z with the capture's field of
+///   view (LLFF's spiral without the depth motion).
+/// - Otherwise up is +z (Blender's), and the circle at 30° elevation
+///   around the bounds' centre at the middle of the near..far range
+///   (unbounded scenes, whose bounds hold the cameras: at 0.45 of the
+///   bounds' smaller horizontal extent), field of view 0.69 rad as lego's.
+pub fn orbit(scene: &Scene, fitted: Option<&FittedOrbit>) -> Orbit {
+    if let Some(n) = scene.ndc {
+        // the capture is normalised so its nearest depth is 1/0.75: move by a tenth of it
+        let fov_x = 2.0 * (0.5 * n.width / n.focal).atan();
+        return Orbit { kind: "spiral", centre: [0.0; 3], up: [0.0, 1.0, 0.0], radius: 0.1, elevation: 0.0, fov_x };
+    }
+    if let Some(f) = fitted {
+        let (radius, elevation) = (f.radius.hypot(f.height), f.height.atan2(f.radius));
+        return Orbit { kind: "circle", centre: f.centre, up: f.up, radius, elevation, fov_x: f.fov_x };
+    }
+    let lo = Vec3::from(scene.bounds_min);
+    let hi = Vec3::from(scene.bounds_max);
+    let radius = match scene.unbounded {
+        Some(_) => 0.45 * (hi - lo).x.min((hi - lo).y),
+        None => 0.5 * (scene.near + scene.far),
+    };
+    let centre = (0.5 * (lo + hi)).to_array();
+    Orbit { kind: "circle", centre, up: [0.0, 0.0, 1.0], radius, elevation: 30f32.to_radians(), fov_x: 0.691_111_2 }
+}
+
+/// The directions of azimuth 0 and 90° in the plane perpendicular to `up`:
+/// +x and +y made perpendicular to it (for up = +z, +x and +y).
+fn azimuth_axes(up: Vec3) -> (Vec3, Vec3) {
+    let along = |v: Vec3| v - v.dot(up) * up;
+    let u1 = along(Vec3::X).try_normalize().or_else(|| along(Vec3::Y).try_normalize()).unwrap_or(Vec3::X);
+    (u1, up.cross(u1))
+}
+
+/// A camera on orbit `o`, `turn` (fraction of the path) along it,
+/// `width × height` pixels.
+pub fn orbit_camera(o: &Orbit, turn: f32, width: u32, height: u32) -> Camera {
+    let az = turn * std::f32::consts::TAU;
+    if o.kind == "spiral" {
+        let r = o.radius;
+        let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
+        return Camera::from_fov(width, height, o.fov_x, m).expect("spiral camera is rigid");
+    }
+    let (centre, up, el) = (Vec3::from(o.centre), Vec3::from(o.up), o.elevation);
+    let (u1, u2) = azimuth_axes(up);
+    let eye = centre + o.radius * (el.cos() * az.cos() * u1 + el.cos() * az.sin() * u2 + el.sin() * up);
+    let f = (centre - eye).normalize();
+    let right = f.cross(up).normalize();
+    let (up, back) = (right.cross(f), -f);
+    let m = [[right.x, up.x, back.x, eye.x], [right.y, up.y, back.y, eye.y], [right.z, up.z, back.z, eye.z]];
+    Camera::from_fov(width, height, o.fov_x, m).expect("orbit camera is rigid")
+}
+
+/// Rays of `views` cameras on the scene's own orbit ([`orbit`] without a
+/// fitted one), `size`² pixels each, with zero ground truth (for
+/// calibration).
+pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::Sample> {
+    let o = orbit(scene, None);
+    let mut out = Vec::new();
+    for k in 0..views {
+        let cam = orbit_camera(&o, k as f32 / views as f32, size, size);
+        for y in 0..size {
+            for x in 0..size {
+                let (o, d) = cam.ray(x, y);
+                if let Some(r) = nerf_infer::Ray::new(scene, o, d) {
+                    out.push(crate::train::Sample::on_scene(scene, r, [0.0; 3]));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The median of `v` (sorted in place); `v` not empty.
+fn median(v: &mut [f32]) -> f32 {
+    v.sort_by(f32::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// The orbit fitted to a capture's cameras `cams` (in the model's frame)
+/// in a scene `scene`:
+///
+/// - up: the mean of the cameras' up axes;
+/// - centre: the point nearest (least squares) to every camera's optical
+///   axis, where the capture looks, or the bounds' centre when the axes
+///   are (nearly) parallel or meet outside the bounds;
+/// - radius and height: the medians of the cameras' distances from the
+///   axis through the centre along up and of their heights along it;
+/// - field of view: the median of the cameras' horizontal ones.
+///
+/// `None` for forward-facing (NDC) scenes (their spiral is fitted to the
+/// capture already), for no cameras, or when the cameras' ups cancel or
+/// they sit on the axis.
+pub fn fit_orbit(scene: &Scene, cams: &[Camera]) -> Option<FittedOrbit> {
+    if scene.ndc.is_some() || cams.is_empty() {
+        return None;
+    }
+    let up = cams.iter().map(|c| c.rotation.y_axis).sum::<Vec3>().try_normalize()?;
+    let poses: Vec<Pose> = cams.iter().map(|c| (c.rotation.as_dmat3(), c.position.as_dvec3())).collect();
+    let (lo, hi) = (Vec3::from(scene.bounds_min), Vec3::from(scene.bounds_max));
+    let centre = focus_point(&poses)
+        .map(|p| p.as_vec3())
+        .filter(|p| p.is_finite() && p.cmpge(lo).all() && p.cmple(hi).all())
+        .unwrap_or(0.5 * (lo + hi));
+    let height = |c: &Camera| (c.position - centre).dot(up);
+    let radius = median(&mut cams.iter().map(|c| (c.position - centre - height(c) * up).length()).collect::<Vec<_>>());
+    let height = median(&mut cams.iter().map(height).collect::<Vec<_>>());
+    let fov_x = median(&mut cams.iter().map(|c| 2.0 * (0.5 * c.width as f32 / c.fx).atan()).collect::<Vec<_>>());
+    let o = FittedOrbit { centre: centre.to_array(), up: up.to_array(), radius, height, fov_x };
+    o.is_valid().then_some(o)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(half: f32) -> Scene {
+        Scene::blender(half, 0.1, 10.0)
+    }
+
+    /// A ring of `n` cameras around `centre`, `r` from the axis along `up`
+    /// and `h` above it, looking at `centre`, 60° across.
+    fn ring(n: usize, centre: Vec3, up: Vec3, r: f32, h: f32) -> Vec<Camera> {
+        let o = Orbit {
+            kind: "circle",
+            centre: centre.to_array(),
+            up: up.to_array(),
+            radius: r.hypot(h),
+            elevation: h.atan2(r),
+            fov_x: 60f32.to_radians(),
+        };
+        (0..n).map(|k| orbit_camera(&o, k as f32 / n as f32, 40, 30)).collect()
+    }
+
+    #[test]
+    fn the_default_orbit_circles_plus_z_at_30_degrees() {
+        let s = scene(1.5);
+        let o = orbit(&s, None);
+        assert_eq!((o.up, o.centre), ([0.0, 0.0, 1.0], [0.0; 3]));
+        let c = orbit_camera(&o, 0.25, 8, 8);
+        // a quarter turn from +x is +y, at 30° elevation, 0.5·(near + far) from the centre
+        let want = 5.05 * Vec3::new(0.0, 30f32.to_radians().cos(), 30f32.to_radians().sin());
+        assert!((c.position - want).length() < 1e-4, "{}", c.position);
+        assert!(c.rotation.y_axis.z > 0.0 && c.rotation.x_axis.z.abs() < 1e-6, "level, upright");
+    }
+
+    #[test]
+    fn a_fitted_orbit_follows_the_captures_circle_up_and_field_of_view() {
+        // cameras on a tilted ring around an off-centre point, with some shake
+        let (centre, up) = (Vec3::new(0.3, -0.2, 0.1), Vec3::new(0.0, 0.6, 0.8));
+        let mut cams = ring(24, centre, up, 2.0, 0.7);
+        for (i, c) in cams.iter_mut().enumerate() {
+            c.position += 0.02 * Vec3::new((i % 3) as f32 - 1.0, (i % 2) as f32 - 0.5, 0.0);
+        }
+        let f = fit_orbit(&scene(3.0), &cams).unwrap();
+        assert!((Vec3::from(f.centre) - centre).length() < 0.05, "{:?}", f.centre);
+        assert!(Vec3::from(f.up).dot(up) > 0.999, "{:?}", f.up);
+        assert!((f.radius - 2.0).abs() < 0.05 && (f.height - 0.7).abs() < 0.05, "{f:?}");
+        assert!((f.fov_x - 60f32.to_radians()).abs() < 1e-4);
+        // its cameras look at the centre from the ring, upright
+        let o = orbit(&scene(3.0), Some(&f));
+        for t in [0.0, 0.3, 0.7] {
+            let c = orbit_camera(&o, t, 16, 16);
+            let rel = c.position - Vec3::from(f.centre);
+            assert!((rel.dot(Vec3::from(f.up)) - f.height).abs() < 1e-4, "height at {t}");
+            assert!((-c.rotation.z_axis).dot(-rel.normalize()) > 0.9999, "looks at the centre");
+            assert!(c.rotation.y_axis.dot(Vec3::from(f.up)) > 0.0, "upright");
+        }
+    }
+
+    #[test]
+    fn a_capture_looking_outside_the_bounds_orbits_the_bounds_centre() {
+        // cameras looking at a point outside the bounds
+        let cams = ring(12, Vec3::new(5.0, 0.0, 0.0), Vec3::Z, 1.0, 0.0);
+        let f = fit_orbit(&scene(1.0), &cams).unwrap();
+        assert_eq!(f.centre, [0.0; 3]);
+        // no cameras, or a forward-facing scene: no fitted orbit
+        assert!(fit_orbit(&scene(1.0), &[]).is_none());
+        let mut ndc = scene(1.0);
+        ndc.ndc = Some(nerf_infer::format::Ndc { focal: 30.0, width: 40.0, height: 30.0 });
+        assert!(fit_orbit(&ndc, &cams).is_none());
+    }
+}
