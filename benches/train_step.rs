@@ -22,9 +22,10 @@ use nerf_train::train::Trainer;
 use std::hint::black_box;
 
 fn steps(c: &mut Criterion) {
-    let dir = std::env::temp_dir().join(format!("nerf-bench-train-step-{}", std::process::id()));
-    write_blender(&dir, SceneSpec { size: 64, train: 24, val: 1, test: 1 }).expect("write the built-in scene");
-    let data = load(&dir, Split::Train, LoadOptions::default()).expect("load the built-in scene");
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let dir = dir.path();
+    write_blender(dir, SceneSpec { size: 64, train: 24, val: 1, test: 1 }).expect("write the built-in scene");
+    let data = load(dir, Split::Train, LoadOptions::default()).expect("load the built-in scene");
     let mut g = c.benchmark_group("train_step");
     g.sample_size(20);
     for (name, cfg) in [("features", TrainConfig::features()), ("fast", TrainConfig::fast())] {
@@ -36,7 +37,6 @@ fn steps(c: &mut Criterion) {
         g.bench_function(name, |b| b.iter(|| black_box(tr.train_step(&data, 0.2).loss)));
     }
     g.finish();
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 fn products(c: &mut Criterion) {

@@ -3,13 +3,13 @@
 
 use nerf_train::dataset::synthetic::{write_blender, write_llff, SceneSpec};
 use nerf_train::dataset::{load, Format, LoadOptions, Split};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("nerf-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+mod support;
+use support::TestDir;
+
+fn tmp(name: &str) -> TestDir {
+    TestDir::new(name)
 }
 
 fn spec() -> SceneSpec {

@@ -38,7 +38,7 @@ fn feature_config() -> TrainConfig {
 
 #[test]
 fn a_step_reports_the_time_of_each_of_its_stages_within_its_own_duration() {
-    let d = std::env::temp_dir().join(format!("nerf-step-times-test-{}", std::process::id()));
+    let d = support::TestDir::new("step-times-test");
     write_blender(&d, SceneSpec { size: 24, train: 4, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = TrainConfig { batch_rays: 256, grid_res: 16, grid_warmup: 0, grid_every: 2, ..feature_config() };
@@ -61,7 +61,6 @@ fn a_step_reports_the_time_of_each_of_its_stages_within_its_own_duration() {
         let split = t.thread();
         assert!(split <= threads * t.chunks, "split {split} s over {threads} threads of {} s", t.chunks);
     }
-    std::fs::remove_dir_all(&d).ok();
 }
 
 fn version(bytes: &[u8]) -> u16 {
@@ -70,7 +69,7 @@ fn version(bytes: &[u8]) -> u16 {
 
 #[test]
 fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
-    let d = std::env::temp_dir().join(format!("nerf-features-test-{}", std::process::id()));
+    let d = support::TestDir::new("features-test");
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
@@ -124,12 +123,11 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
         println!("{bits}-bit table: {gt:.3} dB, {} table bytes", mn.feature_bytes());
         assert!(gt >= q8_gt - most_loss, "{bits}-bit table loses {:.3} dB", q8_gt - gt);
     }
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
 fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
-    let d = std::env::temp_dir().join(format!("nerf-sparse-adam-test-{}", std::process::id()));
+    let d = support::TestDir::new("sparse-adam-test");
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     // few rays per step, a fine hashed level: most values get a gradient now and then
@@ -157,7 +155,6 @@ fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
     assert!(tr.adam.steps.contains(&0), "some values never had a gradient");
     let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
     assert_eq!(back.adam.steps, tr.adam.steps);
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]

@@ -22,7 +22,7 @@ fn model(name: &str) -> Vec<u8> {
 
 #[test]
 fn shipped_int16_and_int8_models_stay_within_their_bounds() {
-    let dir = std::env::temp_dir().join(format!("nerf-qbounds-{}", std::process::id()));
+    let dir = support::TestDir::new("qbounds");
     // the test views of the shipped model's dataset (see models/README.md)
     write_blender(&dir, SceneSpec::default()).unwrap();
     let test = load(&dir, Split::Test, LoadOptions::default()).unwrap();
@@ -59,7 +59,7 @@ fn shipped_int16_and_int8_models_stay_within_their_bounds() {
 fn the_shipped_grid_model_renders_in_fixed_point_within_the_same_bounds() {
     // scene_grid.nerf: one network and an occupancy grid (models/README.md);
     // its int8 render is held to 0.5 dB of the f32 one
-    let dir = std::env::temp_dir().join(format!("nerf-qbounds-grid-{}", std::process::id()));
+    let dir = support::TestDir::new("qbounds-grid");
     write_blender(&dir, SceneSpec::default()).unwrap();
     let test = load(&dir, Split::Test, LoadOptions::default()).unwrap();
     let f = model("scene_grid.nerf");
@@ -87,7 +87,6 @@ fn the_shipped_grid_model_renders_in_fixed_point_within_the_same_bounds() {
     assert!(samples < mf.samples.coarse as f64 / 4.0, "the grid skips too little: {samples:.1} samples per ray");
     assert!(q16_f >= 45.0 && q16_gt >= f_gt - 0.1, "int16: {q16_f:.2} dB vs f32, {q16_gt:.3} vs {f_gt:.3} dB");
     assert!(q8_f >= 30.0 && q8_gt >= f_gt - 0.5, "int8: {q8_f:.2} dB vs f32, {q8_gt:.3} vs {f_gt:.3} dB");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The int8 export's 16-bit parts (format version 6: the view layer's
@@ -96,7 +95,7 @@ fn the_shipped_grid_model_renders_in_fixed_point_within_the_same_bounds() {
 /// both shipped f32 models.
 #[test]
 fn int8_16_bit_parts_bring_the_render_closer_to_f32() {
-    let dir = std::env::temp_dir().join(format!("nerf-qbounds-precise-{}", std::process::id()));
+    let dir = support::TestDir::new("qbounds-precise");
     write_blender(&dir, SceneSpec::default()).unwrap();
     let test = load(&dir, Split::Test, LoadOptions::default()).unwrap();
     for name in ["scene.nerf", "scene_grid.nerf"] {
@@ -119,7 +118,6 @@ fn int8_16_bit_parts_bring_the_render_closer_to_f32() {
         println!("{name}: int8 vs f32 {pw:.2} dB with the 16-bit parts, {po:.2} dB without");
         assert!(pw > po + 1.0, "{name}: {pw:.2} dB with the 16-bit parts, {po:.2} dB without");
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The 16-bit density head of an int8 model (format version 8) is the
@@ -129,7 +127,7 @@ fn int8_16_bit_parts_bring_the_render_closer_to_f32() {
 /// for bit as the plain int16 export, on both shipped f32 models.
 #[test]
 fn a_16_bit_density_head_renders_as_the_int16_models_density_head() {
-    let dir = std::env::temp_dir().join(format!("nerf-qbounds-density-{}", std::process::id()));
+    let dir = support::TestDir::new("qbounds-density");
     write_blender(&dir, SceneSpec::default()).unwrap();
     let test = load(&dir, Split::Test, LoadOptions::default()).unwrap();
     for name in ["scene.nerf", "scene_grid.nerf"] {
@@ -148,5 +146,4 @@ fn a_16_bit_density_head_renders_as_the_int16_models_density_head() {
             assert_eq!(render(&mp, &v.camera), render(&ml, &v.camera), "{name}: a view differs");
         }
     }
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -15,7 +15,7 @@ use support::small_config;
 
 #[test]
 fn loss_falls_and_the_exported_model_renders_the_scene() {
-    let d = std::env::temp_dir().join(format!("nerf-train-test-{}", std::process::id()));
+    let d = support::TestDir::new("train-test");
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
@@ -47,7 +47,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
 fn both_networks_learn_from_every_seed() {
     // Regression: a density head negative everywhere at initialisation got
     // no gradient through the compositor's ReLU and never trained.
-    let d = std::env::temp_dir().join(format!("nerf-seeds-test-{}", std::process::id()));
+    let d = support::TestDir::new("seeds-test");
     write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = nerf_train::config::TrainConfig { batch_rays: 128, lr: 1e-2, ..small_config() };
@@ -67,7 +67,7 @@ fn both_networks_learn_from_every_seed() {
 
 #[test]
 fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
-    let d = std::env::temp_dir().join(format!("nerf-train-nan-{}", std::process::id()));
+    let d = support::TestDir::new("train-nan");
     write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
     let good = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let mut bad = good.clone();
@@ -92,12 +92,11 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
     let st = tr.train_step(&good, 0.2);
     assert!(!st.skipped && st.loss.is_finite());
     assert_ne!(tr.params, params);
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
 fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
-    let d = std::env::temp_dir().join(format!("nerf-grid-test-{}", std::process::id()));
+    let d = support::TestDir::new("grid-test");
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
@@ -146,15 +145,13 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     let base = nerf_train::metrics::psnr(&white, &val.views[0].rgb);
     println!("validation PSNR {:.2} dB (all-white baseline {base:.2} dB)", s.psnr);
     assert!(s.psnr > base + 3.0);
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
 fn jittered_rays_cross_their_own_pixel_anywhere_and_unjittered_ones_its_centre() {
-    let d = std::env::temp_dir().join(format!("nerf-jitter-test-{}", std::process::id()));
+    let d = support::TestDir::new("jitter-test");
     write_blender(&d, SceneSpec { size: 16, train: 1, val: 1, test: 1 }).unwrap();
     let mut data = load(&d, Split::Train, LoadOptions::default()).unwrap();
-    std::fs::remove_dir_all(&d).ok();
     // each pixel's colour names the pixel, so a ray can be traced back to it
     let v = &mut data.views[0];
     let w = v.camera.width as usize;
@@ -198,7 +195,7 @@ fn bg(random: f32) -> Draw {
 
 #[test]
 fn random_backgrounds_recomposite_a_share_of_pixels_by_their_alpha_and_leave_opaque_photos_alone() {
-    let d = std::env::temp_dir().join(format!("nerf-bg-test-{}", std::process::id()));
+    let d = support::TestDir::new("bg-test");
     write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     // the Blender renders keep their alpha: a transparent background around an opaque object
@@ -241,12 +238,11 @@ fn random_backgrounds_recomposite_a_share_of_pixels_by_their_alpha_and_leave_opa
     let random = batch.iter().filter(|s| s.bg != [1.0; 3]).count();
     assert!((900..1100).contains(&random), "{random} of 4000 rays on a random background at a share of 0.25");
     assert!(batch.iter().all(|s| s.rgb == s.bg), "a transparent pixel shows its ray's background");
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
 fn clear_opacity_is_the_rendered_opacity_over_transparent_pixels_only() {
-    let d = std::env::temp_dir().join(format!("nerf-clear-test-{}", std::process::id()));
+    let d = support::TestDir::new("clear-test");
     write_blender(&d, SceneSpec { size: 16, train: 1, val: 1, test: 1 }).unwrap();
     let view = load(&d, Split::Val, LoadOptions::default()).unwrap().views.remove(0);
     let clear = view.alpha.iter().filter(|&&a| a == 0.0).count();
@@ -265,7 +261,6 @@ fn clear_opacity_is_the_rendered_opacity_over_transparent_pixels_only() {
     // photos without alpha have no transparent pixels to judge
     let opaque = View { alpha: Vec::new(), ..view };
     assert_eq!(score_rendered(&r, &opaque).clear_opacity, None);
-    std::fs::remove_dir_all(&d).ok();
 }
 
 /// The density at 200 random points of the normalised cube of a fresh

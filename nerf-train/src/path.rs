@@ -227,8 +227,8 @@ mod tests {
     #[test]
     fn camera_path_round_trips_through_nerfstudios_format() {
         let cams: Vec<Camera> = (0..5).map(|i| cam(i as f32, 0.3 * i as f32)).collect();
-        let d = std::env::temp_dir().join(format!("nerf-camera-path-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let d_dir = tempfile::tempdir().unwrap();
+        let d = d_dir.path();
         let p = d.join("camera_path.json");
         std::fs::write(&p, to_camera_path(&cams, 24.0).to_string()).unwrap();
         let back = read_camera_path(&p, 40).unwrap();
@@ -240,7 +240,6 @@ mod tests {
         std::fs::write(&p, r#"{"camera_path": [{"camera_to_world": [1, 0, 0]}]}"#).unwrap();
         let e = read_camera_path(&p, 40).unwrap_err();
         assert!(e.contains("camera_path.json") && e.contains("camera 0") && e.contains("3 numbers"), "{e}");
-        std::fs::remove_dir_all(&d).ok();
     }
 
     #[test]
@@ -255,8 +254,8 @@ mod tests {
                 r
             }
         };
-        let d = std::env::temp_dir().join(format!("nerf-keyframes-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
+        let d_dir = tempfile::tempdir().unwrap();
+        let d = d_dir.path();
         let p = d.join("camera_path.json");
         let read = |column_major: bool| {
             let list: Vec<serde_json::Value> = keys
@@ -293,6 +292,5 @@ mod tests {
         std::fs::write(&p, r#"{"keyframes": [{"matrix": [1, 0]}]}"#).unwrap();
         let e = read_camera_path(&p, 40).unwrap_err();
         assert!(e.contains("keyframe 0") && e.contains("2 numbers"), "{e}");
-        std::fs::remove_dir_all(&d).ok();
     }
 }

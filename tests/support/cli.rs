@@ -28,12 +28,10 @@ pub fn fails(args: &[&str]) -> String {
     e
 }
 
-/// A fresh, empty directory under the system temp dir for test `name`.
-pub fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("nerf-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh, empty directory under the system temp dir for test `name`,
+/// removed when the test passes ([`super::TestDir`]).
+pub fn tmp(name: &str) -> super::TestDir {
+    super::TestDir::new(name)
 }
 
 /// Generates the built-in scene under `dir/scene` (`size`² pixels,

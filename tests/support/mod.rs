@@ -7,6 +7,43 @@ use nerf_infer::format::Scene;
 use nerf_infer::{Camera, Model, RenderOptions};
 use nerf_train::config::TrainConfig;
 use nerf_train::eval::render_view;
+use std::path::{Path, PathBuf};
+
+/// A fresh, empty directory under the system temp dir
+/// (`nerf-test-NAME-PID`), removed when it goes out of scope, unless the
+/// test is failing (then it stays for a look).
+pub struct TestDir(PathBuf);
+
+impl TestDir {
+    /// Makes the directory for test `name`, emptied if it exists.
+    pub fn new(name: &str) -> Self {
+        let d = std::env::temp_dir().join(format!("nerf-test-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        Self(d)
+    }
+}
+
+impl std::ops::Deref for TestDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for TestDir {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
 
 /// The scene of the built-in dataset (bounds ±1, near 2, far 6, white).
 pub fn unit_scene() -> Scene {

@@ -587,11 +587,9 @@ pub fn write_model_txt(model_dir: &Path, r: &Reconstruction) -> std::io::Result<
 mod tests {
     use super::*;
 
-    fn tmp(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("nerf-colmap-io-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+    /// A fresh directory, removed with the guard.
+    fn tmp(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("nerf-colmap-io-{name}-")).tempdir().unwrap()
     }
 
     fn sample() -> Reconstruction {
@@ -637,7 +635,8 @@ mod tests {
 
     #[test]
     fn binary_and_text_round_trip_to_the_same_model() {
-        let d = tmp("round-trip");
+        let d_dir = tmp("round-trip");
+        let d = d_dir.path();
         let (b, t) = (d.join("bin"), d.join("txt"));
         std::fs::create_dir_all(&b).unwrap();
         std::fs::create_dir_all(&t).unwrap();
@@ -645,12 +644,12 @@ mod tests {
         write_model_txt(&t, &sample()).unwrap();
         assert_eq!(read_model(&b).unwrap(), sample());
         assert_eq!(read_model(&t).unwrap(), sample());
-        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]
     fn colmaps_text_layout_reads() {
-        let d = tmp("text");
+        let d_dir = tmp("text");
+        let d = d_dir.path();
         std::fs::write(d.join("cameras.txt"), "# Camera list\n# Number of cameras: 1\n1 PINHOLE 100 80 90 91 50 40\n")
             .unwrap();
         std::fs::write(
@@ -659,19 +658,19 @@ mod tests {
              1 1 0 0 0 0 0 0 1 x.jpg\n10.5 20.5 -1 11 12 3\n2 1 0 0 0 1 2 3 1 y.jpg\n\n3 1 0 0 0 0 0 1 1 z.jpg",
         )
         .unwrap();
-        let r = read_model(&d).unwrap();
+        let r = read_model(d).unwrap();
         assert_eq!(r.cameras[0].params, vec![90.0, 91.0, 50.0, 40.0]);
         let names: Vec<&str> = r.images.iter().map(|i| i.name.as_str()).collect();
         assert_eq!(names, ["x.jpg", "y.jpg", "z.jpg"]);
         assert_eq!(r.images[1].tvec, [1.0, 2.0, 3.0]);
         assert!(r.points.is_empty());
-        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]
     fn truncated_and_hostile_binary_files_are_errors() {
-        let d = tmp("hostile");
-        write_model_bin(&d, &sample()).unwrap();
+        let d_dir = tmp("hostile");
+        let d = d_dir.path();
+        write_model_bin(d, &sample()).unwrap();
         for (f, read) in [
             ("cameras.bin", (|p: &Path| read_cameras_bin(p).map(|_| ())) as fn(&Path) -> Result<(), ParseError>),
             ("images.bin", |p: &Path| read_images_bin(p).map(|_| ())),
@@ -701,13 +700,12 @@ mod tests {
         // non-finite values and a camera the images do not know
         std::fs::write(d.join("cameras.txt"), "1 PINHOLE 10 10 NaN 2 3 4\n").unwrap();
         assert!(read_cameras_txt(&d.join("cameras.txt")).unwrap_err().msg.contains("non-finite"));
-        let t = tmp("orphan");
+        let t_dir = tmp("orphan");
+        let t = t_dir.path();
         let mut s = sample();
         s.images[0].camera_id = 9;
-        write_model_txt(&t, &s).unwrap();
-        let e = read_model(&t).unwrap_err();
+        write_model_txt(t, &s).unwrap();
+        let e = read_model(t).unwrap_err();
         assert!(e.msg.contains("camera 9 is not in the cameras file") && e.msg.contains("a b.jpg"), "{e}");
-        let _ = std::fs::remove_dir_all(&d);
-        let _ = std::fs::remove_dir_all(&t);
     }
 }
