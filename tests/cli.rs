@@ -195,7 +195,6 @@ fn a_config_file_overrides_the_named_preset() {
             .concat(),
     );
     assert!(e.contains("over.json") && e.contains("n_coarses"), "{e}");
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
@@ -232,7 +231,6 @@ fn train_sizes_the_feature_grid_to_the_photos_unless_the_config_does() {
         assert_eq!((res, table), want, "{cfg}");
         assert!(!err.contains("sized to the photos"), "{err}");
     }
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
@@ -288,7 +286,6 @@ fn fit_within_a_byte_budget_keeps_the_most_accurate_model_that_fits_and_says_wha
     let e =
         fails(&["fit", "--data", s(&data), "--max-bytes", "2000", "--minutes", "0.002", "--out", s(&d.join("none"))]);
     assert!(e.contains("no candidate fits --max-bytes 2000"), "{e}");
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
@@ -330,7 +327,6 @@ fn fit_keeps_the_cheapest_candidate_that_reaches_the_target_and_tables_what_it_t
     assert!(cost.windows(2).all(|w| w[0] < w[1]), "not cheapest first: {cost:?}");
     assert!(csv.contains("\nfeatures,"), "the feature-grid candidate was not tried: {csv}");
     assert!(!run.join("model.nerf").exists());
-    std::fs::remove_dir_all(&d).ok();
 }
 
 #[test]
@@ -373,5 +369,4 @@ fn export_stores_the_feature_table_as_8_or_4_bit_codebook_indices() {
     let e =
         fails(&["export", s(&d.join("t4.nerf")), "--bits", "8", "--table-bits", "4", "--out", s(&d.join("x.nerf"))]);
     assert!(e.contains("already quantised") || e.contains("already narrow"), "{e}");
-    std::fs::remove_dir_all(&d).ok();
 }

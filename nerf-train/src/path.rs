@@ -1,4 +1,4 @@
-//! Camera paths for videos: an orbit fitted to the capture ([`orbit`]), the capture's
+//! Camera paths for videos: an orbit fitted to the capture ([`orbit()`]), the capture's
 //! own trajectory smoothed, and nerfstudio's `camera_path.json` (its
 //! rendered camera list, read and written, so a path made here can be
 //! edited elsewhere and rendered again; or its keyframes, interpolated).

@@ -296,9 +296,8 @@ mod tests {
     }
 
     /// A fitted orbit makes a version-9 file that decodes to the same model;
-    /// the files of every older version read as before and re-encode byte
-    /// for byte; an orbit out of range, or in a forward-facing scene, is
-    /// refused.
+    /// a version-8 file without one re-encodes byte for byte; an orbit out
+    /// of range, or in a forward-facing scene, is refused.
     #[cfg(feature = "alloc")]
     #[test]
     fn a_fitted_orbit_is_version_9_and_checked() {

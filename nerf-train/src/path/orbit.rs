@@ -47,7 +47,8 @@ pub fn orbit(scene: &Scene, fitted: Option<&FittedOrbit>) -> Orbit {
     }
     if let Some(f) = fitted {
         let (radius, elevation) = (f.radius.hypot(f.height), f.height.atan2(f.radius));
-        return Orbit { kind: "circle", centre: f.centre, up: f.up, radius, elevation, fov_x: f.fov_x };
+        let up = Vec3::from(f.up).normalize().to_array();
+        return Orbit { kind: "circle", centre: f.centre, up, radius, elevation, fov_x: f.fov_x };
     }
     let lo = Vec3::from(scene.bounds_min);
     let hi = Vec3::from(scene.bounds_max);
@@ -59,11 +60,12 @@ pub fn orbit(scene: &Scene, fitted: Option<&FittedOrbit>) -> Orbit {
     Orbit { kind: "circle", centre, up: [0.0, 0.0, 1.0], radius, elevation: 30f32.to_radians(), fov_x: 0.691_111_2 }
 }
 
-/// The directions of azimuth 0 and 90° in the plane perpendicular to `up`:
-/// +x and +y made perpendicular to it (for up = +z, +x and +y).
+/// The directions of azimuth 0 and 90° in the plane perpendicular to the
+/// unit vector `up`: `u₁` is +x made perpendicular to it (+y when
+/// |up·x| > 0.9), `u₂ = up × u₁` (for up = +z, +x and +y).
 fn azimuth_axes(up: Vec3) -> (Vec3, Vec3) {
-    let along = |v: Vec3| v - v.dot(up) * up;
-    let u1 = along(Vec3::X).try_normalize().or_else(|| along(Vec3::Y).try_normalize()).unwrap_or(Vec3::X);
+    let v = if up.x.abs() > 0.9 { Vec3::Y } else { Vec3::X };
+    let u1 = (v - v.dot(up) * up).normalize();
     (u1, up.cross(u1))
 }
 
@@ -128,9 +130,10 @@ fn median(v: &mut [f32]) -> f32 {
 ///   axis through the centre along up and of their heights along it;
 /// - field of view: the median of the cameras' horizontal ones.
 ///
-/// `None` for forward-facing (NDC) scenes (their spiral is fitted to the
-/// capture already), for no cameras, or when the cameras' ups cancel or
-/// they sit on the axis.
+/// `None` (the model then orbits as [`orbit`] chooses without one) for
+/// forward-facing (NDC) scenes, whose spiral follows the capture already,
+/// for no cameras, and when the cameras' ups cancel, they sit on the axis
+/// (radius 0) or nearly so (|height| > 100·radius).
 pub fn fit_orbit(scene: &Scene, cams: &[Camera]) -> Option<FittedOrbit> {
     if scene.ndc.is_some() || cams.is_empty() {
         return None;
@@ -206,6 +209,18 @@ mod tests {
             assert!((-c.rotation.z_axis).dot(-rel.normalize()) > 0.9999, "looks at the centre");
             assert!(c.rotation.y_axis.dot(Vec3::from(f.up)) > 0.0, "upright");
         }
+    }
+
+    #[test]
+    fn the_azimuth_axes_are_orthonormal_for_every_up() {
+        for up in [Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::X, Vec3::Y, Vec3::new(0.95, 0.1, 0.3).normalize()] {
+            let (u1, u2) = azimuth_axes(up);
+            for (a, b) in [(u1, u2), (u1, up), (u2, up)] {
+                assert!(a.dot(b).abs() < 1e-6 && (a.length() - 1.0).abs() < 1e-6, "{up}");
+            }
+            assert!(u1.cross(u2).dot(up) > 0.999, "{up}: right-handed");
+        }
+        assert_eq!(azimuth_axes(Vec3::Z), (Vec3::X, Vec3::Y));
     }
 
     #[test]
