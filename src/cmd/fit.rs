@@ -318,6 +318,7 @@ fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedB
             radius: 1.0,
             height: 0.0,
             fov_x: 1.0,
+            azimuth: 0.0,
         };
         twin.orbit = Some(orbit);
     }

@@ -59,6 +59,7 @@ pub fn run(a: Args) -> CmdResult {
         })),
         "orbit": m.orbit.map(|o| serde_json::json!({
             "centre": o.centre, "up": o.up, "radius": o.radius, "height": o.height, "fov_x": o.fov_x,
+            "azimuth": o.azimuth,
         })),
         "coarse": net(&m.coarse),
         "fine": m.fine.as_ref().map(net),
@@ -166,12 +167,14 @@ pub fn run(a: Args) -> CmdResult {
     if let Some(o) = m.orbit {
         let v = |v: [f32; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
         println!(
-            "  orbit (fitted to the training cameras): around {} with up {}, radius {:.3}, height {:.3}, {:.1}° across",
+            "  orbit (fitted to the training cameras): around {} with up {}, radius {:.3}, height {:.3}, {:.1}° across, \
+             from azimuth {:.1}°",
             v(o.centre),
             v(o.up),
             o.radius,
             o.height,
-            o.fov_x.to_degrees()
+            o.fov_x.to_degrees(),
+            o.azimuth.to_degrees()
         );
     }
     if let Some(p) = m.coarse.precise {

@@ -305,11 +305,18 @@ mod tests {
         let mut m = Model::from_bytes(golden).unwrap();
         assert_eq!(m.format_version(), FORMAT_VERSION_NO_ORBIT);
         assert_eq!(to_bytes(&m).unwrap(), golden);
-        let o = FittedOrbit { centre: [0.1, -0.2, 0.3], up: [0.0, 0.6, 0.8], radius: 1.5, height: 0.4, fov_x: 0.9 };
+        let o = FittedOrbit {
+            centre: [0.1, -0.2, 0.3],
+            up: [0.0, 0.6, 0.8],
+            radius: 1.5,
+            height: 0.4,
+            fov_x: 0.9,
+            azimuth: -2.0,
+        };
         m.orbit = Some(o);
         let bytes = to_bytes(&m).unwrap();
         assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 9);
-        assert_eq!(bytes.len(), golden.len() + 1 + 9 * 4, "one tag byte and nine f32");
+        assert_eq!(bytes.len(), golden.len() + 1 + 10 * 4, "one tag byte and ten f32");
         assert_eq!(Model::from_bytes(&bytes).unwrap(), m);
         let refused = |o: FittedOrbit| {
             let bad = Model { orbit: Some(o), ..m.clone() };
@@ -320,6 +327,7 @@ mod tests {
         assert!(refused(FittedOrbit { height: 151.0, ..o }));
         assert!(refused(FittedOrbit { fov_x: 3.2, ..o }));
         assert!(refused(FittedOrbit { centre: [f32::NAN, 0.0, 0.0], ..o }));
+        assert!(refused(FittedOrbit { azimuth: 3.2, ..o }));
         let mut ndc = m.clone();
         ndc.scene.ndc = Some(Ndc { focal: 50.0, width: 64.0, height: 48.0 });
         assert!(matches!(ndc.validate(), Err(Error::InvalidScene(s)) if s.contains("NDC")));

@@ -122,9 +122,9 @@ pub struct Unbounded {
 /// The circle a video's cameras follow around the scene, fitted to the
 /// training cameras (format version 9): around `centre` in the plane
 /// perpendicular to `up`, at `radius` from its axis and `height` above
-/// `centre` along it, each camera looking at `centre` with `up` as its up.
-/// World units (the model's frame); a model without one orbits as its
-/// scene suggests.
+/// `centre` along it, starting at `azimuth`, each camera looking at
+/// `centre` with `up` as its up. World units (the model's frame); a model
+/// without one orbits as its scene suggests.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct FittedOrbit {
     /// The point the cameras look at.
@@ -137,13 +137,17 @@ pub struct FittedOrbit {
     pub height: f32,
     /// Horizontal field of view, radians (0 < fov_x < π).
     pub fov_x: f32,
+    /// Azimuth of the first camera, radians in `[−π, π]`, from `u₁` (+x
+    /// made perpendicular to `up`, +y when |up·x| > 0.9) towards
+    /// `u₂ = up × u₁`: where the training cameras are, on average.
+    pub azimuth: f32,
 }
 
 impl FittedOrbit {
     /// Whether every field is finite and in its range.
     pub fn is_valid(&self) -> bool {
-        let finite =
-            self.centre.iter().chain(&self.up).chain(&[self.radius, self.height, self.fov_x]).all(|v| v.is_finite());
+        let scalars = [self.radius, self.height, self.fov_x, self.azimuth];
+        let finite = self.centre.iter().chain(&self.up).chain(&scalars).all(|v| v.is_finite());
         let norm2 = self.up.iter().map(|v| v * v).sum::<f32>();
         finite
             && (norm2 - 1.0).abs() < 2e-3
@@ -151,6 +155,7 @@ impl FittedOrbit {
             && self.height.abs() <= 100.0 * self.radius
             && self.fov_x > 0.0
             && self.fov_x < core::f32::consts::PI
+            && self.azimuth.abs() <= core::f32::consts::PI
     }
 }
 

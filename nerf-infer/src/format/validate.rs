@@ -90,7 +90,7 @@ impl Model<'_> {
         }
         if self.orbit.is_some_and(|o| !o.is_valid()) {
             return Err(Error::InvalidScene(
-                "fitted orbit: not finite, up not a unit vector, radius, height (|height| <= 100 radius) or fov_x out of range",
+                "fitted orbit: not finite, up not a unit vector, radius, height (|height| <= 100 radius), fov_x or azimuth out of range",
             ));
         }
         if self.orbit.is_some() && self.scene.ndc.is_some() {

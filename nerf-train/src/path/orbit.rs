@@ -4,7 +4,7 @@
 //! scene ([`orbit`]).
 
 use crate::dataset::fit::{focus_point, Pose};
-use glam::Vec3;
+use glam::{DMat3, DVec3, Vec3};
 use nerf_infer::format::{FittedOrbit, Scene};
 use nerf_infer::Camera;
 
@@ -24,6 +24,8 @@ pub struct Orbit {
     pub radius: f32,
     /// Elevation above the plane through `centre` perpendicular to `up`, radians.
     pub elevation: f32,
+    /// Azimuth of the first camera, radians (see [`FittedOrbit::azimuth`]).
+    pub azimuth: f32,
     /// Horizontal field of view, radians.
     pub fov_x: f32,
 }
@@ -43,12 +45,13 @@ pub fn orbit(scene: &Scene, fitted: Option<&FittedOrbit>) -> Orbit {
     if let Some(n) = scene.ndc {
         // the capture is normalised so its nearest depth is 1/0.75: move by a tenth of it
         let fov_x = 2.0 * (0.5 * n.width / n.focal).atan();
-        return Orbit { kind: "spiral", centre: [0.0; 3], up: [0.0, 1.0, 0.0], radius: 0.1, elevation: 0.0, fov_x };
+        let (centre, up) = ([0.0; 3], [0.0, 1.0, 0.0]);
+        return Orbit { kind: "spiral", centre, up, radius: 0.1, elevation: 0.0, azimuth: 0.0, fov_x };
     }
     if let Some(f) = fitted {
         let (radius, elevation) = (f.radius.hypot(f.height), f.height.atan2(f.radius));
         let up = Vec3::from(f.up).normalize().to_array();
-        return Orbit { kind: "circle", centre: f.centre, up, radius, elevation, fov_x: f.fov_x };
+        return Orbit { kind: "circle", centre: f.centre, up, radius, elevation, azimuth: f.azimuth, fov_x: f.fov_x };
     }
     let lo = Vec3::from(scene.bounds_min);
     let hi = Vec3::from(scene.bounds_max);
@@ -57,7 +60,8 @@ pub fn orbit(scene: &Scene, fitted: Option<&FittedOrbit>) -> Orbit {
         None => 0.5 * (scene.near + scene.far),
     };
     let centre = (0.5 * (lo + hi)).to_array();
-    Orbit { kind: "circle", centre, up: [0.0, 0.0, 1.0], radius, elevation: 30f32.to_radians(), fov_x: 0.691_111_2 }
+    let (up, elevation) = ([0.0, 0.0, 1.0], 30f32.to_radians());
+    Orbit { kind: "circle", centre, up, radius, elevation, azimuth: 0.0, fov_x: 0.691_111_2 }
 }
 
 /// The directions of azimuth 0 and 90° in the plane perpendicular to the
@@ -72,7 +76,7 @@ fn azimuth_axes(up: Vec3) -> (Vec3, Vec3) {
 /// A camera on orbit `o`, `turn` (fraction of the path) along it,
 /// `width × height` pixels.
 pub fn orbit_camera(o: &Orbit, turn: f32, width: u32, height: u32) -> Camera {
-    let az = turn * std::f32::consts::TAU;
+    let az = o.azimuth + turn * std::f32::consts::TAU;
     if o.kind == "spiral" {
         let r = o.radius;
         let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
@@ -119,16 +123,59 @@ fn median(v: &mut [f32]) -> f32 {
     }
 }
 
+/// The unit vector least aligned with the cameras' right axes (the
+/// eigenvector of the smallest eigenvalue of their mean outer product),
+/// turned to the side of `mean_up`; `mean_up` when the second smallest
+/// eigenvalue is below 0.01 (the right axes do not spread enough to fix
+/// a plane) or the smallest above 0.05 (they do not lie near one: the
+/// cameras roll).
+fn level_up(cams: &[Camera], mean_up: Vec3) -> Vec3 {
+    let n = cams.len() as f64;
+    let s = cams.iter().fold(DMat3::ZERO, |m, c| {
+        let r = c.rotation.x_axis.as_dvec3();
+        m + DMat3::from_cols(r * r.x, r * r.y, r * r.z)
+    }) * (1.0 / n);
+    // power iterations: S's largest eigenvector, then (I − S)'s (S's smallest)
+    let top = |m: DMat3, start: DVec3| {
+        let mut v = start;
+        for _ in 0..100 {
+            v = (m * v).try_normalize().unwrap_or(v);
+        }
+        (v, v.dot(m * v))
+    };
+    let (_, l_max) = top(s, DVec3::ONE.normalize());
+    let (v_min, one_minus_min) = top(DMat3::IDENTITY - s, mean_up.as_dvec3());
+    let l_min = 1.0 - one_minus_min;
+    let l_mid = 1.0 - l_max - l_min;
+    let up = v_min.as_vec3();
+    if !(l_mid >= 0.01 && l_min <= 0.05 && up.is_finite()) {
+        return mean_up;
+    }
+    if up.dot(mean_up) < 0.0 {
+        -up
+    } else {
+        up
+    }
+}
+
 /// The orbit fitted to a capture's cameras `cams` (in the model's frame)
 /// in a scene `scene`:
 ///
-/// - up: the mean of the cameras' up axes;
+/// - up: perpendicular to every camera's right axis (the least-squares
+///   direction: a camera held level has its right axis horizontal, however
+///   it is tilted up or down), on the side of the mean of their up axes;
+///   that mean itself when the right axes do not spread (under about 6°
+///   RMS, as in a capture that walks straight ahead) or do not lie near
+///   one plane (cameras that roll);
 /// - centre: the point nearest (least squares) to every camera's optical
 ///   axis, where the capture looks, or the bounds' centre when the axes
 ///   are (nearly) parallel or meet outside the bounds;
 /// - radius and height: the medians of the cameras' distances from the
 ///   axis through the centre along up and of their heights along it;
-/// - field of view: the median of the cameras' horizontal ones.
+/// - field of view: the median of the cameras' horizontal ones;
+/// - first azimuth: the direction of the mean of the cameras' unit
+///   directions around the axis (the middle of a capture that covers an
+///   arc; for one all around, wherever the sum points).
 ///
 /// `None` (the model then orbits as [`orbit`] chooses without one) for
 /// forward-facing (NDC) scenes, whose spiral follows the capture already,
@@ -138,7 +185,8 @@ pub fn fit_orbit(scene: &Scene, cams: &[Camera]) -> Option<FittedOrbit> {
     if scene.ndc.is_some() || cams.is_empty() {
         return None;
     }
-    let up = cams.iter().map(|c| c.rotation.y_axis).sum::<Vec3>().try_normalize()?;
+    let mean_up = cams.iter().map(|c| c.rotation.y_axis).sum::<Vec3>().try_normalize()?;
+    let up = level_up(cams, mean_up);
     let poses: Vec<Pose> = cams.iter().map(|c| (c.rotation.as_dmat3(), c.position.as_dvec3())).collect();
     let (lo, hi) = (Vec3::from(scene.bounds_min), Vec3::from(scene.bounds_max));
     let centre = focus_point(&poses)
@@ -149,7 +197,13 @@ pub fn fit_orbit(scene: &Scene, cams: &[Camera]) -> Option<FittedOrbit> {
     let radius = median(&mut cams.iter().map(|c| (c.position - centre - height(c) * up).length()).collect::<Vec<_>>());
     let height = median(&mut cams.iter().map(height).collect::<Vec<_>>());
     let fov_x = median(&mut cams.iter().map(|c| 2.0 * (0.5 * c.width as f32 / c.fx).atan()).collect::<Vec<_>>());
-    let o = FittedOrbit { centre: centre.to_array(), up: up.to_array(), radius, height, fov_x };
+    let (u1, u2) = azimuth_axes(up);
+    let around: glam::Vec2 = cams
+        .iter()
+        .map(|c| glam::Vec2::new((c.position - centre).dot(u1), (c.position - centre).dot(u2)).normalize_or_zero())
+        .sum();
+    let azimuth = around.y.atan2(around.x);
+    let o = FittedOrbit { centre: centre.to_array(), up: up.to_array(), radius, height, fov_x, azimuth };
     o.is_valid().then_some(o)
 }
 
@@ -170,6 +224,7 @@ mod tests {
             up: up.to_array(),
             radius: r.hypot(h),
             elevation: h.atan2(r),
+            azimuth: 0.0,
             fov_x: 60f32.to_radians(),
         };
         (0..n).map(|k| orbit_camera(&o, k as f32 / n as f32, 40, 30)).collect()
@@ -209,6 +264,31 @@ mod tests {
             assert!((-c.rotation.z_axis).dot(-rel.normalize()) > 0.9999, "looks at the centre");
             assert!(c.rotation.y_axis.dot(Vec3::from(f.up)) > 0.0, "upright");
         }
+    }
+
+    #[test]
+    fn a_capture_over_an_arc_starts_the_orbit_in_its_middle() {
+        // 9 cameras over a quarter turn centred at azimuth 1 rad, up +z
+        let o = Orbit {
+            kind: "circle",
+            centre: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            radius: 2.0,
+            elevation: 0.3,
+            azimuth: 1.0 - std::f32::consts::FRAC_PI_4,
+            fov_x: 0.8,
+        };
+        let cams: Vec<Camera> = (0..9).map(|k| orbit_camera(&o, k as f32 / 32.0, 20, 20)).collect();
+        let f = fit_orbit(&scene(3.0), &cams).unwrap();
+        // level cameras looking down: up from their right axes is +z, where their mean up leans
+        // towards the arc's middle by about the 0.3 rad they look down
+        assert!(Vec3::from(f.up).dot(Vec3::Z) > 0.9999, "{:?}", f.up);
+        let mean_up = cams.iter().map(|c| c.rotation.y_axis).sum::<Vec3>().normalize();
+        assert!(mean_up.dot(Vec3::Z) < 0.99, "{mean_up}");
+        assert!((f.azimuth - 1.0).abs() < 1e-3, "{}", f.azimuth);
+        // the first frame of the fitted orbit is the middle camera's view
+        let first = orbit_camera(&orbit(&scene(3.0), Some(&f)), 0.0, 20, 20);
+        assert!((first.position - cams[4].position).length() < 1e-3, "{} against {}", first.position, cams[4].position);
     }
 
     #[test]
