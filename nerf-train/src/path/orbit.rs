@@ -123,32 +123,55 @@ fn median(v: &mut [f32]) -> f32 {
     }
 }
 
+/// Eigenvalues of the symmetric matrix `a`, ascending, with their unit
+/// eigenvectors (cyclic Jacobi rotations, to f64 round-off).
+fn symmetric_eigen(a: DMat3) -> [(f64, DVec3); 3] {
+    let mut m = [a.x_axis.to_array(), a.y_axis.to_array(), a.z_axis.to_array()];
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    for _ in 0..32 {
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if m[p][q].abs() <= 1e-300 {
+                continue;
+            }
+            // the rotation in the (p, q) plane that zeroes m[p][q]
+            let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
+            for row in m.iter_mut() {
+                let (x, y) = (row[p], row[q]);
+                (row[p], row[q]) = (c * x - s * y, s * x + c * y);
+            }
+            for k in 0..3 {
+                let (x, y) = (m[p][k], m[q][k]);
+                (m[p][k], m[q][k]) = (c * x - s * y, s * x + c * y);
+            }
+            for row in v.iter_mut() {
+                let (x, y) = (row[p], row[q]);
+                (row[p], row[q]) = (c * x - s * y, s * x + c * y);
+            }
+        }
+    }
+    // column k of v (rows hold the components) is the eigenvector of m[k][k]
+    let mut out = [0, 1, 2].map(|k| (m[k][k], DVec3::new(v[0][k], v[1][k], v[2][k]).normalize()));
+    out.sort_by(|a, b| a.0.total_cmp(&b.0));
+    out
+}
+
 /// The unit vector least aligned with the cameras' right axes (the
-/// eigenvector of the smallest eigenvalue of their mean outer product),
-/// turned to the side of `mean_up`; `mean_up` when the second smallest
-/// eigenvalue is below 0.01 (the right axes do not spread enough to fix
-/// a plane) or the smallest above 0.05 (they do not lie near one: the
-/// cameras roll).
+/// eigenvector of the smallest eigenvalue `λ₁` of their mean outer
+/// product, whose eigenvalues sum to 1), turned to the side of `mean_up`;
+/// `mean_up` when the next eigenvalue `λ₂` is below 0.01 or 4·λ₁ (the
+/// right axes do not spread enough to fix a plane) or `λ₁` is above 0.05
+/// (they do not lie near one: the cameras roll).
 fn level_up(cams: &[Camera], mean_up: Vec3) -> Vec3 {
     let n = cams.len() as f64;
     let s = cams.iter().fold(DMat3::ZERO, |m, c| {
         let r = c.rotation.x_axis.as_dvec3();
         m + DMat3::from_cols(r * r.x, r * r.y, r * r.z)
     }) * (1.0 / n);
-    // power iterations: S's largest eigenvector, then (I − S)'s (S's smallest)
-    let top = |m: DMat3, start: DVec3| {
-        let mut v = start;
-        for _ in 0..100 {
-            v = (m * v).try_normalize().unwrap_or(v);
-        }
-        (v, v.dot(m * v))
-    };
-    let (_, l_max) = top(s, DVec3::ONE.normalize());
-    let (v_min, one_minus_min) = top(DMat3::IDENTITY - s, mean_up.as_dvec3());
-    let l_min = 1.0 - one_minus_min;
-    let l_mid = 1.0 - l_max - l_min;
+    let [(l_min, v_min), (l_mid, _), _] = symmetric_eigen(s);
     let up = v_min.as_vec3();
-    if !(l_mid >= 0.01 && l_min <= 0.05 && up.is_finite()) {
+    if !(l_mid >= 0.01 && l_mid >= 4.0 * l_min && l_min <= 0.05 && up.is_finite()) {
         return mean_up;
     }
     if up.dot(mean_up) < 0.0 {
@@ -289,6 +312,37 @@ mod tests {
         // the first frame of the fitted orbit is the middle camera's view
         let first = orbit_camera(&orbit(&scene(3.0), Some(&f)), 0.0, 20, 20);
         assert!((first.position - cams[4].position).length() < 1e-3, "{} against {}", first.position, cams[4].position);
+    }
+
+    #[test]
+    fn the_eigen_solver_recovers_a_rotated_diagonal_matrix() {
+        let r = DMat3::from_quat(glam::DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -1.1, 0.7));
+        let a = r * DMat3::from_diagonal(DVec3::new(0.5, 0.01, 0.2)) * r.transpose();
+        let e = symmetric_eigen(a);
+        for ((l, v), (want_l, col)) in e.iter().zip([(0.01, 1), (0.2, 2), (0.5, 0)]) {
+            assert!((l - want_l).abs() < 1e-12, "{l} against {want_l}");
+            assert!(v.dot(r.col(col)).abs() > 1.0 - 1e-12);
+            assert!((a * *v - *l * *v).length() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_narrow_arc_of_level_cameras_stands_the_orbit_up() {
+        // 40° of arc looking down 0.3 rad: the right axes spread little, their mean up leans 17°
+        let o = Orbit {
+            kind: "circle",
+            centre: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            radius: 2.0,
+            elevation: 0.3,
+            azimuth: -0.35,
+            fov_x: 0.8,
+        };
+        let cams: Vec<Camera> =
+            (0..8).map(|k| orbit_camera(&o, k as f32 * 0.7 / 7.0 / std::f32::consts::TAU, 20, 20)).collect();
+        let f = fit_orbit(&scene(3.0), &cams).unwrap();
+        assert!(Vec3::from(f.up).dot(Vec3::Z) > 1.0 - 1e-7, "{:?}", f.up);
+        assert!(f.azimuth.abs() < 1e-3, "{}", f.azimuth);
     }
 
     #[test]
