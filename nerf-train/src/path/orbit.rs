@@ -289,18 +289,17 @@ mod tests {
         }
     }
 
+    /// A circle around the origin, radius 2, up +z, 0.3 rad above the
+    /// plane (its cameras look down 0.3 rad), from `azimuth`.
+    fn looking_down(azimuth: f32) -> Orbit {
+        let (centre, up) = ([0.0; 3], [0.0, 0.0, 1.0]);
+        Orbit { kind: "circle", centre, up, radius: 2.0, elevation: 0.3, azimuth, fov_x: 0.8 }
+    }
+
     #[test]
     fn a_capture_over_an_arc_starts_the_orbit_in_its_middle() {
         // 9 cameras over a quarter turn centred at azimuth 1 rad, up +z
-        let o = Orbit {
-            kind: "circle",
-            centre: [0.0; 3],
-            up: [0.0, 0.0, 1.0],
-            radius: 2.0,
-            elevation: 0.3,
-            azimuth: 1.0 - std::f32::consts::FRAC_PI_4,
-            fov_x: 0.8,
-        };
+        let o = looking_down(1.0 - std::f32::consts::FRAC_PI_4);
         let cams: Vec<Camera> = (0..9).map(|k| orbit_camera(&o, k as f32 / 32.0, 20, 20)).collect();
         let f = fit_orbit(&scene(3.0), &cams).unwrap();
         // level cameras looking down: up from their right axes is +z, where their mean up leans
@@ -329,15 +328,7 @@ mod tests {
     #[test]
     fn a_narrow_arc_of_level_cameras_stands_the_orbit_up() {
         // 40° of arc looking down 0.3 rad: the right axes spread little, their mean up leans 17°
-        let o = Orbit {
-            kind: "circle",
-            centre: [0.0; 3],
-            up: [0.0, 0.0, 1.0],
-            radius: 2.0,
-            elevation: 0.3,
-            azimuth: -0.35,
-            fov_x: 0.8,
-        };
+        let o = looking_down(-0.35);
         let cams: Vec<Camera> =
             (0..8).map(|k| orbit_camera(&o, k as f32 * 0.7 / 7.0 / std::f32::consts::TAU, 20, 20)).collect();
         let f = fit_orbit(&scene(3.0), &cams).unwrap();
