@@ -6,11 +6,7 @@ use nerf_train::dataset::{load, Format, LoadOptions, Split};
 use std::path::Path;
 
 mod support;
-use support::TestDir;
-
-fn tmp(name: &str) -> TestDir {
-    TestDir::new(name)
-}
+use support::cli::tmp;
 
 fn spec() -> SceneSpec {
     SceneSpec { size: 16, train: 6, val: 2, test: 2 }

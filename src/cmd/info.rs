@@ -57,10 +57,7 @@ pub fn run(a: Args) -> CmdResult {
             "holdout": c.holdout, "views": c.views, "held_out_crc": c.held_out_crc,
             "framing": format!("{:?}", c.framing), "lens": c.lens,
         })),
-        "orbit": m.orbit.map(|o| serde_json::json!({
-            "centre": o.centre, "up": o.up, "radius": o.radius, "height": o.height, "fov_x": o.fov_x,
-            "azimuth": o.azimuth,
-        })),
+        "orbit": m.orbit,
         "coarse": net(&m.coarse),
         "fine": m.fine.as_ref().map(net),
         "precise": m.coarse.precise.map(|p| serde_json::json!({
