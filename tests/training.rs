@@ -271,7 +271,12 @@ fn initial_densities(
     scene: nerf_infer::format::Scene,
     seed: u64,
 ) -> Vec<Vec<f32>> {
-    let tr = Trainer::new(cfg.clone(), scene, 1, seed);
+    densities(&Trainer::new(cfg.clone(), scene, 1, seed), seed)
+}
+
+/// The density at 200 random points (drawn with `seed`) of the
+/// normalised cube, of each of `tr`'s networks (coarse, then fine if any).
+fn densities(tr: &Trainer, seed: u64) -> Vec<Vec<f32>> {
     let mut rng = Rng::new(seed);
     let pts: Vec<[f32; 3]> = (0..200).map(|_| [0; 3].map(|_: i32| rng.f32() * 2.0 - 1.0)).collect();
     let nets = [Some(tr.coarse_params()), tr.fine_params()];
@@ -283,6 +288,31 @@ fn initial_densities(
             acts.sigma[..pts.len()].iter().map(|s| s.max(0.0)).collect()
         })
         .collect()
+}
+
+#[test]
+fn the_optical_depth_penalty_empties_the_space_the_photos_leave_free() {
+    let d = support::TestDir::new("density-l1-test");
+    write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let mean_density = |density_l1: f32| {
+        let cfg = nerf_train::config::TrainConfig { batch_rays: 128, lr: 1e-2, density_l1, ..small_config() };
+        let mut tr = Trainer::new(cfg, data.scene, 1, 3);
+        let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
+        for i in 0..80 {
+            tr.train_step(&data, i as f64 / 80.0);
+        }
+        let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
+        let sigma = densities(&tr, 7).concat();
+        let mean = sigma.iter().sum::<f32>() / sigma.len() as f32;
+        println!("density_l1 {density_l1}: loss {first:.4} -> {last:.4}, mean density {mean:.3}");
+        (mean, first, last)
+    };
+    let (free, ..) = mean_density(0.0);
+    let (penalised, first, last) = mean_density(0.1);
+    assert!(penalised < 0.5 * free, "mean density {penalised} with the penalty, {free} without");
+    // and the colours still train
+    assert!(last < 0.7 * first, "loss {first} -> {last}");
 }
 
 #[test]

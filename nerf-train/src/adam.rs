@@ -19,6 +19,11 @@ pub struct Adam {
     /// feature grid's table; empty without one): those with a zero
     /// gradient are skipped.
     pub steps: Vec<u32>,
+    /// Decoupled weight decay λ of the table's parameters (AdamW): every
+    /// update first scales each of them by `1 − lr·λ`, reached by a ray or
+    /// not (0: off).
+    #[serde(default)]
+    pub table_decay: f32,
     /// Bias corrections by step count, for the table's parameters.
     #[serde(skip)]
     bias: BiasCorrections,
@@ -79,15 +84,22 @@ impl Adam {
     /// zero.
     pub fn new(n: usize, sparse: usize) -> Self {
         assert!(sparse <= n, "{sparse} of {n} parameters");
-        Self { m: vec![0.0; n], v: vec![0.0; n], t: 0, steps: vec![0; sparse], bias: BiasCorrections::default() }
+        Self {
+            m: vec![0.0; n],
+            v: vec![0.0; n],
+            t: 0,
+            steps: vec![0; sparse],
+            table_decay: 0.0,
+            bias: BiasCorrections::default(),
+        }
     }
 
     /// One update: `m ← β₁m + (1−β₁)g`, `v ← β₂v + (1−β₂)g²`,
     /// `p ← p − lr·m̂/(√v̂ + ε)` with `m̂ = m/(1−β₁ᵗ)`, `v̂ = v/(1−β₂ᵗ)`;
     /// for the last `steps.len()` parameters only where `g ≠ 0`, with their
-    /// own `t` (an entry of the table that no ray reached keeps its value
-    /// and moments, where the dense update would keep moving it for tens of
-    /// steps on momentum alone).
+    /// own `t` (an entry of the table that no ray reached keeps its
+    /// moments, and its value but for [`Self::table_decay`], where the dense
+    /// update would keep moving it for tens of steps on momentum alone).
     pub fn update(&mut self, p: &mut [f32], g: &[f32], lr: f32, b1: f32, b2: f32, eps: f32) {
         assert!(p.len() == self.m.len() && g.len() == self.m.len(), "{} parameters, {} gradients", p.len(), g.len());
         self.t += 1;
@@ -112,10 +124,14 @@ impl Adam {
         }
         self.bias.fit(b1, b2);
         let bias = &self.bias;
+        let keep = 1.0 - lr * self.table_decay;
         let blocks = ps.par_chunks_mut(BLOCK).zip(gs.par_chunks(BLOCK)).zip(ms.par_chunks_mut(BLOCK));
         let blocks = blocks.zip(vs.par_chunks_mut(BLOCK)).zip(self.steps.par_chunks_mut(BLOCK));
         blocks.for_each(|((((p, g), m), v), steps)| {
             for ((((p, &g), m), v), k) in p.iter_mut().zip(g).zip(m).zip(v).zip(steps) {
+                if keep != 1.0 {
+                    *p *= keep;
+                }
                 if g == 0.0 {
                     continue;
                 }
@@ -173,6 +189,18 @@ mod tests {
         }
         assert_eq!((a.m[4], a.v[4]), (0.0, 0.0));
         assert!(p[0] < after_one[0], "the layers keep their momentum");
+    }
+
+    #[test]
+    fn table_decay_scales_every_table_value_and_no_layer_value() {
+        let mut a = Adam::new(4, 2);
+        a.table_decay = 0.5;
+        let mut p = vec![1.0f32; 4];
+        a.update(&mut p, &[0.0, 0.0, 0.0, 0.25], 0.1, 0.9, 0.99, 1e-15);
+        // layers: no gradient, no move; table: × (1 − 0.1·0.5), then Adam's step
+        assert_eq!(&p[..3], &[1.0, 1.0, 0.95]);
+        assert!((p[3] - (0.95 - 0.1)).abs() < 1e-6, "{p:?}");
+        assert_eq!(a.steps, vec![0, 1]);
     }
 
     #[test]

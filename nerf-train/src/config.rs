@@ -95,6 +95,16 @@ pub struct TrainConfig {
     /// unbounded scene): it pulls each ray's weight into one short stretch,
     /// clearing the fog and floaters a capture with surroundings grows.
     pub distortion: f32,
+    /// Decoupled weight decay λ of the feature grid's table (AdamW; 0:
+    /// off): each step scales every table value by `1 − lr·λ` before
+    /// Adam's update, so entries that rays stop asking for fade to zero.
+    pub feature_decay: f32,
+    /// Weight μ of an L1 penalty on the optical depth (0: off), added to
+    /// the mean squared colour error as `μ · mean over rays of Σᵢ
+    /// max(σᵢ, 0)·δᵢ` (the ray's last, unbounded interval left out): density
+    /// that no photo needs (inside solids, below surfaces the cameras never
+    /// see from the side) fades, where the colour loss keeps what a photo shows.
+    pub density_l1: f32,
 }
 
 impl Default for TrainConfig {
@@ -138,6 +148,8 @@ impl TrainConfig {
             random_background: 0.0,
             pixel_jitter: false,
             distortion: 0.0,
+            feature_decay: 0.0,
+            density_l1: 0.0,
         }
     }
 

@@ -18,7 +18,9 @@ use crate::grid::DensityGrid;
 use crate::mlp::{Acts, GridGrad, Mlp};
 use crate::rng::Rng;
 use crate::timing::{timed, StepTimes};
-use crate::volume::{composite, composite_back, distortion, push_deltas, push_interval, LAST_DELTA};
+use crate::volume::{
+    composite, composite_back, distortion, optical_depth_back, push_deltas, push_interval, LAST_DELTA,
+};
 use nerf_infer::camera::Ray;
 use nerf_infer::format::Scene;
 use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
@@ -45,7 +47,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 6;
+pub const CHECKPOINT_VERSION: u16 = 7;
 
 /// The density (1/world units, the fitted scene's) an unbounded scene's network starts with,
 /// the same at every point ([`Mlp::init_uniform_density`]). A ray there
@@ -178,17 +180,21 @@ struct Workspace {
     drgb: Vec<f32>,
 }
 
-/// The distortion loss's weight and each sample's interval (see
-/// [`crate::volume::distortion`]); the weight 0 turns it off.
-struct Distortion<'a> {
-    weight: f32,
+/// The losses beside the colour's: the distortion loss's weight and each
+/// sample's interval (see [`crate::volume::distortion`]), and the weight
+/// of the optical depth's L1 penalty ([`TrainConfig::density_l1`]); a
+/// weight 0 turns its loss off.
+struct Priors<'a> {
+    distortion: f32,
     mid: &'a [f32],
     width: &'a [f32],
+    density_l1: f32,
 }
 
 /// Composites each ray's samples (`offs[i]..offs[i + 1]`, weights into
 /// `w`) on the ray's background and writes the gradients of `scale · Σ (C − C_gt)²`
-/// (plus `scale · 3/2 · λ · L_dist` per ray for the distortion weight λ) with respect to
+/// (plus `scale · 3/2 · λ · L_dist` per ray for the distortion weight λ, and
+/// `scale · 3/2 · μ ·` [`optical_depth`](crate::volume::optical_depth) for the density weight μ) with respect to
 /// the raw densities and colours into `dsig` and `drgb`; returns the summed
 /// squared error over rays and channels.
 #[allow(clippy::too_many_arguments)]
@@ -198,7 +204,7 @@ fn loss_gradients(
     scale: f32,
     acts: &Acts,
     delta: &[f32],
-    dist: Distortion<'_>,
+    priors: Priors<'_>,
     w: &mut [f32],
     dw: &mut Vec<f32>,
     dsig: &mut Vec<f32>,
@@ -216,13 +222,16 @@ fn loss_gradients(
         let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
         sq += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
         dw.clear();
-        if dist.weight > 0.0 {
-            // the colour loss is a mean over rays and channels, the distortion loss a mean over rays
+        // the colour loss is a mean over rays and channels, the priors means over rays
+        if priors.distortion > 0.0 {
             dw.resize(s.len(), 0.0);
-            let (mid, width) = (&dist.mid[s.clone()], &dist.width[s.clone()]);
-            distortion(mid, width, &w[s.clone()], 1.5 * scale * dist.weight, dw);
+            let (mid, width) = (&priors.mid[s.clone()], &priors.width[s.clone()]);
+            distortion(mid, width, &w[s.clone()], 1.5 * scale * priors.distortion, dw);
         }
-        composite_back(sig, rgb, &delta[s.clone()], bg, &w[s.clone()], dc, dw, &mut dsig[s], &mut drgb[c]);
+        composite_back(sig, rgb, &delta[s.clone()], bg, &w[s.clone()], dc, dw, &mut dsig[s.clone()], &mut drgb[c]);
+        if priors.density_l1 > 0.0 {
+            optical_depth_back(sig, &delta[s.clone()], 1.5 * scale * priors.density_l1, &mut dsig[s]);
+        }
     }
     sq
 }
@@ -416,6 +425,7 @@ impl Trainer {
         } else {
             let lr = self.learning_rate(progress);
             let c = &self.cfg;
+            self.adam.table_decay = c.feature_decay;
             timed(&mut stats.times.adam, || self.adam.update(&mut self.params, &grad, lr, c.beta1, c.beta2, c.eps));
         }
         self.pool.give(grad);
@@ -594,9 +604,9 @@ impl Trainer {
             timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
         }
         let sq_c = timed(&mut t.composite, || {
-            let dist = Distortion { weight: self.cfg.distortion, mid: &ws.s_mid, width: &ws.s_width };
+            let priors = self.priors(&ws.s_mid, &ws.s_width);
             let (w, dw) = (&mut ws.w_c, &mut ws.dw);
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, dist, w, dw, &mut ws.dsig, &mut ws.drgb)
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, priors, w, dw, &mut ws.dsig, &mut ws.drgb)
         });
         let mut grid = None;
         if n_c > 0 && net.features.is_some() {
@@ -646,12 +656,17 @@ impl Trainer {
         timed(&mut t.encode, || net.encode(pf, &ws.pos, &mut ws.acts_f));
         timed(&mut t.forward, || net.forward_layers(pf, &ws.dirs, true, &mut ws.acts_f));
         let sq_f = timed(&mut t.composite, || {
-            let dist = Distortion { weight: self.cfg.distortion, mid: &ws.s_mid, width: &ws.s_width };
+            let priors = self.priors(&ws.s_mid, &ws.s_width);
             let (w, dw) = (&mut ws.w_f, &mut ws.dw);
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, dist, w, dw, &mut ws.dsig, &mut ws.drgb)
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, priors, w, dw, &mut ws.dsig, &mut ws.drgb)
         });
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)
+    }
+
+    /// The run's losses beside the colour's, over the samples' intervals.
+    fn priors<'a>(&self, mid: &'a [f32], width: &'a [f32]) -> Priors<'a> {
+        Priors { distortion: self.cfg.distortion, mid, width, density_l1: self.cfg.density_l1 }
     }
 
     /// Largest |activation| of every layer of each network, measured on
