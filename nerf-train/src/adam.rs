@@ -21,8 +21,8 @@ pub struct Adam {
     pub steps: Vec<u32>,
     /// Decoupled weight decay λ of the table's parameters (AdamW): every
     /// update first scales each of them by `1 − lr·λ`, reached by a ray or
-    /// not (0: off).
-    #[serde(default)]
+    /// not (0: off). Set by the trainer from its configuration, not saved.
+    #[serde(skip)]
     pub table_decay: f32,
     /// Bias corrections by step count, for the table's parameters.
     #[serde(skip)]

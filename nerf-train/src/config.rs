@@ -377,6 +377,17 @@ impl TrainConfig {
         if !(self.distortion.is_finite() && self.distortion >= 0.0) {
             return Err(format!("distortion {} must be a finite weight ≥ 0", self.distortion));
         }
+        if !(self.density_l1.is_finite() && self.density_l1 >= 0.0) {
+            return Err(format!("density_l1 {} must be a finite weight ≥ 0", self.density_l1));
+        }
+        // every step scales the table by 1 − lr·feature_decay: it must stay in [0, 1]
+        if !(self.feature_decay >= 0.0 && self.lr * self.feature_decay <= 1.0) {
+            return Err(format!(
+                "feature_decay {} must be ≥ 0 and at most 1/lr ({})",
+                self.feature_decay,
+                1.0 / self.lr
+            ));
+        }
         if !(0.0..=1.0).contains(&self.random_background) {
             return Err(format!("random_background {} must be a share of the rays in [0, 1]", self.random_background));
         }
@@ -442,6 +453,21 @@ mod tests {
             let mut fitted = c.clone();
             assert!(!fitted.fit_samples_to(4096));
             assert_eq!(fitted, c);
+        }
+    }
+
+    #[test]
+    fn the_regularisers_weights_must_be_finite_and_not_negative() {
+        let c = TrainConfig::features();
+        let with = |feature_decay: f32, density_l1: f32| TrainConfig { feature_decay, density_l1, ..c.clone() };
+        assert!(with(0.0, 0.0).validate().is_ok());
+        assert!(with(0.1, 1e-5).validate().is_ok());
+        // lr 1e-2: a decay of 100 scales the table by 0 each step, above it by less than 0
+        assert!(with(100.0, 0.0).validate().is_ok());
+        for (d, l1) in [(-0.1, 0.0), (f32::NAN, 0.0), (f32::INFINITY, 0.0), (101.0, 0.0), (0.0, -1e-5), (0.0, f32::NAN)]
+        {
+            let e = with(d, l1).validate().unwrap_err();
+            assert!(e.contains(if l1 != 0.0 { "density_l1" } else { "feature_decay" }), "{e}");
         }
     }
 
