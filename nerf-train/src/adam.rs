@@ -19,11 +19,6 @@ pub struct Adam {
     /// feature grid's table; empty without one): those with a zero
     /// gradient are skipped.
     pub steps: Vec<u32>,
-    /// Decoupled weight decay λ of the table's parameters (AdamW): every
-    /// update first scales each of them by `1 − lr·λ`, reached by a ray or
-    /// not (0: off). Set by the trainer from its configuration, not saved.
-    #[serde(skip)]
-    pub table_decay: f32,
     /// Bias corrections by step count, for the table's parameters.
     #[serde(skip)]
     bias: BiasCorrections,
@@ -84,23 +79,19 @@ impl Adam {
     /// zero.
     pub fn new(n: usize, sparse: usize) -> Self {
         assert!(sparse <= n, "{sparse} of {n} parameters");
-        Self {
-            m: vec![0.0; n],
-            v: vec![0.0; n],
-            t: 0,
-            steps: vec![0; sparse],
-            table_decay: 0.0,
-            bias: BiasCorrections::default(),
-        }
+        Self { m: vec![0.0; n], v: vec![0.0; n], t: 0, steps: vec![0; sparse], bias: BiasCorrections::default() }
     }
 
     /// One update: `m ← β₁m + (1−β₁)g`, `v ← β₂v + (1−β₂)g²`,
     /// `p ← p − lr·m̂/(√v̂ + ε)` with `m̂ = m/(1−β₁ᵗ)`, `v̂ = v/(1−β₂ᵗ)`;
     /// for the last `steps.len()` parameters only where `g ≠ 0`, with their
     /// own `t` (an entry of the table that no ray reached keeps its
-    /// moments, and its value but for [`Self::table_decay`], where the dense
-    /// update would keep moving it for tens of steps on momentum alone).
-    pub fn update(&mut self, p: &mut [f32], g: &[f32], lr: f32, b1: f32, b2: f32, eps: f32) {
+    /// moments, and its value but for the decay, where the dense update
+    /// would keep moving it for tens of steps on momentum alone). First,
+    /// `table_decay` λ (AdamW's decoupled weight decay; 0: off) scales every
+    /// table parameter by `1 − lr·λ`, reached by a ray or not.
+    #[allow(clippy::too_many_arguments)]
+    pub fn update(&mut self, p: &mut [f32], g: &[f32], lr: f32, b1: f32, b2: f32, eps: f32, table_decay: f32) {
         assert!(p.len() == self.m.len() && g.len() == self.m.len(), "{} parameters, {} gradients", p.len(), g.len());
         self.t += 1;
         let k = self.t.min(u32::MAX as u64) as u32;
@@ -124,7 +115,7 @@ impl Adam {
         }
         self.bias.fit(b1, b2);
         let bias = &self.bias;
-        let keep = 1.0 - lr * self.table_decay;
+        let keep = 1.0 - lr * table_decay;
         let blocks = ps.par_chunks_mut(BLOCK).zip(gs.par_chunks(BLOCK)).zip(ms.par_chunks_mut(BLOCK));
         let blocks = blocks.zip(vs.par_chunks_mut(BLOCK)).zip(self.steps.par_chunks_mut(BLOCK));
         blocks.for_each(|((((p, g), m), v), steps)| {
@@ -152,7 +143,7 @@ mod tests {
         let mut a = Adam::new(2, 0);
         let mut p = [1.0f32, -2.0];
         for k in 1..=10 {
-            a.update(&mut p, &[0.5, -4.0], 0.01, 0.9, 0.999, 1e-8);
+            a.update(&mut p, &[0.5, -4.0], 0.01, 0.9, 0.999, 1e-8, 0.0);
             assert!((p[0] - (1.0 - 0.01 * k as f32)).abs() < 1e-5, "step {k}: {}", p[0]);
             assert!((p[1] - (-2.0 + 0.01 * k as f32)).abs() < 1e-5);
         }
@@ -166,8 +157,8 @@ mod tests {
         for k in 0..3000 {
             // never exactly zero
             let g: Vec<f32> = (0..12).map(|i| ((i * 7 + k * 3) % 11) as f32 * 0.1 - 0.55).collect();
-            dense.update(&mut p, &g, 0.01, 0.9, 0.99, 1e-15);
-            sparse.update(&mut q, &g, 0.01, 0.9, 0.99, 1e-15);
+            dense.update(&mut p, &g, 0.01, 0.9, 0.99, 1e-15, 0.0);
+            sparse.update(&mut q, &g, 0.01, 0.9, 0.99, 1e-15, 0.0);
         }
         assert_eq!(p, q);
         assert_eq!(sparse.steps, vec![3000; 8]);
@@ -177,9 +168,9 @@ mod tests {
     fn table_values_without_a_gradient_keep_their_value_and_moments() {
         let mut a = Adam::new(6, 4);
         let mut p = vec![1.0f32; 6];
-        a.update(&mut p, &[0.1, 0.1, 0.5, 0.0, 0.0, -0.5], 0.01, 0.9, 0.99, 1e-15);
+        a.update(&mut p, &[0.1, 0.1, 0.5, 0.0, 0.0, -0.5], 0.01, 0.9, 0.99, 1e-15, 0.0);
         let after_one = p.clone();
-        a.update(&mut p, &[0.1, 0.1, 0.0, 0.25, 0.0, 0.0], 0.01, 0.9, 0.99, 1e-15);
+        a.update(&mut p, &[0.1, 0.1, 0.0, 0.25, 0.0, 0.0], 0.01, 0.9, 0.99, 1e-15, 0.0);
         // each value's first update moves it by lr·sign(g); the layers' values
         // (the first two) move on every step, table value 4 never did
         assert_eq!(a.steps, vec![1, 1, 0, 1]);
@@ -194,9 +185,8 @@ mod tests {
     #[test]
     fn table_decay_scales_every_table_value_and_no_layer_value() {
         let mut a = Adam::new(4, 2);
-        a.table_decay = 0.5;
         let mut p = vec![1.0f32; 4];
-        a.update(&mut p, &[0.0, 0.0, 0.0, 0.25], 0.1, 0.9, 0.99, 1e-15);
+        a.update(&mut p, &[0.0, 0.0, 0.0, 0.25], 0.1, 0.9, 0.99, 1e-15, 0.5);
         // layers: no gradient, no move; table: × (1 − 0.1·0.5), then Adam's step
         assert_eq!(&p[..3], &[1.0, 1.0, 0.95]);
         assert!((p[3] - (0.95 - 0.1)).abs() < 1e-6, "{p:?}");
@@ -221,7 +211,7 @@ mod tests {
         let mut p = [3.0f32];
         for _ in 0..2000 {
             let g = [2.0 * (p[0] - 1.5)];
-            a.update(&mut p, &g, 0.01, 0.9, 0.999, 1e-8);
+            a.update(&mut p, &g, 0.01, 0.9, 0.999, 1e-8, 0.0);
         }
         assert!((p[0] - 1.5).abs() < 1e-2);
     }

@@ -425,8 +425,8 @@ impl Trainer {
         } else {
             let lr = self.learning_rate(progress);
             let c = &self.cfg;
-            self.adam.table_decay = c.feature_decay;
-            timed(&mut stats.times.adam, || self.adam.update(&mut self.params, &grad, lr, c.beta1, c.beta2, c.eps));
+            let (p, adam) = (&mut self.params, &mut self.adam);
+            timed(&mut stats.times.adam, || adam.update(p, &grad, lr, c.beta1, c.beta2, c.eps, c.feature_decay));
         }
         self.pool.give(grad);
         self.step += 1;
