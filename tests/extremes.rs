@@ -431,7 +431,7 @@ fn the_remaining_entry_points_take_nan_and_infinity() {
     let m = Model::from_bytes(&f).unwrap();
     let mut b = Box::<BlockF32<2>>::default();
     b.prepare_ray::<F32>(&m, &m.coarse, [f32::NAN, 0.0, 1.0]);
-    b.eval_density::<F32>(&m, &m.coarse, &[[f32::NAN, 0.0, 0.0], [f32::INFINITY, 1.0, -1.0]]);
+    b.eval_density::<F32>(&m, &m.coarse, &[[f32::NAN, 0.0, 0.0], [f32::INFINITY, 1.0, -1.0]], false);
     b.eval_colour::<F32>(&m, &m.coarse, &[0, 1]);
     assert!(b.rgb.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "{:?}", b.rgb);
     assert!(b.sigma.iter().all(|&s| alpha_f32(s, 1.0) >= 0.0 && alpha_f32(s, 1.0) <= 1.0), "{:?}", b.sigma);

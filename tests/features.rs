@@ -312,3 +312,43 @@ fn a_corrupted_narrow_table_model_is_refused_or_renders_in_range() {
     println!("{decoded} variants decoded and rendered, {refused} refused");
     assert!(decoded > 500 && refused > 100, "{decoded} decoded, {refused} refused");
 }
+
+#[test]
+fn a_footprint_model_records_its_pixel_and_renders_alike_in_both_numeric_paths() {
+    let d = support::TestDir::new("footprint-test");
+    write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
+    let cfg = TrainConfig { batch_rays: 256, lr: 1e-2, eps: 1e-15, beta2: 0.99, footprint: true, ..feature_config() };
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
+    for i in 0..120 {
+        tr.train_step(&data, i as f64 / 120.0);
+    }
+    let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
+    assert!(last < 0.5 * first, "loss did not fall: {first} -> {last}");
+    assert_eq!(tr.pixel, data.pixel_angle());
+    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    assert_eq!(back.pixel, tr.pixel);
+
+    let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));
+    let owned = trainer_model(&tr, &calib, Prune::Off);
+    let bytes = owned.to_bytes().unwrap();
+    assert_eq!(version(&bytes), nerf_infer::format::FORMAT_VERSION);
+    let m = Model::from_bytes(&bytes).unwrap();
+    assert_eq!(m.footprint.map(|f| f.pixel), Some(data.pixel_angle()));
+
+    let score = |m: &Model<'_>| score_view(m, RenderOptions::from_model(m), &val.views[0]).unwrap().1.psnr;
+    let f_gt = score(&m);
+    let lines = OwnedModel { footprint: None, ..owned.clone() }.to_bytes().unwrap();
+    let line_gt = score(&Model::from_bytes(&lines).unwrap());
+    let q16 = quantise(&m, Scheme::I16).unwrap().to_bytes().unwrap();
+    let q8 = quantise(&m, Scheme::I8).unwrap().to_bytes().unwrap();
+    let (m16, m8) = (Model::from_bytes(&q16).unwrap(), Model::from_bytes(&q8).unwrap());
+    assert_eq!(m16.footprint, m.footprint, "quantised models keep the footprint");
+    let (q16_gt, q8_gt) = (score(&m16), score(&m8));
+    println!("footprint: f32 {f_gt:.3}, int16 {q16_gt:.3}, int8 {q8_gt:.3} dB; rays as lines {line_gt:.3} dB");
+    assert!(f_gt != line_gt, "the footprint changes the render");
+    assert!(q16_gt >= f_gt - 0.1, "int16 loses {:.3} dB", f_gt - q16_gt);
+    assert!(q8_gt >= f_gt - 0.5, "int8 loses {:.3} dB", f_gt - q8_gt);
+}

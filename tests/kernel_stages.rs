@@ -64,17 +64,17 @@ fn compare_mlp(cfg: &TrainConfig, scheme: Scheme, sigma_tol: f32, rgb_tol: f32) 
     for chunk in positions(400, 5).chunks(8) {
         let pf: Vec<[f32; 3]> = chunk.iter().map(|p| p.map(|v| v as f32 / (1 << NPOS_FRAC) as f32)).collect();
         let all: Vec<usize> = (0..chunk.len()).collect();
-        bf.eval_density::<F32>(&mf, nf, &pf);
+        bf.eval_density::<F32>(&mf, nf, &pf, false);
         bf.eval_colour::<F32>(&mf, nf, &all);
         match scheme {
             Scheme::I16 => {
                 bq.prepare_ray::<W16>(&mq, nq, dir_q);
-                bq.eval_density::<W16>(&mq, nq, chunk);
+                bq.eval_density::<W16>(&mq, nq, chunk, false);
                 bq.eval_colour::<W16>(&mq, nq, &all);
             }
             _ => {
                 bq.prepare_ray::<W8>(&mq, nq, dir_q);
-                bq.eval_density::<W8>(&mq, nq, chunk);
+                bq.eval_density::<W8>(&mq, nq, chunk, false);
                 bq.eval_colour::<W8>(&mq, nq, &all);
             }
         }

@@ -59,6 +59,12 @@ impl Camera {
         Self::new(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32, c2w)
     }
 
+    /// Angular size of a pixel, radians: `1/√(fx·fy)` (the footprint of
+    /// its rays, [`Ray::with_footprint`]).
+    pub fn pixel_angle(&self) -> f32 {
+        1.0 / libm::sqrtf(self.fx * self.fy)
+    }
+
     /// Origin and (unnormalised, camera-space `z = −1`) direction of the ray
     /// through the centre of pixel `(i, j)`, in world units.
     pub fn ray(&self, i: u32, j: u32) -> (Vec3, Vec3) {
@@ -81,6 +87,11 @@ pub fn is_rotation(m: &Mat3) -> bool {
     err.is_finite() && err < 1e-3 && (m.determinant() - 1.0).abs() < 1e-3
 }
 
+/// The footprint's radius per unit of `t` and of pixel angle, `1/√6`: four
+/// points on a circle of radius `ρ` have the variance `ρ²/2` along each
+/// axis, a pixel-wide box `1/12` ([`crate::format::Footprint`]).
+pub const FOOTPRINT_RADIUS: f32 = 0.408_248_3;
+
 /// A ray prepared for sampling: what both numeric paths need, per ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
@@ -99,6 +110,11 @@ pub struct Ray {
     /// Unbounded scenes: [`crate::format::Unbounded::linear_until`] (positions are
     /// contracted and samples spaced as [`crate::unbounded`] says); `None` otherwise.
     pub linear_until: Option<f32>,
+    /// With a pixel footprint ([`Ray::with_footprint`]): the offsets
+    /// `ρ·u`, `ρ·v` per unit of `t` in normalised coordinates (before any
+    /// contraction) of the footprint's points `±ρ·t·u`, `±ρ·t·v`; `None`:
+    /// the ray is a line.
+    pub foot: Option<[Vec3; 2]>,
 }
 
 impl Ray {
@@ -136,9 +152,44 @@ impl Ray {
                 (t0.min(t1).max_element().max(scene.near), t0.max(t1).min_element().min(scene.far))
             }
         };
-        let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far, linear_until };
+        let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far, linear_until, foot: None };
         let ok = r.norm_origin.is_finite() && r.norm_dir.is_finite() && r.dir_len.is_finite();
         (ok && near < far).then_some(r)
+    }
+
+    /// The ray with the footprint of a pixel of angular size `pixel`
+    /// (radians: 1/focal length in pixels; see
+    /// [`crate::format::Footprint`]), its two offsets turned by `phi`
+    /// radians about the ray (0 when rendering). `u = normalize(d × e)`
+    /// with `e` the world x axis (y when `|d·x| ≥ 0.9`), `v = d × u`, `d`
+    /// the view direction. Forward-facing (NDC) scenes, and a `pixel` that
+    /// is not finite and positive, leave the ray a line.
+    pub fn with_footprint(mut self, scene: &Scene, pixel: f32, phi: f32) -> Self {
+        if scene.ndc.is_some() || !(pixel.is_finite() && pixel > 0.0) {
+            return self;
+        }
+        let d = self.viewdir;
+        let e = if d.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+        let u = d.cross(e).normalize();
+        let v = d.cross(u);
+        let (s, c) = (libm::sinf(phi), libm::cosf(phi));
+        let (u, v) = (c * u + s * v, c * v - s * u);
+        let inv_half = 2.0 / (Vec3::from(scene.bounds_max) - Vec3::from(scene.bounds_min));
+        let rho = pixel * FOOTPRINT_RADIUS;
+        let foot = [rho * u * inv_half, rho * v * inv_half];
+        self.foot = foot.iter().all(|f| f.is_finite()).then_some(foot);
+        self
+    }
+
+    /// The footprint's four points at parameter `t` (`+u`, `−u`, `+v`,
+    /// `−v`; contracted in an unbounded scene), or `None` for a line.
+    #[inline(always)]
+    pub fn foot_at(&self, t: f32) -> Option<[[f32; 3]; 4]> {
+        let [a, b] = self.foot?;
+        let p = self.norm_origin + t * self.norm_dir;
+        let (a, b) = (t * a, t * b);
+        let pts = [p + a, p - a, p + b, p - b];
+        Some(pts.map(|q| if self.linear_until.is_some() { unbounded::contract_f32(q) } else { q }.to_array()))
     }
 
     /// Normalised position at parameter `t` (contracted in an unbounded scene).

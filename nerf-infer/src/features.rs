@@ -229,6 +229,18 @@ impl FeatureGrid<'_> {
         }
     }
 
+    /// The mean of [`FeatureGrid::encode_f32`] over the four points `pts`
+    /// (summed in their order, then times ¼), into `out` (`dim()` values).
+    pub fn encode_f32_mean(&self, pts: &[[f32; 3]; 4], out: &mut [f32]) {
+        let mut one = [0.0f32; MAX_FEATURES];
+        out.fill(0.0);
+        for p in pts {
+            self.encode_f32(*p, &mut one);
+            out.iter_mut().zip(&one).for_each(|(o, v)| *o += v);
+        }
+        out.iter_mut().for_each(|o| *o *= 0.25);
+    }
+
     /// The `dim()` features at the Q24 normalised position `p` (i16 table,
     /// or a [`NarrowTable`]'s indices of i16 values), as i16 with
     /// `frac_bits` fractional bits. Integer only: the cell and the fractions

@@ -3,8 +3,10 @@
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
-/// The newest format version this build reads and writes (it reads 1 to 8 too).
-pub const FORMAT_VERSION: u16 = 9;
+/// The newest format version this build reads and writes (it reads 1 to 9 too).
+pub const FORMAT_VERSION: u16 = 10;
+/// The version of models without a pixel footprint.
+pub const FORMAT_VERSION_NO_FOOTPRINT: u16 = 9;
 /// The version of models without a fitted orbit.
 pub const FORMAT_VERSION_NO_ORBIT: u16 = 8;
 /// The version of models without a 16-bit density head.

@@ -105,6 +105,12 @@ pub struct TrainConfig {
     /// that no photo needs (inside solids, below surfaces the cameras never
     /// see from the side) fades, where the colour loss keeps what a photo shows.
     pub density_l1: f32,
+    /// With a feature grid, outside forward-facing scenes: each sample's
+    /// features are the mean of the grid's values at four points spread
+    /// across its pixel's footprint (`nerf_infer::format::Footprint`; four
+    /// lookups per sample instead of one), so a field fitted to pixels that
+    /// average what they cover renders other views' pixels as averages too.
+    pub footprint: bool,
 }
 
 impl Default for TrainConfig {
@@ -150,6 +156,7 @@ impl TrainConfig {
             distortion: 0.0,
             feature_decay: 0.0,
             density_l1: 0.0,
+            footprint: false,
         }
     }
 
@@ -215,6 +222,7 @@ impl TrainConfig {
             feature_log2_table: 15,
             feature_min_res: 16,
             feature_max_res: 256,
+            footprint: true,
             ..Self::grid()
         }
     }

@@ -35,6 +35,8 @@ pub trait PixelRays: Sync {
     fn size(&self) -> (u32, u32);
     /// Origin and direction of the ray through pixel `(x, y)`.
     fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3);
+    /// Angular size of a pixel, radians (the footprint of models with one).
+    fn pixel_angle(&self) -> f32;
 }
 
 impl PixelRays for Camera {
@@ -44,6 +46,9 @@ impl PixelRays for Camera {
     fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3) {
         Camera::ray(self, x, y)
     }
+    fn pixel_angle(&self) -> f32 {
+        Camera::pixel_angle(self)
+    }
 }
 
 impl PixelRays for View {
@@ -52,6 +57,9 @@ impl PixelRays for View {
     }
     fn ray(&self, x: u32, y: u32) -> (glam::Vec3, glam::Vec3) {
         View::ray(self, x, y)
+    }
+    fn pixel_angle(&self) -> f32 {
+        self.camera.pixel_angle()
     }
 }
 
@@ -78,7 +86,7 @@ pub fn render_view_marching<C: PixelRays + ?Sized>(
     let (w, h) = camera.size();
     let (w, h) = (w as usize, h as usize);
     let rows: Vec<Row> = if model.scheme().is_fixed() {
-        let r = RendererFixed::new(model, opts)?.with_coarse_skipping(coarse_skipping);
+        let r = RendererFixed::new(model, opts)?.with_coarse_skipping(coarse_skipping).with_pixel(camera.pixel_angle());
         (0..h)
             .into_par_iter()
             .map_init(Box::<ScratchFixed>::default, |s, y| {
@@ -86,7 +94,7 @@ pub fn render_view_marching<C: PixelRays + ?Sized>(
             })
             .collect()
     } else {
-        let r = RendererF32::new(model, opts)?.with_coarse_skipping(coarse_skipping);
+        let r = RendererF32::new(model, opts)?.with_coarse_skipping(coarse_skipping).with_pixel(camera.pixel_angle());
         (0..h)
             .into_par_iter()
             .map_init(Box::<ScratchF32>::default, |s, y| {

@@ -148,6 +148,9 @@ pub struct OwnedModel {
     pub narrow: Option<(u8, Vec<u8>)>,
     /// The orbit fitted to the training cameras (format version 9).
     pub orbit: Option<format::FittedOrbit>,
+    /// Features averaged over each sample's pixel footprint (format
+    /// version 10).
+    pub footprint: Option<format::Footprint>,
 }
 
 /// `shape` with `table` as its table (i16 or f32 values; no codebook).
@@ -210,6 +213,7 @@ impl OwnedModel {
                 }
             }),
             orbit: self.orbit,
+            footprint: self.footprint,
         };
         format::to_bytes(&m)
     }
@@ -229,6 +233,7 @@ impl OwnedModel {
             capture: m.capture,
             narrow: m.narrow.map(|n| (n.bits, n.codebook.to_vec())),
             orbit: m.orbit,
+            footprint: m.footprint,
         }
     }
 }
@@ -300,6 +305,8 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         capture: None,
         narrow: None,
         orbit: None,
+        footprint: (tr.pixel > 0.0 && mlp.features.is_some() && tr.scene.ndc.is_none())
+            .then_some(format::Footprint { pixel: tr.pixel }),
     }
 }
 

@@ -65,6 +65,9 @@ pub struct GridGrad {
 #[derive(Clone, Debug, Default)]
 pub struct Acts {
     s: usize,
+    /// Feature-grid points per sample: 1, or 4 with a pixel footprint
+    /// ([`Mlp::encode_footprint`]); `gf` and `corners` hold `S·k` points.
+    k: usize,
     r: usize,
     enc: Vec<f32>,
     /// Feature-grid values per sample (`S × grid_dim`) and their corners,
@@ -188,7 +191,8 @@ impl Mlp {
         let mut gt = &mut g[self.table..];
         for l in 0..f.levels() {
             let (level, rest) = gt.split_at_mut(f.entries(l) * f.width as usize);
-            self.scatter_level(l, &a.corners[l * a.s..(l + 1) * a.s], &a.dgf, level);
+            let n = a.s * a.k;
+            self.scatter_level(l, &a.corners[l * n..(l + 1) * n], &a.dgf, level);
             gt = rest;
         }
     }
@@ -213,6 +217,10 @@ impl Mlp {
             }
         };
         for (i, c) in corners.iter().enumerate() {
+            // a footprint point merged into its sample's first (zero weights)
+            if c.weight == [0.0; 8] {
+                continue;
+            }
             if cell != Some(c.entry) {
                 if let Some(entry) = &cell {
                     flush(entry, &mut acc);
@@ -235,7 +243,7 @@ impl Mlp {
     pub fn swap_grid_grad(&self, a: &mut Acts, out: &mut GridGrad) {
         std::mem::swap(&mut a.corners, &mut out.corners);
         std::mem::swap(&mut a.dgf, &mut out.dgf);
-        out.s = if self.features.is_some() { a.s } else { 0 };
+        out.s = if self.features.is_some() { a.s * a.k } else { 0 };
     }
 
     /// Adds the grid-value gradients of several chunks to `gt`, the
@@ -339,11 +347,64 @@ impl Mlp {
     pub fn encode(&self, p: &[f32], pos: &[[f32; 3]], a: &mut Acts) {
         let gd = self.gamma_dim();
         a.s = pos.len();
+        a.k = 1;
         resize(&mut a.enc, pos.len() * gd);
         for (i, x) in pos.iter().enumerate() {
             encode_f32(*x, self.enc.pos_freqs as usize, self.enc.include_input, &mut a.enc[i * gd..(i + 1) * gd]);
         }
         self.grid_forward(p, pos, a);
+    }
+
+    /// [`Mlp::encode`] with the feature grid's values of sample `i` the
+    /// mean of its four footprint points `foot[4i..4i + 4]`; γ stays at
+    /// `pos`. Each point's corners are kept with their weights times ¼
+    /// (the backward pass scatters through them); where the four points of
+    /// a level share one cell (the coarse levels, mostly) their weights are
+    /// summed into one set of corners, blended and scattered once (the
+    /// other three keep the cell with zero weights, which the scatter
+    /// skips). An
+    /// empty `foot`, or a network without a feature grid, is [`Mlp::encode`].
+    pub fn encode_footprint(&self, p: &[f32], pos: &[[f32; 3]], foot: &[[f32; 3]], a: &mut Acts) {
+        let Some(f) = self.features.as_ref().filter(|_| !foot.is_empty()) else {
+            return self.encode(p, pos, a);
+        };
+        assert_eq!(foot.len(), 4 * pos.len(), "four footprint points per sample");
+        let (gd, s) = (self.gamma_dim(), pos.len());
+        resize(&mut a.enc, s * gd);
+        for (i, x) in pos.iter().enumerate() {
+            encode_f32(*x, self.enc.pos_freqs as usize, self.enc.include_input, &mut a.enc[i * gd..(i + 1) * gd]);
+        }
+        let (w, nl, t) = (f.width as usize, f.levels(), &p[self.table..]);
+        resize(&mut a.gf, s * nl * w);
+        a.corners.resize(4 * s * nl, Corners::default());
+        for l in 0..nl {
+            let base = f.offset(l);
+            for i in 0..s {
+                let mut c: [Corners; 4] = std::array::from_fn(|m| f.corners_f32(l, foot[4 * i + m]));
+                let out = &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w];
+                let corners = &mut a.corners[l * 4 * s + 4 * i..l * 4 * s + 4 * i + 4];
+                if c.iter().all(|k| k.entry == c[0].entry) {
+                    let weight = std::array::from_fn(|j| {
+                        0.25 * (c[0].weight[j] + c[1].weight[j] + c[2].weight[j] + c[3].weight[j])
+                    });
+                    let one = Corners { entry: c[0].entry, weight };
+                    one.blend(base, w, |k| t[k], out);
+                    corners[0] = one;
+                    corners[1..].fill(Corners { entry: c[0].entry, weight: [0.0; 8] });
+                } else {
+                    // (¼ is exact: the sum is the kernel's mean of four blends, bit for bit)
+                    let (mut sum, mut one) = ([0.0f32; 8], [0.0f32; 8]);
+                    for (k, slot) in c.iter_mut().zip(corners.iter_mut()) {
+                        k.weight.iter_mut().for_each(|v| *v *= 0.25);
+                        k.blend(base, w, |e| t[e], &mut one[..w]);
+                        sum[..w].iter_mut().zip(&one[..w]).for_each(|(s, v)| *s += v);
+                        *slot = *k;
+                    }
+                    out.copy_from_slice(&sum[..w]);
+                }
+            }
+        }
+        (a.s, a.k) = (s, 4);
     }
 
     /// The rest of [`Mlp::forward`]: the layers on the encoding
@@ -502,6 +563,22 @@ impl Mlp {
             self.linear_back(p, g, i, &a.h[i - 1], w, row0, &dh, s, Some(&mut dtmp));
             std::mem::swap(&mut dh, &mut dtmp);
         }
+        if a.k > 1 {
+            // each footprint point's corners carry its ¼ in their weights
+            let mut spread = dpart;
+            resize(&mut spread, s * a.k * fd);
+            for (i, row) in dgf.chunks_exact(fd).enumerate() {
+                for m in 0..a.k {
+                    let o = (i * a.k + m) * fd;
+                    spread[o..o + fd].copy_from_slice(row);
+                }
+            }
+            a.dgf = spread;
+            a.dgf_part = dgf;
+            a.dh = dh;
+            a.dtmp = dtmp;
+            return;
+        }
         a.dgf = dgf;
         a.dgf_part = dpart;
         a.dh = dh;
@@ -555,18 +632,21 @@ impl Mlp {
 mod tests {
     use super::*;
 
-    fn loss(m: &Mlp, p: &[f32], pos: &[[f32; 3]], dirs: &[[f32; 3]], a: &mut Acts) -> f64 {
-        m.forward(p, pos, dirs, true, a);
+    fn loss(m: &Mlp, p: &[f32], pos: &[[f32; 3]], foot: &[[f32; 3]], dirs: &[[f32; 3]], a: &mut Acts) -> f64 {
+        m.encode_footprint(p, pos, foot, a);
+        m.forward_layers(p, dirs, true, a);
         let ls: f64 = a.sigma.iter().enumerate().map(|(i, v)| (*v as f64) * (0.3 + i as f64 * 0.1)).sum();
         let lc: f64 = a.rgb.iter().enumerate().map(|(i, v)| (*v as f64) * ((i % 5) as f64 - 2.0)).sum();
         ls + lc
     }
 
     fn check_gradients(topo: Topology, enc: Encoding) {
-        check_gradients_with(Mlp::new(topo, enc));
+        check_gradients_with(Mlp::new(topo, enc), false);
     }
 
-    fn check_gradients_with(m: Mlp) {
+    /// Finite differences against the backward pass; with `footprint`,
+    /// each sample's features are the mean over four points around it.
+    fn check_gradients_with(m: Mlp, footprint: bool) {
         let mut p = m.init(3);
         // shift biases so that ReLUs are mostly active away from kinks
         for s in &m.slots {
@@ -580,8 +660,19 @@ mod tests {
         }
         let pos: Vec<[f32; 3]> = (0..6).map(|i| [0.1 * i as f32, -0.2, 0.05 * i as f32 - 0.1]).collect();
         let dirs = vec![[0.0, 0.6, -0.8], [0.8, 0.0, -0.6]];
+        let foot: Vec<[f32; 3]> = match footprint {
+            true => pos
+                .iter()
+                .flat_map(|q| {
+                    [[0.13, 0.0, 0.02], [-0.13, 0.0, -0.02], [0.0, 0.11, -0.05], [0.0, -0.11, 0.05]]
+                        .map(|o| [q[0] + o[0], q[1] + o[1], q[2] + o[2]])
+                })
+                .collect(),
+            false => Vec::new(),
+        };
         let mut a = Acts::default();
-        m.forward(&p, &pos, &dirs, true, &mut a);
+        m.encode_footprint(&p, &pos, &foot, &mut a);
+        m.forward_layers(&p, &dirs, true, &mut a);
         let ds: Vec<f32> = (0..6).map(|i| 0.3 + i as f32 * 0.1).collect();
         let dc: Vec<f32> = (0..18).map(|i| (i % 5) as f32 - 2.0).collect();
         let mut g = vec![0.0; m.n_params];
@@ -599,9 +690,9 @@ mod tests {
         let fd = |k: usize, h: f32, a: &mut Acts| {
             let mut pp = p.clone();
             pp[k] += h;
-            let lp = loss(&m, &pp, &pos, &dirs, a);
+            let lp = loss(&m, &pp, &pos, &foot, &dirs, a);
             pp[k] -= 2.0 * h;
-            let lm = loss(&m, &pp, &pos, &dirs, a);
+            let lm = loss(&m, &pp, &pos, &foot, &dirs, a);
             (lp - lm) / (2.0 * h as f64)
         };
         for k in 0..m.n_params {
@@ -631,9 +722,9 @@ mod tests {
         check_gradients(topo, enc);
     }
 
-    #[test]
-    fn gradients_match_finite_differences_with_a_feature_grid() {
-        // two dense levels and one hashed, a skip layer that also reads them
+    /// A small network with two dense levels and one hashed, a skip layer
+    /// that also reads them.
+    fn with_feature_grid() -> Mlp {
         let topo = Topology { depth: 3, width: 8, skip_mask: 1 << 2, view_dependent: true, view_width: 4 };
         let f = FeatureGrid {
             width: 2,
@@ -647,11 +738,30 @@ mod tests {
         let m = Mlp::new(topo, enc).with_features(Some(f));
         // levels of 1, 2 and 5 cells: 8 and 27 vertices (dense), 216 > 32 (hashed)
         assert_eq!(m.n_params, m.table + (8 + 27 + 32) * 2);
-        check_gradients_with(m);
+        m
+    }
+
+    #[test]
+    fn gradients_match_finite_differences_with_a_feature_grid() {
+        check_gradients_with(with_feature_grid(), false);
+    }
+
+    #[test]
+    fn gradients_match_finite_differences_with_footprint_means_of_the_features() {
+        check_gradients_with(with_feature_grid(), true);
     }
 
     #[test]
     fn the_table_scattered_from_chunks_equals_the_backward_of_each_chunk_in_turn() {
+        scatter_equals_backward(false);
+    }
+
+    #[test]
+    fn the_table_scattered_from_chunks_with_footprints_equals_their_backward() {
+        scatter_equals_backward(true);
+    }
+
+    fn scatter_equals_backward(footprint: bool) {
         let topo = Topology { depth: 2, width: 8, skip_mask: 0, view_dependent: true, view_width: 4 };
         let f = FeatureGrid {
             width: 2,
@@ -678,9 +788,17 @@ mod tests {
         let (mut layers, mut grads) = (vec![0.0; m.table], Vec::new());
         let mut a = Acts::default();
         for pos in &chunks {
-            m.forward(&p, pos, &dirs, true, &mut a);
+            let foot: Vec<[f32; 3]> = match footprint {
+                true => {
+                    pos.iter().flat_map(|q| [0.05f32, -0.05, 0.08, -0.08].map(|o| [q[0] + o, q[1] - o, q[2]])).collect()
+                }
+                false => Vec::new(),
+            };
+            m.encode_footprint(&p, pos, &foot, &mut a);
+            m.forward_layers(&p, &dirs, true, &mut a);
             m.backward(&p, &mut a, &ds, &dc, &mut whole);
-            m.forward(&p, pos, &dirs, true, &mut a);
+            m.encode_footprint(&p, pos, &foot, &mut a);
+            m.forward_layers(&p, &dirs, true, &mut a);
             m.backward_layers(&p, &mut a, &ds, &dc, &mut layers);
             let mut gg = GridGrad::default();
             m.swap_grid_grad(&mut a, &mut gg);

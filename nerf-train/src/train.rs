@@ -47,7 +47,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 7;
+pub const CHECKPOINT_VERSION: u16 = 8;
 
 /// The density (1/world units, the fitted scene's) an unbounded scene's network starts with,
 /// the same at every point ([`Mlp::init_uniform_density`]). A ray there
@@ -106,6 +106,11 @@ pub struct Trainer {
     /// absolute path and the loading flags), so `--resume` can refuse other
     /// data; empty when the caller does not say.
     pub data: String,
+    /// Mean angular size of the training views' pixels, radians, once a
+    /// step has trained with pixel footprints ([`TrainConfig::footprint`]);
+    /// 0 before (the exported model records it,
+    /// `nerf_infer::format::Footprint`).
+    pub pixel: f32,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
@@ -158,6 +163,9 @@ impl GradPool {
 #[derive(Default)]
 struct Workspace {
     pos: Vec<[f32; 3]>,
+    /// The four footprint points of each sample of `pos` (rays with a
+    /// footprint), else empty.
+    foot: Vec<[f32; 3]>,
     dirs: Vec<[f32; 3]>,
     /// Ray `i`'s samples are `offs[i]..offs[i + 1]` of `pos` and `delta`.
     offs: Vec<usize>,
@@ -275,15 +283,22 @@ pub struct Draw {
     /// Each ray through a uniformly random point of its pixel instead of
     /// its centre ([`TrainConfig::pixel_jitter`]).
     pub jitter: bool,
+    /// Each ray with its pixel's footprint ([`TrainConfig::footprint`]),
+    /// turned about the ray by a random angle.
+    pub footprint: bool,
 }
 
 impl Draw {
     /// Rays through pixel centres, on the scene's background.
-    pub const CENTRES: Self = Self { random_background: 0.0, jitter: false };
+    pub const CENTRES: Self = Self { random_background: 0.0, jitter: false, footprint: false };
 
     /// The rays a training step of `cfg` draws.
     pub fn of(cfg: &TrainConfig) -> Self {
-        Self { random_background: cfg.random_background, jitter: cfg.pixel_jitter }
+        Self {
+            random_background: cfg.random_background,
+            jitter: cfg.pixel_jitter,
+            footprint: cfg.footprint && cfg.feature_levels > 0,
+        }
     }
 }
 
@@ -320,6 +335,7 @@ impl Trainer {
             skipped: 0,
             grid,
             data: String::new(),
+            pixel: 0.0,
             pool: GradPool::default(),
         }
     }
@@ -380,7 +396,10 @@ impl Trainer {
                 true => v.ray_at(x as f32 + rng.f32(), y as f32 + rng.f32()),
                 false => v.ray(x, y),
             };
-            let Some(ray) = Ray::new(&data.scene, o, d) else { continue };
+            let Some(mut ray) = Ray::new(&data.scene, o, d) else { continue };
+            if how.footprint {
+                ray = ray.with_footprint(&data.scene, v.camera.pixel_angle(), rng.f32() * std::f32::consts::TAU);
+            }
             let mut s = Sample::on_scene(&data.scene, ray, v.rgb[px]);
             let alpha = if how.random_background > 0.0 { v.alpha.get(px) } else { None };
             if let Some(&a) = alpha.filter(|_| rng.f32() < how.random_background) {
@@ -405,6 +424,9 @@ impl Trainer {
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
         let (n, how) = (self.cfg.batch_rays, Draw::of(&self.cfg));
+        if how.footprint && self.pixel == 0.0 {
+            self.pixel = data.pixel_angle();
+        }
         let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
         let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
@@ -537,6 +559,7 @@ impl Trainer {
         let grid = self.grid.as_ref().map(|g| g.view());
         ws.t_c.resize(rays.len() * nc, 0.0);
         ws.pos.clear();
+        ws.foot.clear();
         ws.dirs.clear();
         ws.delta.clear();
         ws.s_mid.clear();
@@ -549,6 +572,7 @@ impl Trainer {
             match grid {
                 None => {
                     ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
+                    ws.foot.extend(t.iter().filter_map(|&ti| ray.foot_at(ti)).flatten());
                     push_deltas(t, ray.dir_len, &mut ws.delta);
                     if intervals {
                         (0..nc).for_each(|j| push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width));
@@ -560,6 +584,7 @@ impl Trainer {
                         let p = ray.at(t[j]).to_array();
                         if g.at_f32(p) {
                             ws.pos.push(p);
+                            ws.foot.extend(ray.foot_at(t[j]).into_iter().flatten());
                             ws.delta.push(if j + 1 < nc { (t[j + 1] - t[j]) * ray.dir_len } else { LAST_DELTA });
                             if intervals {
                                 push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width);
@@ -600,7 +625,7 @@ impl Trainer {
         let n_c = ws.pos.len();
         ws.w_c.resize(n_c, 0.0);
         if n_c > 0 {
-            timed(&mut t.encode, || net.encode(pc, &ws.pos, &mut ws.acts_c));
+            timed(&mut t.encode, || net.encode_footprint(pc, &ws.pos, &ws.foot, &mut ws.acts_c));
             timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
         }
         let sq_c = timed(&mut t.composite, || {
@@ -690,7 +715,8 @@ impl Trainer {
             if ws.pos.is_empty() {
                 continue;
             }
-            net.forward(pc, &ws.pos, &ws.dirs, true, &mut acts);
+            net.encode_footprint(pc, &ws.pos, &ws.foot, &mut acts);
+            net.forward_layers(pc, &ws.dirs, true, &mut acts);
             net.record_max_abs(&acts, &mut max_c);
             net.record_active(&acts, &mut active_c);
             max_pos = ws.pos.iter().flatten().fold(max_pos, |m, v| m.max(v.abs()));

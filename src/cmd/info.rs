@@ -58,6 +58,7 @@ pub fn run(a: Args) -> CmdResult {
             "framing": format!("{:?}", c.framing), "lens": c.lens,
         })),
         "orbit": m.orbit,
+        "footprint": m.footprint.map(|f| serde_json::json!({ "pixel": f.pixel })),
         "coarse": net(&m.coarse),
         "fine": m.fine.as_ref().map(net),
         "precise": m.coarse.precise.map(|p| serde_json::json!({
@@ -149,6 +150,12 @@ pub fn run(a: Args) -> CmdResult {
                 None if m.scheme().is_fixed() => format!(" (i16, Q{})", f.frac_bits),
                 None => String::new(),
             }
+        );
+    }
+    if let Some(f) = m.footprint {
+        println!(
+            "  footprint: features averaged over 4 points across each sample's pixel ({:.3} mrad per training pixel)",
+            1e3 * f.pixel
         );
     }
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);

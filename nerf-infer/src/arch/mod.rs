@@ -150,5 +150,22 @@ pub fn feature_rows<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: 
     }
 }
 
+/// The mean of [`FeatureGrid::encode_fixed`] over each row's four
+/// footprint points in `foot`, into `out[s][at..at + g.dim()]`: the four
+/// i16 features summed in i32 and rounded half up, `(Σ + 2) >> 2` (the
+/// lookups as [`feature_rows`] makes them).
+#[inline]
+pub fn feature_rows_mean<const N: usize>(g: &FeatureGrid<'_>, foot: &[[[i32; 3]; 4]], out: &mut [[i16; N]], at: usize) {
+    let dim = g.dim();
+    let mut four = [[0i16; crate::limits::MAX_FEATURES]; 4];
+    for (pts, o) in foot.iter().zip(out.iter_mut()) {
+        feature_rows(g, pts, &mut four, 0);
+        for (j, v) in o[at..at + dim].iter_mut().enumerate() {
+            let sum: i32 = four.iter().map(|f| f[j] as i32).sum();
+            *v = ((sum + 2) >> 2) as i16;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests;

@@ -1,11 +1,11 @@
-//! The model file format (versions 1 to 9). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 10). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–9)  |
+//! | 4      | 2    | format version, u16 little-endian (1–10) |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
@@ -17,8 +17,9 @@
 //! int8 model kept at 16 bits ([`Precise`]); version 7 a feature table
 //! stored as 8- or 4-bit codebook indices ([`NarrowTable`]); version 8 the
 //! density heads at 16 bits ([`PreciseDensity`]); version 9 the orbit fitted
-//! to the training cameras ([`FittedOrbit`]). A model is written as the
-//! oldest version that holds it (no fitted orbit: 8; no 16-bit density head: 7; no narrow
+//! to the training cameras ([`FittedOrbit`]); version 10 the features
+//! averaged over each sample's pixel footprint ([`Footprint`]). A model is
+//! written as the oldest version that holds it (no footprint: 9; no fitted orbit: 8; no 16-bit density head: 7; no narrow
 //! table either: 6; no 16-bit parts
 //! either: 5; not
 //! unbounded either: 4; no capture record
@@ -39,8 +40,8 @@ pub use header::crc32;
 use header::{check_header, Padded};
 pub use layers::{expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network};
 pub use records::{
-    CameraConvention, Capture, Encoding, FittedOrbit, Framing, Meta, Ndc, Precise, PreciseDensity, PreciseNet, Samples,
-    Scene, Scheme, Topology, Unbounded,
+    CameraConvention, Capture, Encoding, FittedOrbit, Footprint, Framing, Meta, Ndc, Precise, PreciseDensity,
+    PreciseNet, Samples, Scene, Scheme, Topology, Unbounded,
 };
 
 use crate::error::{Error, Result};
@@ -50,9 +51,9 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::limits::{
     max_coarse, FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_DENSITY16, FORMAT_VERSION_NO_FEATURES,
-    FORMAT_VERSION_NO_GRID, FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_ORBIT, FORMAT_VERSION_NO_PRECISE,
-    FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_MARCH,
-    MAX_WIDTH,
+    FORMAT_VERSION_NO_FOOTPRINT, FORMAT_VERSION_NO_GRID, FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_ORBIT,
+    FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS,
+    MAX_INPUT, MAX_LAYERS, MAX_MARCH, MAX_WIDTH,
 };
 pub use crate::tensor::{read_f32, read_i16, read_i32};
 
@@ -104,6 +105,9 @@ pub struct Model<'a> {
     /// The orbit fitted to the training cameras (format version 9), for
     /// videos and viewers; `None`: the scene's own.
     pub orbit: Option<FittedOrbit>,
+    /// Features averaged over each sample's pixel footprint (format
+    /// version 10).
+    pub footprint: Option<Footprint>,
 }
 
 impl<'a> Model<'a> {
@@ -180,13 +184,16 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 9 with a fitted orbit,
+    /// The format version this model is written as: 10 with a pixel
+    /// footprint, 9 with a fitted orbit,
     /// 8 with 16-bit density heads, 7 with a narrow feature table, 6 with 16-bit parts, 5 with
     /// unbounded space, 4 with a capture record, 3 with a feature grid, 2
     /// with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.orbit.is_some() {
+        if self.footprint.is_some() {
             FORMAT_VERSION
+        } else if self.orbit.is_some() {
+            FORMAT_VERSION_NO_FOOTPRINT
         } else if self.precise_density.is_some() {
             FORMAT_VERSION_NO_ORBIT
         } else if self.narrow.is_some() {

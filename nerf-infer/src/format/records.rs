@@ -121,6 +121,30 @@ pub struct Unbounded {
 
 /// The circle a video's cameras follow around the scene, fitted to the
 /// training cameras (format version 9): around `centre` in the plane
+/// Features averaged over each sample's pixel footprint (format version
+/// 10; models with a feature grid, not forward-facing). A sample at `t` on
+/// a ray through a pixel of angular size `a` (radians: 1/focal length in
+/// pixels) takes the mean of the feature grid's values at four points
+/// around it, `±ρ·t·u` and `±ρ·t·v` in world units, `u`, `v` a unit basis
+/// perpendicular to the ray ([`crate::camera::Ray::with_footprint`]) and
+/// `ρ = a/√6`: the four points spread as far across the ray as a pixel-wide
+/// box (variance `a²t²/12` along each axis). γ(x) and the occupancy grid
+/// stay at the sample. Renderers take `a` from the camera, or `pixel` at
+/// the model's own resolution.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    /// Angular size of a training pixel, radians (finite, in `(0, 0.1]`):
+    /// the footprint a renderer uses unless told the camera's.
+    pub pixel: f32,
+}
+
+impl Footprint {
+    /// Whether `pixel` is finite and in `(0, 0.1]`.
+    pub fn is_valid(&self) -> bool {
+        self.pixel.is_finite() && self.pixel > 0.0 && self.pixel <= 0.1
+    }
+}
+
 /// perpendicular to `up`, at `radius` from its axis and `height` above
 /// `centre` along it, starting at `azimuth`, each camera looking at
 /// `centre` with `up` as its up. World units (the model's frame); a model

@@ -93,6 +93,14 @@ impl Model<'_> {
                 "fitted orbit: not finite, up not a unit vector, radius, height (|height| <= 100 radius), fov_x or azimuth out of range",
             ));
         }
+        if self.footprint.is_some_and(|f| !f.is_valid()) {
+            return Err(Error::InvalidScene("pixel footprint: not finite or outside (0, 0.1] radians"));
+        }
+        if self.footprint.is_some() && (self.features.is_none() || self.scene.ndc.is_some()) {
+            return Err(Error::InvalidScene(
+                "a pixel footprint without a feature grid or in a forward-facing (NDC) scene",
+            ));
+        }
         if self.orbit.is_some() && self.scene.ndc.is_some() {
             return Err(Error::InvalidScene("a fitted orbit in a forward-facing (NDC) scene"));
         }

@@ -32,9 +32,15 @@ pub trait Numbers: Sized + Copy {
     /// f32, which accumulates in place), and the per-ray start of the view
     /// layer's sums.
     type Acc<const B: usize>: Clone + Default;
-    /// Encodes each position (γ, then the feature grid's values) into the
-    /// same row of `enc`; returns the encoded width.
-    fn encode_rows(model: &Model<'_>, pos: &[Self::Pos], enc: &mut [[Self::X; ENC_MAX]]) -> usize;
+    /// Encodes each position (γ, then the feature grid's values, or with
+    /// `foot` their mean over the position's four footprint points) into
+    /// the same row of `enc`; returns the encoded width.
+    fn encode_rows(
+        model: &Model<'_>,
+        pos: &[Self::Pos],
+        foot: Option<&[[Self::Pos; 4]]>,
+        enc: &mut [[Self::X; ENC_MAX]],
+    ) -> usize;
     /// γ of a unit direction into `out`; returns its width.
     fn encode_dir(model: &Model<'_>, dir: Self::Pos, out: &mut [Self::X; ENC_MAX]) -> usize;
 }

@@ -25,7 +25,12 @@ impl Numbers for F32 {
     type Rgb = [f32; 3];
     type Acc<const B: usize> = ViewBias;
 
-    fn encode_rows(model: &Model<'_>, pos: &[[f32; 3]], enc: &mut [[f32; ENC_MAX]]) -> usize {
+    fn encode_rows(
+        model: &Model<'_>,
+        pos: &[[f32; 3]],
+        foot: Option<&[[[f32; 3]; 4]]>,
+        enc: &mut [[f32; ENC_MAX]],
+    ) -> usize {
         let e = &model.encoding;
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
@@ -33,10 +38,15 @@ impl Numbers for F32 {
             // (models with a feature grid do not load without the feature)
             #[cfg(feature = "feature-grid")]
             if let Some(f) = &model.features {
-                f.encode_f32(*p, &mut enc[s][pd..]);
+                match foot {
+                    Some(ft) => f.encode_f32_mean(&ft[s], &mut enc[s][pd..pd + f.dim()]),
+                    None => f.encode_f32(*p, &mut enc[s][pd..]),
+                }
                 pd += f.dim();
             }
         }
+        #[cfg(not(feature = "feature-grid"))]
+        let _ = foot;
         pd
     }
 

@@ -35,7 +35,12 @@ impl Numbers for Fixed {
     type Rgb = [u16; 3];
     type Acc<const B: usize> = FixedAcc<B>;
 
-    fn encode_rows(model: &Model<'_>, pos: &[[i32; 3]], enc: &mut [[i16; ENC_MAX]]) -> usize {
+    fn encode_rows(
+        model: &Model<'_>,
+        pos: &[[i32; 3]],
+        foot: Option<&[[[i32; 3]; 4]]>,
+        enc: &mut [[i16; ENC_MAX]],
+    ) -> usize {
         let e = &model.encoding;
         let mut pd = 0;
         for (s, p) in pos.iter().enumerate() {
@@ -43,9 +48,14 @@ impl Numbers for Fixed {
         }
         #[cfg(feature = "feature-grid")]
         if let Some(f) = &model.features {
-            crate::arch::feature_rows(f, pos, enc, pd);
+            match foot {
+                Some(ft) => crate::arch::feature_rows_mean(f, ft, enc, pd),
+                None => crate::arch::feature_rows(f, pos, enc, pd),
+            }
             pd += f.dim();
         }
+        #[cfg(not(feature = "feature-grid"))]
+        let _ = foot;
         pd
     }
 

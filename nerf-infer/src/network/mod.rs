@@ -43,6 +43,9 @@ pub struct Block<N: Numbers, const B: usize> {
     pub sigma: [N::Sigma; B],
     /// Colour `j` of the last [`Block::eval_colour`].
     pub rgb: [N::Rgb; B],
+    /// The four footprint points of each position given to
+    /// [`Block::eval_density`] with `foot` (written by the caller).
+    pub foot: [[N::Pos; 4]; B],
 }
 
 /// The f32 block.
@@ -59,6 +62,7 @@ impl<N: Numbers, const B: usize> Default for Block<N, B> {
             acc: N::Acc::default(),
             sigma: [N::Sigma::default(); B],
             rgb: [N::Rgb::default(); B],
+            foot: [[N::Pos::default(); 4]; B],
         }
     }
 }
@@ -96,13 +100,21 @@ impl<N: Numbers, const B: usize> Block<N, B> {
         K::fold_view::<B>(l, rows16, &dir, nd, w, &mut self.acc);
     }
 
-    /// The trunk and density head at positions `pos` (≤ `B`): fills
+    /// The trunk and density head at positions `pos` (≤ `B`), with `foot`
+    /// the feature grid's values averaged over the four points in
+    /// [`Block::foot`] for each ([`crate::format::Footprint`]): fills
     /// `sigma` and keeps the trunk's output for [`Block::eval_colour`].
-    pub fn eval_density<K: LayerKernel<N>>(&mut self, model: &Model<'_>, net: &Network<'_>, pos: &[N::Pos]) {
+    pub fn eval_density<K: LayerKernel<N>>(
+        &mut self,
+        model: &Model<'_>,
+        net: &Network<'_>,
+        pos: &[N::Pos],
+        foot: bool,
+    ) {
         let n = pos.len();
         let t = &model.topology;
-        let Self { enc, h, g, acc, sigma, .. } = self;
-        let pd = N::encode_rows(model, pos, enc);
+        let Self { enc, h, g, acc, sigma, foot: points, .. } = self;
+        let pd = N::encode_rows(model, pos, foot.then_some(&points[..n]), enc);
         let layers = &net.layers;
         // layer widths come from the layers: pruned ones are narrower
         let width = |k: usize| layers[k].out_dim as usize;

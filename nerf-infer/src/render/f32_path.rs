@@ -51,6 +51,11 @@ impl NumericPath for F32 {
     }
 
     #[inline(always)]
+    fn foot_at(ray: &Ray, t: f32) -> Option<[[f32; 3]; 4]> {
+        ray.foot_at(t)
+    }
+
+    #[inline(always)]
     fn cell(grid: &Occupancy<'_>, p: [f32; 3]) -> [usize; 3] {
         grid.cell_f32(p)
     }

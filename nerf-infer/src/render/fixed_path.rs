@@ -26,10 +26,11 @@ pub struct RayFixed {
     origin: [i32; 3], // Q24 normalised
     dir: [i32; 3],    // Q24 normalised per unit t
     viewdir: [i32; 3],
-    dir_len: i32,              // Q16
-    near: i32,                 // Q16
-    far: i32,                  // Q16
-    linear_until: Option<i32>, // Q16: unbounded scene (contracted positions, spaced samples)
+    dir_len: i32,                // Q16
+    near: i32,                   // Q16
+    far: i32,                    // Q16
+    linear_until: Option<i32>,   // Q16: unbounded scene (contracted positions, spaced samples)
+    foot: Option<[[i32; 3]; 2]>, // Q24 normalised per unit t: the footprint's offsets
 }
 
 impl RayFixed {
@@ -43,7 +44,29 @@ impl RayFixed {
             near: to_fixed(r.near, POS_FRAC),
             far: to_fixed(r.far, POS_FRAC),
             linear_until: r.linear_until.map(|t| to_fixed(t, POS_FRAC).max(1)),
+            foot: r.foot.map(|f| f.map(q24)),
         }
+    }
+
+    /// The footprint's four Q24 points at Q16 parameter `t` (as
+    /// [`Ray::foot_at`]: `+u`, `−u`, `+v`, `−v`), or `None` for a line.
+    #[inline(always)]
+    fn foot_at(&self, t: i32) -> Option<[[i32; 3]; 4]> {
+        let [a, b] = self.foot?;
+        let p: [i64; 3] =
+            core::array::from_fn(|c| self.origin[c] as i64 + shr_round_i64(t as i64 * self.dir[c] as i64, POS_FRAC));
+        let oa: [i64; 3] = core::array::from_fn(|c| shr_round_i64(t as i64 * a[c] as i64, POS_FRAC));
+        let ob: [i64; 3] = core::array::from_fn(|c| shr_round_i64(t as i64 * b[c] as i64, POS_FRAC));
+        let pts: [[i64; 3]; 4] = [
+            core::array::from_fn(|c| p[c] + oa[c]),
+            core::array::from_fn(|c| p[c] - oa[c]),
+            core::array::from_fn(|c| p[c] + ob[c]),
+            core::array::from_fn(|c| p[c] - ob[c]),
+        ];
+        Some(pts.map(|u| match self.linear_until {
+            None => u.map(sat_i32),
+            Some(_) => contract_q24(u),
+        }))
     }
 
     /// Q24 position at Q16 parameter `t` (saturating; contracted in an unbounded scene).
@@ -109,6 +132,11 @@ impl NumericPath for Fixed {
     #[inline(always)]
     fn at(ray: &RayFixed, t: i32) -> [i32; 3] {
         ray.at(t)
+    }
+
+    #[inline(always)]
+    fn foot_at(ray: &RayFixed, t: i32) -> Option<[[i32; 3]; 4]> {
+        ray.foot_at(t)
     }
 
     #[inline(always)]
@@ -206,8 +234,57 @@ impl Dispatch for Fixed {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::format::{MAX_COARSE, MAX_MARCH};
+    use crate::format::{Scene, Unbounded, MAX_COARSE, MAX_MARCH};
     use crate::sampling::hash32;
+
+    /// The fixed path's footprint points are the f32 path's to within the
+    /// rounding of Q24 positions, centred on the ray at a radius `ρ·t`, in
+    /// bounded and unbounded scenes; forward-facing rays have none.
+    #[test]
+    fn footprint_points_agree_across_paths_and_surround_the_sample() {
+        let u = |k: u32| hash32(k) as f32 / u32::MAX as f32;
+        let mut unb = Scene::blender(1.5, 0.5, 40.0);
+        unb.unbounded = Some(Unbounded { linear_until: 2.0 });
+        for (case, scene) in [Scene::blender(1.5, 2.0, 6.0), unb].iter().enumerate() {
+            let mut checked = 0;
+            for k in 0..200u32 {
+                let k = k * 8 + case as u32 * 5000;
+                let o = Vec3::new(2.0 * u(k) - 1.0, 2.0 * u(k + 1) - 1.0, 4.0);
+                let d = Vec3::new(u(k + 2) - 0.5, u(k + 3) - 0.5, -1.0);
+                let pixel = 0.001 + 0.01 * u(k + 4);
+                let Some(ray) = Ray::new(scene, o, d) else { continue };
+                let ray = ray.with_footprint(scene, pixel, 6.0 * u(k + 5));
+                let rf = RayFixed::new(&ray);
+                let t = ray.near + (ray.far - ray.near) * u(k + 6);
+                let tq = to_fixed(t, POS_FRAC);
+                let (pf, pq) = (ray.foot_at(tq as f32 / 65536.0).unwrap(), rf.foot_at(tq).unwrap());
+                for (a, b) in pf.iter().zip(&pq) {
+                    for c in 0..3 {
+                        let err = (a[c] - b[c] as f32 / (1 << NPOS_FRAC) as f32).abs();
+                        assert!(err < 1e-5 * (1.0 + a[c].abs()), "case {case} ray {k}: {a:?} against {b:?}");
+                    }
+                }
+                if scene.unbounded.is_none() {
+                    // ±ρ·t·u and ±ρ·t·v around the sample, in normalised units (bounds ±1.5)
+                    let p = ray.at(tq as f32 / 65536.0);
+                    let rho = pixel * crate::camera::FOOTPRINT_RADIUS * (tq as f32 / 65536.0) / 1.5;
+                    for q in pf {
+                        let off = Vec3::from(q) - p;
+                        assert!((off.length() - rho).abs() < 1e-3 * rho + 1e-6, "{} against {rho}", off.length());
+                        assert!(off.dot(ray.viewdir).abs() < 1e-3 * rho + 1e-6);
+                    }
+                }
+                checked += 1;
+            }
+            assert!(checked > 100, "{checked} rays met the bounds");
+        }
+        let ff = Scene {
+            ndc: Some(crate::format::Ndc { width: 8.0, height: 8.0, focal: 8.0 }),
+            ..Scene::blender(1.0, 0.0, 1.0)
+        };
+        let ray = Ray::new(&ff, Vec3::ZERO, Vec3::new(0.1, 0.0, -1.0)).unwrap().with_footprint(&ff, 0.01, 0.0);
+        assert!(ray.foot.is_none() && ray.foot_at(0.5).is_none());
+    }
 
     /// What makes a pass over the samples around the span bit-identical to
     /// one over all of them: they are a contiguous run of the full set that
@@ -234,6 +311,7 @@ mod tests {
                 near,
                 far,
                 linear_until: None,
+                foot: None,
             };
             stratified_fixed(near, far, key, &mut full[..n]);
             let part = Fixed::samples_around(&ray, n, key, span, &mut out);

@@ -80,6 +80,8 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     let (grid, coarse) = (m.grid.as_ref(), r.coarse.as_ref());
     let n = t.len();
     let run = coarse.map_or(0, |c| P::run_len(c, ray, t));
+    // the features averaged over the pixel footprint, if the model and ray have one
+    let with_foot = m.footprint.is_some() && n > 0 && P::foot_at(ray, t[0]).is_some();
     let (mut next, mut tested) = (0, 0);
     while next < n {
         if comp.transmittance() < r.early_stop {
@@ -117,6 +119,9 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
             let p = P::at(ray, t[next]);
             let occupied = (t[next] >= span.0) & grid.is_none_or(|g| P::occupied(g, p));
             (idx[len], pos[len]) = (next, p);
+            if with_foot {
+                block.foot[len] = P::foot_at(ray, t[next]).unwrap_or([p; 4]);
+            }
             len += occupied as usize;
             if let Some(w) = weights.as_deref_mut().filter(|_| !occupied) {
                 w[next] = zero;
@@ -126,7 +131,7 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
         if len == 0 {
             break;
         }
-        block.eval_density::<K>(m, net, &pos[..len]);
+        block.eval_density::<K>(m, net, &pos[..len], with_foot);
         *evaluations += len as u64;
         // which samples are composited (the ray stops before the first one
         // met with transmittance below the threshold) and which of those

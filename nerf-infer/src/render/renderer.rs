@@ -52,6 +52,10 @@ pub struct Renderer<'m, 'a, P: NumericPath> {
     pub(super) far: P::T,
     occ_box: OccBox,
     pub(super) coarse: Option<CoarseOccupancy>,
+    /// The pixel angle (radians) of the rays' footprints: the model's
+    /// [`crate::format::Footprint::pixel`] unless [`Renderer::with_pixel`]
+    /// says otherwise; `None` for a model without a footprint.
+    pixel: Option<f32>,
 }
 
 impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
@@ -69,7 +73,19 @@ impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
             far: P::t(model.scene.far),
             occ_box: occ_box(model),
             coarse: coarse_level(model),
+            pixel: model.footprint.map(|f| f.pixel),
         })
+    }
+
+    /// For a model with a pixel footprint ([`crate::format::Footprint`]):
+    /// renders rays through pixels of angular size `pixel` radians (1/focal
+    /// length in pixels of the camera rendered), instead of the model's
+    /// training pixels. No effect on a model without one.
+    pub fn with_pixel(mut self, pixel: f32) -> Self {
+        if self.pixel.is_some() {
+            self.pixel = Some(pixel);
+        }
+        self
     }
 
     /// With `false`, the march tests every sample's grid cell instead of
@@ -108,7 +124,13 @@ impl<'m, 'a, P: Dispatch> Renderer<'m, 'a, P> {
         s: &mut Scratch<P, B>,
     ) -> P::Pixel {
         match Ray::new(&self.model.scene, origin, dir) {
-            Some(ray) => P::render(self, &ray, self.opts.key(pixel), s),
+            Some(ray) => {
+                let ray = match self.pixel {
+                    Some(a) => ray.with_footprint(&self.model.scene, a, 0.0),
+                    None => ray,
+                };
+                P::render(self, &ray, self.opts.key(pixel), s)
+            }
             None => self.background(),
         }
     }

@@ -126,6 +126,15 @@ pub struct Dataset {
     pub capture: Option<Capture>,
 }
 
+impl Dataset {
+    /// Mean angular size of the views' pixels, radians (0 without views):
+    /// the pixel footprint a model trained on them records.
+    pub fn pixel_angle(&self) -> f32 {
+        let n = self.views.len().max(1) as f32;
+        self.views.iter().map(|v| v.camera.pixel_angle()).sum::<f32>() / n
+    }
+}
+
 /// The file stem of `path` (a view's name), lossily as UTF-8.
 pub fn stem(path: &Path) -> String {
     path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()

@@ -71,7 +71,7 @@ fn density_with<N: Numbers, K: LayerKernel<N>>(
     let (mut batch, mut at) = ([N::Pos::default(); B], [0usize; B]);
     let mut n = 0;
     let flush = |block: &mut Block<N, B>, batch: &[N::Pos], at: &[usize], out: &mut [f32]| {
-        block.eval_density::<K>(m, net, batch);
+        block.eval_density::<K>(m, net, batch, false);
         for (k, &i) in at.iter().enumerate() {
             out[i] = sigma(block.sigma[k]);
         }
@@ -122,7 +122,7 @@ fn colour_with<N: Numbers, K: LayerKernel<N>>(
     let net = m.final_network();
     let mut block = Box::<Block<N, 1>>::default();
     block.prepare_ray::<K>(m, net, dir);
-    block.eval_density::<K>(m, net, &[p]);
+    block.eval_density::<K>(m, net, &[p], false);
     block.eval_colour::<K>(m, net, &[0]);
     rgb(block.rgb[0])
 }
