@@ -87,10 +87,15 @@ pub fn is_rotation(m: &Mat3) -> bool {
     err.is_finite() && err < 1e-3 && (m.determinant() - 1.0).abs() < 1e-3
 }
 
-/// The footprint's radius per unit of `t` and of pixel angle, `1/√6`: four
-/// points on a circle of radius `ρ` have the variance `ρ²/2` along each
-/// axis, a pixel-wide box `1/12` ([`crate::format::Footprint`]).
+/// The footprint's radius per unit of `t` and of pixel angle, `1/√6`:
+/// three or more points spread evenly on a circle of radius `ρ` have the
+/// variance `ρ²/2` along each axis, a pixel-wide box `1/12`
+/// ([`crate::format::Footprint`]).
 pub const FOOTPRINT_RADIUS: f32 = 0.408_248_3;
+
+/// Points of a pixel footprint, evenly spread on its circle
+/// ([`crate::format::Footprint`]).
+pub const FOOTPRINT_POINTS: usize = 3;
 
 /// A ray prepared for sampling: what both numeric paths need, per ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,11 +115,11 @@ pub struct Ray {
     /// Unbounded scenes: [`crate::format::Unbounded::linear_until`] (positions are
     /// contracted and samples spaced as [`crate::unbounded`] says); `None` otherwise.
     pub linear_until: Option<f32>,
-    /// With a pixel footprint ([`Ray::with_footprint`]): the offsets
-    /// `ρ·u`, `ρ·v` per unit of `t` in normalised coordinates (before any
-    /// contraction) of the footprint's points `±ρ·t·u`, `±ρ·t·v`; `None`:
-    /// the ray is a line.
-    pub foot: Option<[Vec3; 2]>,
+    /// With a pixel footprint ([`Ray::with_footprint`]): the offsets per
+    /// unit of `t`, in normalised coordinates (before any contraction), of
+    /// the footprint's points `ρ·t·(cos θₘ·u + sin θₘ·v)`, `θₘ = 2πm/3`;
+    /// `None`: the ray is a line.
+    pub foot: Option<[Vec3; FOOTPRINT_POINTS]>,
 }
 
 impl Ray {
@@ -176,19 +181,21 @@ impl Ray {
         let (u, v) = (c * u + s * v, c * v - s * u);
         let inv_half = 2.0 / (Vec3::from(scene.bounds_max) - Vec3::from(scene.bounds_min));
         let rho = pixel * FOOTPRINT_RADIUS;
-        let foot = [rho * u * inv_half, rho * v * inv_half];
+        let foot: [Vec3; FOOTPRINT_POINTS] = core::array::from_fn(|m| {
+            let th = core::f32::consts::TAU * m as f32 / FOOTPRINT_POINTS as f32;
+            rho * (libm::cosf(th) * u + libm::sinf(th) * v) * inv_half
+        });
         self.foot = foot.iter().all(|f| f.is_finite()).then_some(foot);
         self
     }
 
-    /// The footprint's four points at parameter `t` (`+u`, `−u`, `+v`,
-    /// `−v`; contracted in an unbounded scene), or `None` for a line.
+    /// The footprint's points at parameter `t` (in the order of
+    /// [`Ray::foot`]; contracted in an unbounded scene), or `None` for a line.
     #[inline(always)]
-    pub fn foot_at(&self, t: f32) -> Option<[[f32; 3]; 4]> {
-        let [a, b] = self.foot?;
+    pub fn foot_at(&self, t: f32) -> Option<[[f32; 3]; FOOTPRINT_POINTS]> {
+        let foot = self.foot?;
         let p = self.norm_origin + t * self.norm_dir;
-        let (a, b) = (t * a, t * b);
-        let pts = [p + a, p - a, p + b, p - b];
+        let pts = foot.map(|f| p + t * f);
         Some(pts.map(|q| if self.linear_until.is_some() { unbounded::contract_f32(q) } else { q }.to_array()))
     }
 

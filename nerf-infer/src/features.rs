@@ -18,6 +18,7 @@
 //! position with integers only, and its features come out as i16 with
 //! `frac_bits` fractional bits.
 
+use crate::camera::FOOTPRINT_POINTS;
 use crate::fixed::NPOS_FRAC;
 use crate::fixed::{sat_i16, shr_round_i64};
 use crate::tensor::read_f32;
@@ -229,16 +230,17 @@ impl FeatureGrid<'_> {
         }
     }
 
-    /// The mean of [`FeatureGrid::encode_f32`] over the four points `pts`
-    /// (summed in their order, then times ¼), into `out` (`dim()` values).
-    pub fn encode_f32_mean(&self, pts: &[[f32; 3]; 4], out: &mut [f32]) {
+    /// The mean of [`FeatureGrid::encode_f32`] over the footprint points
+    /// `pts` (summed in their order, then divided by their count), into
+    /// `out` (`dim()` values).
+    pub fn encode_f32_mean(&self, pts: &[[f32; 3]; FOOTPRINT_POINTS], out: &mut [f32]) {
         let mut one = [0.0f32; MAX_FEATURES];
         out.fill(0.0);
         for p in pts {
             self.encode_f32(*p, &mut one);
             out.iter_mut().zip(&one).for_each(|(o, v)| *o += v);
         }
-        out.iter_mut().for_each(|o| *o *= 0.25);
+        out.iter_mut().for_each(|o| *o /= FOOTPRINT_POINTS as f32);
     }
 
     /// The `dim()` features at the Q24 normalised position `p` (i16 table,

@@ -106,8 +106,8 @@ pub struct TrainConfig {
     /// see from the side) fades, where the colour loss keeps what a photo shows.
     pub density_l1: f32,
     /// With a feature grid, outside forward-facing scenes: each sample's
-    /// features are the mean of the grid's values at four points spread
-    /// across its pixel's footprint (`nerf_infer::format::Footprint`; four
+    /// features are the mean of the grid's values at three points spread
+    /// across its pixel's footprint (`nerf_infer::format::Footprint`; three
     /// lookups per sample instead of one), so a field fitted to pixels that
     /// average what they cover renders other views' pixels as averages too.
     pub footprint: bool,

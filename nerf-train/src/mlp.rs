@@ -15,6 +15,7 @@
 //! ray). Matrix products go through [`crate::gemm::matmul`].
 
 use crate::gemm::{matmul, View};
+use nerf_infer::camera::FOOTPRINT_POINTS;
 use nerf_infer::encoding::encode_f32;
 use nerf_infer::features::{Corners, FeatureGrid};
 use nerf_infer::format::{expected_shape, Encoding, Topology};
@@ -65,7 +66,7 @@ pub struct GridGrad {
 #[derive(Clone, Debug, Default)]
 pub struct Acts {
     s: usize,
-    /// Feature-grid points per sample: 1, or 4 with a pixel footprint
+    /// Feature-grid points per sample: 1, or [`FOOTPRINT_POINTS`] with a pixel footprint
     /// ([`Mlp::encode_footprint`]); `gf` and `corners` hold `S·k` points.
     k: usize,
     r: usize,
@@ -356,9 +357,10 @@ impl Mlp {
     }
 
     /// [`Mlp::encode`] with the feature grid's values of sample `i` the
-    /// mean of its four footprint points `foot[4i..4i + 4]`; γ stays at
-    /// `pos`. Each point's corners are kept with their weights times ¼
-    /// (the backward pass scatters through them); where the four points of
+    /// mean of its `K` footprint points `foot[K·i..K·i + K]` (`K` =
+    /// [`FOOTPRINT_POINTS`]); γ stays at `pos`. Each point's corners are
+    /// kept with their weights divided by `K` (the backward pass scatters
+    /// through them); where the points of
     /// a level share one cell (the coarse levels, mostly) their weights are
     /// summed into one set of corners, blended and scattered once (the
     /// other three keep the cell with zero weights, which the scatter
@@ -368,7 +370,8 @@ impl Mlp {
         let Some(f) = self.features.as_ref().filter(|_| !foot.is_empty()) else {
             return self.encode(p, pos, a);
         };
-        assert_eq!(foot.len(), 4 * pos.len(), "four footprint points per sample");
+        const K: usize = FOOTPRINT_POINTS;
+        assert_eq!(foot.len(), K * pos.len(), "{K} footprint points per sample");
         let (gd, s) = (self.gamma_dim(), pos.len());
         resize(&mut a.enc, s * gd);
         for (i, x) in pos.iter().enumerate() {
@@ -376,26 +379,24 @@ impl Mlp {
         }
         let (w, nl, t) = (f.width as usize, f.levels(), &p[self.table..]);
         resize(&mut a.gf, s * nl * w);
-        a.corners.resize(4 * s * nl, Corners::default());
+        a.corners.resize(K * s * nl, Corners::default());
+        let share = 1.0 / K as f32;
         for l in 0..nl {
             let base = f.offset(l);
             for i in 0..s {
-                let mut c: [Corners; 4] = std::array::from_fn(|m| f.corners_f32(l, foot[4 * i + m]));
+                let mut c: [Corners; K] = std::array::from_fn(|m| f.corners_f32(l, foot[K * i + m]));
                 let out = &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w];
-                let corners = &mut a.corners[l * 4 * s + 4 * i..l * 4 * s + 4 * i + 4];
+                let corners = &mut a.corners[l * K * s + K * i..l * K * s + K * i + K];
                 if c.iter().all(|k| k.entry == c[0].entry) {
-                    let weight = std::array::from_fn(|j| {
-                        0.25 * (c[0].weight[j] + c[1].weight[j] + c[2].weight[j] + c[3].weight[j])
-                    });
+                    let weight = std::array::from_fn(|j| share * c.iter().map(|k| k.weight[j]).sum::<f32>());
                     let one = Corners { entry: c[0].entry, weight };
                     one.blend(base, w, |k| t[k], out);
                     corners[0] = one;
                     corners[1..].fill(Corners { entry: c[0].entry, weight: [0.0; 8] });
                 } else {
-                    // (¼ is exact: the sum is the kernel's mean of four blends, bit for bit)
                     let (mut sum, mut one) = ([0.0f32; 8], [0.0f32; 8]);
                     for (k, slot) in c.iter_mut().zip(corners.iter_mut()) {
-                        k.weight.iter_mut().for_each(|v| *v *= 0.25);
+                        k.weight.iter_mut().for_each(|v| *v *= share);
                         k.blend(base, w, |e| t[e], &mut one[..w]);
                         sum[..w].iter_mut().zip(&one[..w]).for_each(|(s, v)| *s += v);
                         *slot = *k;
@@ -404,7 +405,7 @@ impl Mlp {
                 }
             }
         }
-        (a.s, a.k) = (s, 4);
+        (a.s, a.k) = (s, K);
     }
 
     /// The rest of [`Mlp::forward`]: the layers on the encoding
@@ -564,7 +565,7 @@ impl Mlp {
             std::mem::swap(&mut dh, &mut dtmp);
         }
         if a.k > 1 {
-            // each footprint point's corners carry its ¼ in their weights
+            // each footprint point's corners carry its share in their weights
             let mut spread = dpart;
             resize(&mut spread, s * a.k * fd);
             for (i, row) in dgf.chunks_exact(fd).enumerate() {
@@ -645,7 +646,7 @@ mod tests {
     }
 
     /// Finite differences against the backward pass; with `footprint`,
-    /// each sample's features are the mean over four points around it.
+    /// each sample's features are the mean over three points around it.
     fn check_gradients_with(m: Mlp, footprint: bool) {
         let mut p = m.init(3);
         // shift biases so that ReLUs are mostly active away from kinks
@@ -664,7 +665,7 @@ mod tests {
             true => pos
                 .iter()
                 .flat_map(|q| {
-                    [[0.13, 0.0, 0.02], [-0.13, 0.0, -0.02], [0.0, 0.11, -0.05], [0.0, -0.11, 0.05]]
+                    [[0.13, 0.0, 0.02], [-0.07, 0.11, -0.05], [-0.06, -0.11, 0.03]]
                         .map(|o| [q[0] + o[0], q[1] + o[1], q[2] + o[2]])
                 })
                 .collect(),
@@ -789,9 +790,7 @@ mod tests {
         let mut a = Acts::default();
         for pos in &chunks {
             let foot: Vec<[f32; 3]> = match footprint {
-                true => {
-                    pos.iter().flat_map(|q| [0.05f32, -0.05, 0.08, -0.08].map(|o| [q[0] + o, q[1] - o, q[2]])).collect()
-                }
+                true => pos.iter().flat_map(|q| [0.05f32, -0.03, 0.08].map(|o| [q[0] + o, q[1] - o, q[2]])).collect(),
                 false => Vec::new(),
             };
             m.encode_footprint(&p, pos, &foot, &mut a);

@@ -163,7 +163,7 @@ impl GradPool {
 #[derive(Default)]
 struct Workspace {
     pos: Vec<[f32; 3]>,
-    /// The four footprint points of each sample of `pos` (rays with a
+    /// The footprint points of each sample of `pos` (rays with a
     /// footprint), else empty.
     foot: Vec<[f32; 3]>,
     dirs: Vec<[f32; 3]>,

@@ -32,6 +32,7 @@ mod vnni;
 #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
 mod wasm;
 
+use crate::camera::FOOTPRINT_POINTS;
 use crate::features::FeatureGrid;
 use crate::fixed::sin_turns_q15;
 use crate::format::{Layer, MAX_WIDTH};
@@ -150,19 +151,29 @@ pub fn feature_rows<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: 
     }
 }
 
-/// The mean of [`FeatureGrid::encode_fixed`] over each row's four
-/// footprint points in `foot`, into `out[s][at..at + g.dim()]`: the four
-/// i16 features summed in i32 and rounded half up, `(Σ + 2) >> 2` (the
-/// lookups as [`feature_rows`] makes them).
+/// The mean of [`FeatureGrid::encode_fixed`] over each row's three
+/// footprint points in `foot`, into `out[s][at..at + g.dim()]`: the three
+/// i16 features summed in i32, divided by 3 and rounded half up, `⌊(2Σ +
+/// 3)/6⌋` (the lookups as [`feature_rows`] makes them, up to 16 rows'
+/// points per call).
 #[inline]
-pub fn feature_rows_mean<const N: usize>(g: &FeatureGrid<'_>, foot: &[[[i32; 3]; 4]], out: &mut [[i16; N]], at: usize) {
+pub fn feature_rows_mean<const N: usize>(
+    g: &FeatureGrid<'_>,
+    foot: &[[[i32; 3]; FOOTPRINT_POINTS]],
+    out: &mut [[i16; N]],
+    at: usize,
+) {
+    const ROWS: usize = 16;
+    const _: () = assert!(FOOTPRINT_POINTS == 3);
     let dim = g.dim();
-    let mut four = [[0i16; crate::limits::MAX_FEATURES]; 4];
-    for (pts, o) in foot.iter().zip(out.iter_mut()) {
-        feature_rows(g, pts, &mut four, 0);
-        for (j, v) in o[at..at + dim].iter_mut().enumerate() {
-            let sum: i32 = four.iter().map(|f| f[j] as i32).sum();
-            *v = ((sum + 2) >> 2) as i16;
+    let mut lookups = [[0i16; crate::limits::MAX_FEATURES]; FOOTPRINT_POINTS * ROWS];
+    for (pts, rows) in foot.chunks(ROWS).zip(out.chunks_mut(ROWS)) {
+        feature_rows(g, pts.as_flattened(), &mut lookups, 0);
+        for (q, o) in lookups.chunks_exact(FOOTPRINT_POINTS).zip(rows.iter_mut().take(pts.len())) {
+            for (j, v) in o[at..at + dim].iter_mut().enumerate() {
+                let sum = q[0][j] as i32 + q[1][j] as i32 + q[2][j] as i32;
+                *v = (2 * sum + 3).div_euclid(6) as i16;
+            }
         }
     }
 }

@@ -124,11 +124,12 @@ pub struct Unbounded {
 /// Features averaged over each sample's pixel footprint (format version
 /// 10; models with a feature grid, not forward-facing). A sample at `t` on
 /// a ray through a pixel of angular size `a` (radians: 1/focal length in
-/// pixels) takes the mean of the feature grid's values at four points
-/// around it, `±ρ·t·u` and `±ρ·t·v` in world units, `u`, `v` a unit basis
-/// perpendicular to the ray ([`crate::camera::Ray::with_footprint`]) and
-/// `ρ = a/√6`: the four points spread as far across the ray as a pixel-wide
-/// box (variance `a²t²/12` along each axis). γ(x) and the occupancy grid
+/// pixels) takes the mean of the feature grid's values at three points
+/// around it, `ρ·t·(cos θ·u + sin θ·v)` in world units for θ = 0, 2π/3,
+/// 4π/3, `u`, `v` a unit basis perpendicular to the ray
+/// ([`crate::camera::Ray::with_footprint`]) and `ρ = a/√6`: the points
+/// spread as far across the ray as a pixel-wide box (variance `a²t²/12`
+/// along each axis). γ(x) and the occupancy grid
 /// stay at the sample. Renderers take `a` from the camera, or `pixel` at
 /// the model's own resolution.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]

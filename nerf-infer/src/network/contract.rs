@@ -1,6 +1,7 @@
 //! What the network walk needs from a numeric path: its number formats
 //! ([`Numbers`]) and a dense layer's arithmetic in them ([`LayerKernel`]).
 
+use crate::camera::FOOTPRINT_POINTS;
 use crate::format::{Layer, Model, Network};
 use crate::limits::{MAX_FEATURES, MAX_FREQS, MAX_WIDTH};
 
@@ -33,12 +34,12 @@ pub trait Numbers: Sized + Copy {
     /// layer's sums.
     type Acc<const B: usize>: Clone + Default;
     /// Encodes each position (γ, then the feature grid's values, or with
-    /// `foot` their mean over the position's four footprint points) into
+    /// `foot` their mean over the position's footprint points) into
     /// the same row of `enc`; returns the encoded width.
     fn encode_rows(
         model: &Model<'_>,
         pos: &[Self::Pos],
-        foot: Option<&[[Self::Pos; 4]]>,
+        foot: Option<&[[Self::Pos; FOOTPRINT_POINTS]]>,
         enc: &mut [[Self::X; ENC_MAX]],
     ) -> usize;
     /// γ of a unit direction into `out`; returns its width.

@@ -2,6 +2,7 @@
 //! register-tiled kernel ([`crate::layer::accumulate`]).
 
 use super::contract::{Act, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
+use crate::camera::FOOTPRINT_POINTS;
 use crate::encoding::encode_f32;
 use crate::format::{read_f32, Layer, Model, Network};
 use crate::layer::{accumulate, Input, MacF32};
@@ -28,7 +29,7 @@ impl Numbers for F32 {
     fn encode_rows(
         model: &Model<'_>,
         pos: &[[f32; 3]],
-        foot: Option<&[[[f32; 3]; 4]]>,
+        foot: Option<&[[[f32; 3]; FOOTPRINT_POINTS]]>,
         enc: &mut [[f32; ENC_MAX]],
     ) -> usize {
         let e = &model.encoding;

@@ -5,6 +5,7 @@
 
 use super::contract::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX};
 use crate::arch::IntKernel;
+use crate::camera::FOOTPRINT_POINTS;
 use crate::encoding::encode_fixed;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, sigmoid_q12_q15};
@@ -38,7 +39,7 @@ impl Numbers for Fixed {
     fn encode_rows(
         model: &Model<'_>,
         pos: &[[i32; 3]],
-        foot: Option<&[[[i32; 3]; 4]]>,
+        foot: Option<&[[[i32; 3]; FOOTPRINT_POINTS]]>,
         enc: &mut [[i16; ENC_MAX]],
     ) -> usize {
         let e = &model.encoding;

@@ -28,6 +28,7 @@ pub use contract::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
 pub use float::ViewBias;
 pub use int::{check_i8_headroom, FixedAcc};
 
+use crate::camera::FOOTPRINT_POINTS;
 use crate::format::{sigma_layer, Model, Network};
 use crate::limits::MAX_WIDTH;
 
@@ -43,9 +44,9 @@ pub struct Block<N: Numbers, const B: usize> {
     pub sigma: [N::Sigma; B],
     /// Colour `j` of the last [`Block::eval_colour`].
     pub rgb: [N::Rgb; B],
-    /// The four footprint points of each position given to
+    /// The footprint points of each position given to
     /// [`Block::eval_density`] with `foot` (written by the caller).
-    pub foot: [[N::Pos; 4]; B],
+    pub foot: [[N::Pos; FOOTPRINT_POINTS]; B],
 }
 
 /// The f32 block.
@@ -62,7 +63,7 @@ impl<N: Numbers, const B: usize> Default for Block<N, B> {
             acc: N::Acc::default(),
             sigma: [N::Sigma::default(); B],
             rgb: [N::Rgb::default(); B],
-            foot: [[N::Pos::default(); 4]; B],
+            foot: [[N::Pos::default(); FOOTPRINT_POINTS]; B],
         }
     }
 }
@@ -101,7 +102,7 @@ impl<N: Numbers, const B: usize> Block<N, B> {
     }
 
     /// The trunk and density head at positions `pos` (≤ `B`), with `foot`
-    /// the feature grid's values averaged over the four points in
+    /// the feature grid's values averaged over the points in
     /// [`Block::foot`] for each ([`crate::format::Footprint`]): fills
     /// `sigma` and keeps the trunk's output for [`Block::eval_colour`].
     pub fn eval_density<K: LayerKernel<N>>(

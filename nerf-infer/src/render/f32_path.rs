@@ -6,7 +6,7 @@ use super::march::render;
 use super::path::NumericPath;
 use super::renderer::{Dispatch, Renderer};
 use super::scratch::Scratch;
-use crate::camera::Ray;
+use crate::camera::{Ray, FOOTPRINT_POINTS};
 use crate::composite::{CompositorF32, Pixel};
 use crate::error::{Error, Result};
 use crate::format::{Model, Scheme};
@@ -51,7 +51,7 @@ impl NumericPath for F32 {
     }
 
     #[inline(always)]
-    fn foot_at(ray: &Ray, t: f32) -> Option<[[f32; 3]; 4]> {
+    fn foot_at(ray: &Ray, t: f32) -> Option<[[f32; 3]; FOOTPRINT_POINTS]> {
         ray.foot_at(t)
     }
 

@@ -8,7 +8,7 @@ use super::march::render;
 use super::path::NumericPath;
 use super::renderer::{Dispatch, Renderer};
 use super::scratch::Scratch;
-use crate::camera::Ray;
+use crate::camera::{Ray, FOOTPRINT_POINTS};
 use crate::composite::{CompositorFixed, PixelFixed, DELTA_INF_Q16};
 use crate::encoding::NPOS_FRAC;
 use crate::error::{Error, Result};
@@ -26,11 +26,11 @@ pub struct RayFixed {
     origin: [i32; 3], // Q24 normalised
     dir: [i32; 3],    // Q24 normalised per unit t
     viewdir: [i32; 3],
-    dir_len: i32,                // Q16
-    near: i32,                   // Q16
-    far: i32,                    // Q16
-    linear_until: Option<i32>,   // Q16: unbounded scene (contracted positions, spaced samples)
-    foot: Option<[[i32; 3]; 2]>, // Q24 normalised per unit t: the footprint's offsets
+    dir_len: i32,                               // Q16
+    near: i32,                                  // Q16
+    far: i32,                                   // Q16
+    linear_until: Option<i32>,                  // Q16: unbounded scene (contracted positions, spaced samples)
+    foot: Option<[[i32; 3]; FOOTPRINT_POINTS]>, // Q24 normalised per unit t: the footprint's offsets
 }
 
 impl RayFixed {
@@ -48,21 +48,15 @@ impl RayFixed {
         }
     }
 
-    /// The footprint's four Q24 points at Q16 parameter `t` (as
-    /// [`Ray::foot_at`]: `+u`, `−u`, `+v`, `−v`), or `None` for a line.
+    /// The footprint's Q24 points at Q16 parameter `t` (as
+    /// [`Ray::foot_at`]), or `None` for a line.
     #[inline(always)]
-    fn foot_at(&self, t: i32) -> Option<[[i32; 3]; 4]> {
-        let [a, b] = self.foot?;
+    fn foot_at(&self, t: i32) -> Option<[[i32; 3]; FOOTPRINT_POINTS]> {
+        let foot = self.foot?;
         let p: [i64; 3] =
             core::array::from_fn(|c| self.origin[c] as i64 + shr_round_i64(t as i64 * self.dir[c] as i64, POS_FRAC));
-        let oa: [i64; 3] = core::array::from_fn(|c| shr_round_i64(t as i64 * a[c] as i64, POS_FRAC));
-        let ob: [i64; 3] = core::array::from_fn(|c| shr_round_i64(t as i64 * b[c] as i64, POS_FRAC));
-        let pts: [[i64; 3]; 4] = [
-            core::array::from_fn(|c| p[c] + oa[c]),
-            core::array::from_fn(|c| p[c] - oa[c]),
-            core::array::from_fn(|c| p[c] + ob[c]),
-            core::array::from_fn(|c| p[c] - ob[c]),
-        ];
+        let pts: [[i64; 3]; FOOTPRINT_POINTS] =
+            foot.map(|f| core::array::from_fn(|c| p[c] + shr_round_i64(t as i64 * f[c] as i64, POS_FRAC)));
         Some(pts.map(|u| match self.linear_until {
             None => u.map(sat_i32),
             Some(_) => contract_q24(u),
@@ -135,7 +129,7 @@ impl NumericPath for Fixed {
     }
 
     #[inline(always)]
-    fn foot_at(ray: &RayFixed, t: i32) -> Option<[[i32; 3]; 4]> {
+    fn foot_at(ray: &RayFixed, t: i32) -> Option<[[i32; 3]; FOOTPRINT_POINTS]> {
         ray.foot_at(t)
     }
 

@@ -6,7 +6,7 @@
 use super::path::NumericPath;
 use super::renderer::Renderer;
 use super::scratch::{two_pass, Scratch, TwoPass};
-use crate::camera::Ray;
+use crate::camera::{Ray, FOOTPRINT_POINTS};
 use crate::composite::Compositor;
 use crate::format::Network;
 use crate::network::{Block, LayerKernel};
@@ -119,9 +119,6 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
             let p = P::at(ray, t[next]);
             let occupied = (t[next] >= span.0) & grid.is_none_or(|g| P::occupied(g, p));
             (idx[len], pos[len]) = (next, p);
-            if with_foot {
-                block.foot[len] = P::foot_at(ray, t[next]).unwrap_or([p; 4]);
-            }
             len += occupied as usize;
             if let Some(w) = weights.as_deref_mut().filter(|_| !occupied) {
                 w[next] = zero;
@@ -130,6 +127,11 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
         }
         if len == 0 {
             break;
+        }
+        if with_foot {
+            for j in 0..len {
+                block.foot[j] = P::foot_at(ray, t[idx[j]]).unwrap_or([pos[j]; FOOTPRINT_POINTS]);
+            }
         }
         block.eval_density::<K>(m, net, &pos[..len], with_foot);
         *evaluations += len as u64;

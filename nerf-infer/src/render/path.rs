@@ -8,7 +8,7 @@
 //! fixed-point path has int16 and int8 weights) and a new kernel (say int4
 //! weights) plugs in without touching the march.
 
-use crate::camera::Ray;
+use crate::camera::{Ray, FOOTPRINT_POINTS};
 use crate::composite::Compositor;
 use crate::error::Result;
 use crate::format::Model;
@@ -46,9 +46,9 @@ pub trait NumericPath: Numbers + Debug {
     fn ray(r: &Ray) -> Self::Ray;
     /// Normalised position at `t` (contracted in an unbounded scene).
     fn at(ray: &Self::Ray, t: Self::T) -> Self::Pos;
-    /// The four points of the ray's pixel footprint at `t` (see
+    /// The points of the ray's pixel footprint at `t` (see
     /// [`Ray::foot_at`]), `None` for a ray without one.
-    fn foot_at(ray: &Self::Ray, t: Self::T) -> Option<[Self::Pos; 4]>;
+    fn foot_at(ray: &Self::Ray, t: Self::T) -> Option<[Self::Pos; FOOTPRINT_POINTS]>;
     /// The grid cell holding `p`.
     fn cell(grid: &Occupancy<'_>, p: Self::Pos) -> [usize; 3];
     /// Whether the grid cell holding `p` is occupied.
