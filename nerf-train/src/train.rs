@@ -292,12 +292,13 @@ impl Draw {
     /// Rays through pixel centres, on the scene's background.
     pub const CENTRES: Self = Self { random_background: 0.0, jitter: false, footprint: false };
 
-    /// The rays a training step of `cfg` draws.
-    pub fn of(cfg: &TrainConfig) -> Self {
+    /// The rays a training step of `cfg` draws at `progress` (the share of
+    /// the run done, in `[0, 1]`).
+    pub fn of(cfg: &TrainConfig, progress: f64) -> Self {
         Self {
             random_background: cfg.random_background,
             jitter: cfg.pixel_jitter,
-            footprint: cfg.footprint && cfg.feature_levels > 0,
+            footprint: cfg.footprint && cfg.feature_levels > 0 && progress >= cfg.footprint_from as f64,
         }
     }
 }
@@ -423,7 +424,7 @@ impl Trainer {
             timed(&mut times.grid, || self.update_grid());
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let (n, how) = (self.cfg.batch_rays, Draw::of(&self.cfg));
+        let (n, how) = (self.cfg.batch_rays, Draw::of(&self.cfg, progress));
         if how.footprint && self.pixel == 0.0 {
             self.pixel = data.pixel_angle();
         }
@@ -710,6 +711,16 @@ impl Trainer {
         let (mut active_c, mut active_f) = (fresh(), fresh());
         let mut acts = Acts::default();
         let mut ws = Workspace::default();
+        // a run that trained with footprints is calibrated with them
+        let with_foot: Vec<Sample>;
+        let batch = match self.pixel > 0.0 && net.features.is_some() {
+            true => {
+                let foot = |s: &Sample| Sample { ray: s.ray.with_footprint(&self.scene, self.pixel, 0.0), ..*s };
+                with_foot = batch.iter().map(foot).collect();
+                &with_foot[..]
+            }
+            false => batch,
+        };
         for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
             self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
             if ws.pos.is_empty() {
