@@ -47,7 +47,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 8;
+pub const CHECKPOINT_VERSION: u16 = 9;
 
 /// The density (1/world units, the fitted scene's) an unbounded scene's network starts with,
 /// the same at every point ([`Mlp::init_uniform_density`]). A ray there
