@@ -164,7 +164,7 @@ impl Ray {
 
     /// The ray with the footprint of a pixel of angular size `pixel`
     /// (radians: 1/focal length in pixels; see
-    /// [`crate::format::Footprint`]), its two offsets turned by `phi`
+    /// [`crate::format::Footprint`]), its basis `u`, `v` turned by `phi`
     /// radians about the ray (0 when rendering). `u = normalize(d × e)`
     /// with `e` the world x axis (y when `|d·x| ≥ 0.9`), `v = d × u`, `d`
     /// the view direction. Forward-facing (NDC) scenes, and a `pixel` that

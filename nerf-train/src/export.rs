@@ -305,8 +305,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         capture: None,
         narrow: None,
         orbit: None,
-        footprint: (tr.pixel > 0.0 && mlp.features.is_some() && tr.scene.ndc.is_none())
-            .then_some(format::Footprint { pixel: tr.pixel }),
+        footprint: tr.footprint().filter(|_| mlp.features.is_some() && tr.scene.ndc.is_none()),
     }
 }
 

@@ -67,13 +67,13 @@ pub struct GridGrad {
 pub struct Acts {
     s: usize,
     /// Feature-grid points per sample: 1, or [`FOOTPRINT_POINTS`] with a pixel footprint
-    /// ([`Mlp::encode_footprint`]); `gf` and `corners` hold `S·k` points.
+    /// ([`Mlp::encode_footprint`]); `corners` and the backward's `dgf` hold `S·k` points.
     k: usize,
     r: usize,
     enc: Vec<f32>,
-    /// Feature-grid values per sample (`S × grid_dim`) and their corners,
-    /// level after level (`levels × S`: the scatter reads one level at a time)
-    /// (`S × levels`).
+    /// Feature-grid values per sample (`S × grid_dim`, the footprint's
+    /// mean with one) and the corners of their `S·k` points, level after
+    /// level (`levels × S·k`: the scatter reads one level at a time).
     gf: Vec<f32>,
     corners: Vec<Corners>,
     dgf: Vec<f32>,
@@ -199,7 +199,8 @@ impl Mlp {
     }
 
     /// Adds level `l`'s share of a chunk's grid-value gradient (`dgf`,
-    /// `S × grid_dim`, with the level's `S` corners from the forward pass)
+    /// `P × grid_dim` for its `P` points, `S·k` with `k` footprint points
+    /// per sample, with the level's `P` corners from the forward pass)
     /// to `gl`, the gradient of that level's entries (`entries(l) × width`
     /// values). Consecutive samples in the same cell (a ray's samples in a
     /// coarse level) are summed first and written once.
@@ -363,8 +364,7 @@ impl Mlp {
     /// through them); where the points of
     /// a level share one cell (the coarse levels, mostly) their weights are
     /// summed into one set of corners, blended and scattered once (the
-    /// other three keep the cell with zero weights, which the scatter
-    /// skips). An
+    /// others keep the cell with zero weights, which the scatter skips). An
     /// empty `foot`, or a network without a feature grid, is [`Mlp::encode`].
     pub fn encode_footprint(&self, p: &[f32], pos: &[[f32; 3]], foot: &[[f32; 3]], a: &mut Acts) {
         let Some(f) = self.features.as_ref().filter(|_| !foot.is_empty()) else {

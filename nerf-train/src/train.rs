@@ -22,7 +22,7 @@ use crate::volume::{
     composite, composite_back, distortion, optical_depth_back, push_deltas, push_interval, LAST_DELTA,
 };
 use nerf_infer::camera::Ray;
-use nerf_infer::format::Scene;
+use nerf_infer::format::{Footprint, Scene};
 use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -424,10 +424,12 @@ impl Trainer {
             timed(&mut times.grid, || self.update_grid());
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let (n, how) = (self.cfg.batch_rays, Draw::of(&self.cfg, progress));
+        let (n, mut how) = (self.cfg.batch_rays, Draw::of(&self.cfg, progress));
         if how.footprint && self.pixel == 0.0 {
             self.pixel = data.pixel_angle();
         }
+        // pixels a model cannot record (wider than 0.1 rad) train as lines
+        how.footprint &= self.footprint().is_some();
         let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
         let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
@@ -535,6 +537,13 @@ impl Trainer {
         -(1.0 - self.cfg.grid_alpha).ln() / step
     }
 
+    /// The pixel footprint the run trains with and its model records: the
+    /// training views' pixel once a step has used it, if a model can hold
+    /// it ([`Footprint::is_valid`]).
+    pub fn footprint(&self) -> Option<Footprint> {
+        Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.feature_levels > 0)
+    }
+
     /// Refreshes the occupancy grid from the network's current density.
     pub fn update_grid(&mut self) {
         let Some(mut grid) = self.grid.take() else { return };
@@ -567,13 +576,18 @@ impl Trainer {
         ws.s_width.clear();
         ws.offs.clear();
         ws.offs.push(0);
+        // with footprints, every sample has its K points (a ray without one: its sample K times)
+        const K: usize = nerf_infer::camera::FOOTPRINT_POINTS;
+        let any_foot = rays.iter().any(|s| s.ray.foot.is_some());
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let t = &mut ws.t_c[i * nc..(i + 1) * nc];
             ray.stratified(Some(key(i)), t);
             match grid {
                 None => {
                     ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
-                    ws.foot.extend(t.iter().filter_map(|&ti| ray.foot_at(ti)).flatten());
+                    if any_foot {
+                        ws.foot.extend(t.iter().flat_map(|&ti| ray.foot_at(ti).unwrap_or([ray.at(ti).to_array(); K])));
+                    }
                     push_deltas(t, ray.dir_len, &mut ws.delta);
                     if intervals {
                         (0..nc).for_each(|j| push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width));
@@ -585,7 +599,9 @@ impl Trainer {
                         let p = ray.at(t[j]).to_array();
                         if g.at_f32(p) {
                             ws.pos.push(p);
-                            ws.foot.extend(ray.foot_at(t[j]).into_iter().flatten());
+                            if any_foot {
+                                ws.foot.extend(ray.foot_at(t[j]).unwrap_or([p; K]));
+                            }
                             ws.delta.push(if j + 1 < nc { (t[j + 1] - t[j]) * ray.dir_len } else { LAST_DELTA });
                             if intervals {
                                 push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width);
@@ -713,13 +729,13 @@ impl Trainer {
         let mut ws = Workspace::default();
         // a run that trained with footprints is calibrated with them
         let with_foot: Vec<Sample>;
-        let batch = match self.pixel > 0.0 && net.features.is_some() {
-            true => {
-                let foot = |s: &Sample| Sample { ray: s.ray.with_footprint(&self.scene, self.pixel, 0.0), ..*s };
+        let batch = match self.footprint().filter(|_| net.features.is_some()) {
+            Some(f) => {
+                let foot = |s: &Sample| Sample { ray: s.ray.with_footprint(&self.scene, f.pixel, 0.0), ..*s };
                 with_foot = batch.iter().map(foot).collect();
                 &with_foot[..]
             }
-            false => batch,
+            None => batch,
         };
         for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
             self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
@@ -792,6 +808,8 @@ impl Trainer {
         };
         let nets = if t.cfg.n_fine > 0 { 2 } else { 1 };
         let sizes_ok = t.cfg.validate().is_ok()
+            && t.pixel.is_finite()
+            && t.pixel >= 0.0
             && t.params.len() == t.mlp().n_params * nets
             && t.params.len() == t.adam.m.len()
             && t.params.len() == t.adam.v.len()

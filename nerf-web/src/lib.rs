@@ -147,18 +147,30 @@ pub extern "C" fn nerf_render(x0: u32, y0: u32, w: u32, h: u32) -> *const u8 {
             return core::ptr::null();
         }
         rgba.clear();
-        for y in y0..y0 + h {
-            for x in x0..x0 + w {
-                let (o, d) = cam.ray(x, y);
-                // a model with a pixel footprint renders the camera's pixels
-                let p = match active {
-                    Active::F32(r, scratch) => r.with_pixel(cam.pixel_angle()).render_ray(o, d, (x, y), scratch),
-                    Active::Fixed(r, scratch) => {
-                        r.with_pixel(cam.pixel_angle()).render_ray(o, d, (x, y), scratch).to_pixel()
+        // a model with a pixel footprint renders the camera's pixels
+        let pixel = cam.pixel_angle();
+        let mut put = |p: nerf_infer::Pixel| {
+            rgba.extend(p.rgb.map(to_u8));
+            rgba.push(255);
+        };
+        match active {
+            Active::F32(r, scratch) => {
+                let r = r.with_pixel(pixel);
+                for y in y0..y0 + h {
+                    for x in x0..x0 + w {
+                        let (o, d) = cam.ray(x, y);
+                        put(r.render_ray(o, d, (x, y), scratch));
                     }
-                };
-                rgba.extend(p.rgb.map(to_u8));
-                rgba.push(255);
+                }
+            }
+            Active::Fixed(r, scratch) => {
+                let r = r.with_pixel(pixel);
+                for y in y0..y0 + h {
+                    for x in x0..x0 + w {
+                        let (o, d) = cam.ray(x, y);
+                        put(r.render_ray(o, d, (x, y), scratch).to_pixel());
+                    }
+                }
             }
         }
         rgba.as_ptr()

@@ -154,7 +154,8 @@ pub fn run(a: Args) -> CmdResult {
     }
     if let Some(f) = m.footprint {
         println!(
-            "  footprint: features averaged over 4 points across each sample's pixel ({:.3} mrad per training pixel)",
+            "  footprint: features averaged over {} points across each sample's pixel ({:.3} mrad per training pixel)",
+            nerf_infer::camera::FOOTPRINT_POINTS,
             1e3 * f.pixel
         );
     }

@@ -153,8 +153,8 @@ pub fn feature_rows<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: 
 
 /// The mean of [`FeatureGrid::encode_fixed`] over each row's three
 /// footprint points in `foot`, into `out[s][at..at + g.dim()]`: the three
-/// i16 features summed in i32, divided by 3 and rounded half up, `⌊(2Σ +
-/// 3)/6⌋` (the lookups as [`feature_rows`] makes them, up to 16 rows'
+/// i16 features summed in i32, divided by 3 and rounded to the nearest,
+/// `⌊(2Σ + 3)/6⌋` (the lookups as [`feature_rows`] makes them, up to 16 rows'
 /// points per call).
 #[inline]
 pub fn feature_rows_mean<const N: usize>(

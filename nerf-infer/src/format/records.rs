@@ -119,8 +119,6 @@ pub struct Unbounded {
     pub linear_until: f32,
 }
 
-/// The circle a video's cameras follow around the scene, fitted to the
-/// training cameras (format version 9): around `centre` in the plane
 /// Features averaged over each sample's pixel footprint (format version
 /// 10; models with a feature grid, not forward-facing). A sample at `t` on
 /// a ray through a pixel of angular size `a` (radians: 1/focal length in
@@ -129,8 +127,7 @@ pub struct Unbounded {
 /// 4π/3, `u`, `v` a unit basis perpendicular to the ray
 /// ([`crate::camera::Ray::with_footprint`]) and `ρ = a/√6`: the points
 /// spread as far across the ray as a pixel-wide box (variance `a²t²/12`
-/// along each axis). γ(x) and the occupancy grid
-/// stay at the sample. Renderers take `a` from the camera, or `pixel` at
+/// along each axis). γ(x) and the occupancy grid stay at the sample. Renderers take `a` from the camera, or `pixel` at
 /// the model's own resolution.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct Footprint {
@@ -146,6 +143,8 @@ impl Footprint {
     }
 }
 
+/// The circle a video's cameras follow around the scene, fitted to the
+/// training cameras (format version 9): around `centre` in the plane
 /// perpendicular to `up`, at `radius` from its axis and `height` above
 /// `centre` along it, starting at `azimuth`, each camera looking at
 /// `centre` with `up` as its up. World units (the model's frame); a model

@@ -259,7 +259,7 @@ mod tests {
                     }
                 }
                 if scene.unbounded.is_none() {
-                    // ±ρ·t·u and ±ρ·t·v around the sample, in normalised units (bounds ±1.5)
+                    // at ρ·t from the sample across the ray, in normalised units (bounds ±1.5)
                     let p = ray.at(tq as f32 / 65536.0);
                     let rho = pixel * crate::camera::FOOTPRINT_RADIUS * (tq as f32 / 65536.0) / 1.5;
                     for q in pf {

@@ -31,7 +31,10 @@ impl Tile {
 /// Renders `tile` of `camera`'s image into `out` (row-major, `tile.width`
 /// pixels per row; `out.len() ≥ tile.len()`). Fails with
 /// [`Error::InvalidTile`] if the tile is empty, leaves the image, or `out`
-/// is too small; no pixel is written then.
+/// is too small; no pixel is written then. A model with a pixel footprint
+/// ([`crate::format::Footprint`]) renders the renderer's pixel: the
+/// model's training pixel unless the renderer was made
+/// `.with_pixel(camera.pixel_angle())` for a camera of another resolution.
 pub fn render_tile<S, R: RayRenderer<S>>(
     renderer: &R,
     camera: &Camera,
