@@ -81,7 +81,8 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     let n = t.len();
     let run = coarse.map_or(0, |c| P::run_len(c, ray, t));
     // the features averaged over the pixel footprint, if the model and ray have one
-    let with_foot = m.footprint.is_some() && n > 0 && P::foot_at(ray, t[0]).is_some();
+    // (only models with a feature grid have one: a build without them has none)
+    let with_foot = cfg!(feature = "feature-grid") && m.footprint.is_some() && n > 0 && P::foot_at(ray, t[0]).is_some();
     let (mut next, mut tested) = (0, 0);
     while next < n {
         if comp.transmittance() < r.early_stop {

@@ -125,6 +125,8 @@ impl<'m, 'a, P: Dispatch> Renderer<'m, 'a, P> {
     ) -> P::Pixel {
         match Ray::new(&self.model.scene, origin, dir) {
             Some(ray) => {
+                // (footprints belong to feature grids: a build without them has none)
+                #[cfg(feature = "feature-grid")]
                 let ray = match self.pixel {
                     Some(a) => ray.with_footprint(&self.model.scene, a, 0.0),
                     None => ray,
