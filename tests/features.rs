@@ -126,6 +126,55 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
 }
 
 #[test]
+fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
+    let d = support::TestDir::new("ema-test");
+    write_blender(&d, SceneSpec { size: 24, train: 6, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let cfg = TrainConfig {
+        batch_rays: 128,
+        grid_res: 16,
+        grid_warmup: 0,
+        grid_every: 4,
+        ema_decay: 0.9,
+        ..feature_config()
+    };
+    let mut tr = Trainer::new(cfg.clone(), data.scene, 1, 2);
+    tr.train_step(&data, 0.0);
+    assert_eq!(tr.ema, tr.params, "the average starts at the first step's parameters");
+    for n in 1..40u64 {
+        let before = tr.ema.clone();
+        tr.train_step(&data, n as f64 / 40.0);
+        // the decay grows with the steps to its configured value
+        let b = 0.9f32.min((1 + n) as f32 / (10 + n) as f32);
+        let want: Vec<f32> = before.iter().zip(&tr.params).map(|(&a, &p)| a + (1.0 - b) * (p - a)).collect();
+        assert_eq!(tr.ema, want, "step {n}");
+    }
+    assert_ne!(tr.ema, tr.params);
+    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    assert_eq!(back.ema, tr.ema, "checkpoints keep the average");
+
+    // the model holds the average, the run goes on with its own parameters
+    let calib = Trainer::draw_batch(&data, 256, Draw::CENTRES, &mut Rng::new(3));
+    let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
+    let m = Model::from_bytes(&bytes).unwrap();
+    let table = m.features.as_ref().unwrap().table;
+    let t0 = tr.mlp().table;
+    let read: Vec<f32> = (0..tr.params.len() - t0).map(|k| nerf_infer::format::read_f32(table, k)).collect();
+    assert_eq!(read, tr.ema[t0..], "the model's table is the average's");
+    let averaged = tr.averaged();
+    assert_eq!(averaged.params, tr.ema);
+    assert_eq!(averaged.step, tr.step);
+    // its occupancy grid refreshed once more, from the average's density
+    let (run, avg) = (tr.grid.as_ref().unwrap(), averaged.grid.as_ref().unwrap());
+    assert_eq!(avg.updates, run.updates + 1);
+
+    // without an average the model is the run's last step
+    let mut plain = Trainer::new(TrainConfig { ema_decay: 0.0, ..cfg }, data.scene, 1, 2);
+    plain.train_step(&data, 0.0);
+    assert!(plain.ema.is_empty() && std::ptr::eq(&*plain.averaged(), &plain));
+}
+
+#[test]
 fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
     let d = support::TestDir::new("sparse-adam-test");
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();

@@ -117,6 +117,13 @@ pub struct TrainConfig {
     /// grid has emptied space, cost the most, and what the footprint
     /// refines (detail across a pixel) is not there yet.
     pub footprint_from: f32,
+    /// Decay per step (`[0, 1)`; 0: off) of the moving average of the
+    /// parameters that the run's model takes instead of its last step's
+    /// (`Trainer::averaged`): `a ← β·a + (1 − β)·p` after each step, with
+    /// `β = min(ema_decay, (1 + n)/(10 + n))` at step `n`, so that a short
+    /// run averages its last tenth or so, a long one its last `1/(1 − β)`
+    /// steps.
+    pub ema_decay: f32,
 }
 
 impl Default for TrainConfig {
@@ -164,6 +171,7 @@ impl TrainConfig {
             density_l1: 0.0,
             footprint: false,
             footprint_from: 0.0,
+            ema_decay: 0.0,
         }
     }
 
@@ -235,6 +243,7 @@ impl TrainConfig {
             feature_max_res: 256,
             footprint: true,
             footprint_from: 0.5,
+            ema_decay: 0.999,
             ..Self::grid()
         }
     }
@@ -403,6 +412,9 @@ impl TrainConfig {
         if self.pixel_jitter && self.footprint && self.feature_levels > 0 {
             return Err("pixel_jitter and footprint together spread each ray across its pixel twice".into());
         }
+        if !(0.0..1.0).contains(&self.ema_decay) {
+            return Err(format!("ema_decay {} must be a decay per step in [0, 1)", self.ema_decay));
+        }
         if !(0.0..1.0).contains(&self.footprint_from) {
             return Err(format!("footprint_from {} must be a share of the run in [0, 1)", self.footprint_from));
         }
@@ -508,6 +520,15 @@ mod tests {
         let jittered = TrainConfig { pixel_jitter: true, ..TrainConfig::features() };
         assert!(jittered.validate().unwrap_err().contains("pixel_jitter"));
         assert!(TrainConfig { footprint: false, ..jittered }.validate().is_ok());
+    }
+
+    #[test]
+    fn the_parameters_average_decays_in_0_to_1() {
+        let with = |ema_decay: f32| TrainConfig { ema_decay, ..TrainConfig::features() };
+        assert!(with(0.0).validate().is_ok() && with(0.999).validate().is_ok());
+        for v in [-0.1, 1.0, 2.0, f32::NAN] {
+            assert!(with(v).validate().unwrap_err().contains("ema_decay"), "{v}");
+        }
     }
 
     #[test]

@@ -274,10 +274,12 @@ fn frac_bits_for(max_abs: f32, cap: u8) -> u8 {
     (32767.0 / m).log2().floor().clamp(0.0, cap as f64) as u8
 }
 
-/// The f32 model of a run, with activation ranges from `calibration`
-/// rays (drawn from the training views).
+/// The f32 model of a run (of its parameters' average when it keeps one,
+/// [`Trainer::averaged`]), with activation ranges from `calibration` rays
+/// (drawn from the training views).
 /// `prune` says which never-active neurons are removed (see [`Prune`]).
 pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: Prune) -> OwnedModel {
+    let tr = &*tr.averaged();
     let mlp = tr.mlp();
     let cal = tr.calibrate(calibration);
     let mut encoding = tr.cfg.encoding();

@@ -27,7 +27,7 @@ pub struct StepTimes {
     pub chunks: f64,
     /// Wall: the feature table's gradient scattered from the chunks.
     pub scatter: f64,
-    /// Wall: the Adam update of every parameter.
+    /// Wall: the Adam update of every parameter (and the parameters' average, `ema_decay`).
     pub adam: f64,
     /// Thread: samples along the rays and the occupancy tests.
     pub sample: f64,

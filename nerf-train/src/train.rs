@@ -47,7 +47,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 9;
+pub const CHECKPOINT_VERSION: u16 = 10;
 
 /// The density (1/world units, the fitted scene's) an unbounded scene's network starts with,
 /// the same at every point ([`Mlp::init_uniform_density`]). A ray there
@@ -67,6 +67,18 @@ pub fn network_seed(seed: u64, k: usize) -> u64 {
     } else {
         seed ^ 0x5EED_F1E0
     }
+}
+
+/// Folds `params` into their moving average `ema` with decay `b`:
+/// `ema ← b·ema + (1 − b)·params`, or a copy of `params` when `ema` does
+/// not hold as many (the first step).
+fn average_into(ema: &mut Vec<f32>, params: &[f32], b: f32) {
+    if ema.len() != params.len() {
+        ema.clear();
+        ema.extend_from_slice(params);
+        return;
+    }
+    ema.iter_mut().zip(params).for_each(|(a, &p)| *a += (1.0 - b) * (p - *a));
 }
 
 /// How many of a run's `params` parameters are a feature grid's table: the
@@ -111,6 +123,10 @@ pub struct Trainer {
     /// 0 before (the exported model records it,
     /// `nerf_infer::format::Footprint`).
     pub pixel: f32,
+    /// With [`TrainConfig::ema_decay`]: the moving average of `params`
+    /// (as long as they, from the first step), which the model takes
+    /// ([`Trainer::averaged`]); empty otherwise.
+    pub ema: Vec<f32>,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
@@ -337,6 +353,7 @@ impl Trainer {
             grid,
             data: String::new(),
             pixel: 0.0,
+            ema: Vec::new(),
             pool: GradPool::default(),
         }
     }
@@ -452,6 +469,10 @@ impl Trainer {
             let c = &self.cfg;
             let (p, adam) = (&mut self.params, &mut self.adam);
             timed(&mut stats.times.adam, || adam.update(p, &grad, lr, c.beta1, c.beta2, c.eps, c.feature_decay));
+            if c.ema_decay > 0.0 {
+                let b = c.ema_decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
+                timed(&mut stats.times.adam, || average_into(&mut self.ema, p, b));
+            }
         }
         self.pool.give(grad);
         self.step += 1;
@@ -542,6 +563,20 @@ impl Trainer {
     /// it ([`Footprint::is_valid`]).
     pub fn footprint(&self) -> Option<Footprint> {
         Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.feature_levels > 0)
+    }
+
+    /// The run as its model takes it: with a parameters' average
+    /// ([`TrainConfig::ema_decay`]), a copy holding the average as its
+    /// parameters and its occupancy grid refreshed once more, from the
+    /// average's density; otherwise the run itself.
+    pub fn averaged(&self) -> std::borrow::Cow<'_, Trainer> {
+        if self.ema.len() != self.params.len() {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let mut t = self.clone();
+        t.params.clone_from(&self.ema);
+        t.update_grid();
+        std::borrow::Cow::Owned(t)
     }
 
     /// Refreshes the occupancy grid from the network's current density.
@@ -813,7 +848,8 @@ impl Trainer {
             && t.params.len() == t.mlp().n_params * nets
             && t.params.len() == t.adam.m.len()
             && t.params.len() == t.adam.v.len()
-            && t.adam.steps.len() == table_values(&t.mlp(), t.params.len());
+            && t.adam.steps.len() == table_values(&t.mlp(), t.params.len())
+            && (t.ema.is_empty() || t.ema.len() == t.params.len());
         (sizes_ok && grid_ok).then_some(t)
     }
 }
