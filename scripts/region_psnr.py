@@ -20,7 +20,8 @@ import struct
 import sys
 import zlib
 
-# a pixel is the object's if a channel of the scene on black exceeds this (of 255)
+# a pixel is the object's if a channel of the scene on black exceeds this (of
+# 255): the object's pixels darker than that in every channel count as the rest
 OBJECT_LEVEL = 12
 
 
@@ -79,8 +80,10 @@ def main():
             continue
         view = name[:-4]
         w, h, cr, render = read_png(os.path.join(room, name))
-        _, _, cg, truth = read_png(os.path.join(room, view + "_gt.png"))
-        _, _, co, black = read_png(os.path.join(obj, view + "_gt.png"))
+        wg, hg, cg, truth = read_png(os.path.join(room, view + "_gt.png"))
+        wo, ho, co, black = read_png(os.path.join(obj, view + "_gt.png"))
+        if (wg, hg) != (w, h) or (wo, ho) != (w, h) or min(cr, cg, co) < 3:
+            sys.exit(f"{view}: the render, its ground truth and the view on black differ in size or are not RGB")
         per = {"object": [0.0, 0], "rest": [0.0, 0]}
         for y in range(h):
             for x in range(w):

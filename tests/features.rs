@@ -168,6 +168,15 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     let (run, avg) = (tr.grid.as_ref().unwrap(), averaged.grid.as_ref().unwrap());
     assert_eq!(avg.updates, run.updates + 1);
 
+    // before the run's first refresh its grid stays whole in the average's model too
+    let mut young = Trainer::new(TrainConfig { grid_warmup: 1000, ..cfg.clone() }, data.scene, 1, 2);
+    for _ in 0..3 {
+        young.train_step(&data, 0.0);
+    }
+    assert_eq!(young.averaged().params, young.ema);
+    assert_eq!(young.averaged().grid, young.grid);
+    assert_eq!(young.grid.as_ref().unwrap().updates, 0);
+
     // without an average the model is the run's last step
     let mut plain = Trainer::new(TrainConfig { ema_decay: 0.0, ..cfg }, data.scene, 1, 2);
     plain.train_step(&data, 0.0);

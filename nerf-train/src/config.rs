@@ -222,8 +222,8 @@ impl TrainConfig {
     /// (`footprint`, `footprint_from` 0.5: on lego 0.35 dB more in 10
     /// minutes than without, over two seeds, and 0.57 dB less in one;
     /// docs/EXPERIMENTS.md). The model takes the average of the parameters
-    /// over about the last thousand steps (`ema_decay` 0.999: on lego 0.18
-    /// dB more in 10 minutes, 0.38 in one; docs/EXPERIMENTS.md).
+    /// over about the last thousand steps (`ema_decay` 0.999: on lego 0.16
+    /// dB more at 20 000 steps, over two seeds; docs/EXPERIMENTS.md).
     pub fn features() -> Self {
         Self {
             depth: 2,

@@ -124,7 +124,7 @@ pub struct Trainer {
     /// `nerf_infer::format::Footprint`).
     pub pixel: f32,
     /// With [`TrainConfig::ema_decay`]: the moving average of `params`
-    /// (as long as they, from the first step), which the model takes
+    /// (as long as they, from the first step that updates them), which the model takes
     /// ([`Trainer::averaged`]); empty otherwise.
     pub ema: Vec<f32>,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
@@ -567,15 +567,18 @@ impl Trainer {
 
     /// The run as its model takes it: with a parameters' average
     /// ([`TrainConfig::ema_decay`]), a copy holding the average as its
-    /// parameters and its occupancy grid refreshed once more, from the
-    /// average's density; otherwise the run itself.
+    /// parameters and its occupancy grid (once the run has refreshed it)
+    /// refreshed once more, from the average's density; otherwise the run
+    /// itself.
     pub fn averaged(&self) -> std::borrow::Cow<'_, Trainer> {
-        if self.ema.len() != self.params.len() {
+        if self.cfg.ema_decay <= 0.0 || self.ema.len() != self.params.len() {
             return std::borrow::Cow::Borrowed(self);
         }
         let mut t = self.clone();
         t.params.clone_from(&self.ema);
-        t.update_grid();
+        if t.grid.as_ref().is_some_and(|g| g.updates > 0) {
+            t.update_grid();
+        }
         std::borrow::Cow::Owned(t)
     }
 
@@ -849,7 +852,7 @@ impl Trainer {
             && t.params.len() == t.adam.m.len()
             && t.params.len() == t.adam.v.len()
             && t.adam.steps.len() == table_values(&t.mlp(), t.params.len())
-            && (t.ema.is_empty() || t.ema.len() == t.params.len());
+            && (t.ema.is_empty() || (t.cfg.ema_decay > 0.0 && t.ema.len() == t.params.len()));
         (sizes_ok && grid_ok).then_some(t)
     }
 }
