@@ -11,7 +11,7 @@ NAME_gt.png); standard library only (8-bit PNG, any filter).
     scripts/region_psnr.py ROOM_SAVE OBJ_SAVE
 
 Prints each view's two PSNRs and pixel counts, then the pooled PSNR of
-each region and its share of the squared error.
+each region and its share of the squared error, and of every pixel.
 """
 
 import math
@@ -93,9 +93,10 @@ def main():
                     acc[0] += e
                     acc[1] += 1
         print(view, "  ".join(f"{r} {psnr(*per[r]):.2f} dB ({per[r][1]} px)" for r in per))
-    sq = sum(v[0] for v in total.values())
+    sq, n_all = sum(v[0] for v in total.values()), sum(v[1] for v in total.values())
     for r, (e, n) in total.items():
         print(f"all views, {r}: {psnr(e, n):.2f} dB over {n} px, {100 * e / sq:.0f} % of the squared error")
+    print(f"all views, every pixel: {psnr(sq, n_all):.2f} dB over {n_all} px")
 
 
 main()

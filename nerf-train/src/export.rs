@@ -307,7 +307,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         capture: None,
         narrow: None,
         orbit: None,
-        footprint: tr.footprint().filter(|_| mlp.features.is_some() && tr.scene.ndc.is_none()),
+        footprint: tr.footprint().filter(|_| tr.scene.ndc.is_none()),
     }
 }
 

@@ -560,7 +560,8 @@ impl Trainer {
 
     /// The pixel footprint the run trains with and its model records: the
     /// training views' pixel once a step has used it, if a model can hold
-    /// it ([`Footprint::is_valid`]).
+    /// it ([`Footprint::is_valid`]) and has a feature grid to read across
+    /// it (forward-facing scenes' rays stay lines: their models record none).
     pub fn footprint(&self) -> Option<Footprint> {
         Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.feature_levels > 0)
     }
@@ -622,9 +623,12 @@ impl Trainer {
             ray.stratified(Some(key(i)), t);
             match grid {
                 None => {
-                    ws.pos.extend(t.iter().map(|&ti| ray.at(ti).to_array()));
-                    if any_foot {
-                        ws.foot.extend(t.iter().flat_map(|&ti| ray.foot_at(ti).unwrap_or([ray.at(ti).to_array(); K])));
+                    for &ti in t.iter() {
+                        let p = ray.at(ti).to_array();
+                        ws.pos.push(p);
+                        if any_foot {
+                            ws.foot.extend(ray.foot_at(ti).unwrap_or([p; K]));
+                        }
                     }
                     push_deltas(t, ray.dir_len, &mut ws.delta);
                     if intervals {
@@ -767,7 +771,7 @@ impl Trainer {
         let mut ws = Workspace::default();
         // a run that trained with footprints is calibrated with them
         let with_foot: Vec<Sample>;
-        let batch = match self.footprint().filter(|_| net.features.is_some()) {
+        let batch = match self.footprint() {
             Some(f) => {
                 let foot = |s: &Sample| Sample { ray: s.ray.with_footprint(&self.scene, f.pixel, 0.0), ..*s };
                 with_foot = batch.iter().map(foot).collect();

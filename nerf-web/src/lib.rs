@@ -148,33 +148,37 @@ pub extern "C" fn nerf_render(x0: u32, y0: u32, w: u32, h: u32) -> *const u8 {
         }
         rgba.clear();
         // a model with a pixel footprint renders the camera's pixels
-        let pixel = cam.pixel_angle();
-        let mut put = |p: nerf_infer::Pixel| {
-            rgba.extend(p.rgb.map(to_u8));
-            rgba.push(255);
-        };
+        let (pixel, rect) = (cam.pixel_angle(), (x0, y0, w, h));
         match active {
             Active::F32(r, scratch) => {
                 let r = r.with_pixel(pixel);
-                for y in y0..y0 + h {
-                    for x in x0..x0 + w {
-                        let (o, d) = cam.ray(x, y);
-                        put(r.render_ray(o, d, (x, y), scratch));
-                    }
-                }
+                render_rgba(cam, rect, rgba, |o, d, xy| r.render_ray(o, d, xy, scratch));
             }
             Active::Fixed(r, scratch) => {
                 let r = r.with_pixel(pixel);
-                for y in y0..y0 + h {
-                    for x in x0..x0 + w {
-                        let (o, d) = cam.ray(x, y);
-                        put(r.render_ray(o, d, (x, y), scratch).to_pixel());
-                    }
-                }
+                render_rgba(cam, rect, rgba, |o, d, xy| r.render_ray(o, d, xy, scratch).to_pixel());
             }
         }
         rgba.as_ptr()
     })
+}
+
+/// Appends to `rgba` the pixels `x0..x0 + w`, `y0..y0 + h` (row-major,
+/// 8 bits, alpha 255) that `render` gives for each of `cam`'s rays
+/// (origin, direction, pixel).
+fn render_rgba(
+    cam: &Camera,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+    rgba: &mut Vec<u8>,
+    mut render: impl FnMut(nerf_infer::Vec3, nerf_infer::Vec3, (u32, u32)) -> nerf_infer::Pixel,
+) {
+    for y in y0..y0 + h {
+        for x in x0..x0 + w {
+            let (o, d) = cam.ray(x, y);
+            rgba.extend(render(o, d, (x, y)).rgb.map(to_u8));
+            rgba.push(255);
+        }
+    }
 }
 
 /// The last error message (UTF-8), [`nerf_error_len`] bytes.

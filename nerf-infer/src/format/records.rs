@@ -127,8 +127,9 @@ pub struct Unbounded {
 /// 4π/3, `u`, `v` a unit basis perpendicular to the ray
 /// ([`crate::camera::Ray::with_footprint`]) and `ρ = a/√6`: the points
 /// spread as far across the ray as a pixel-wide box (variance `a²t²/12`
-/// along each axis). γ(x) and the occupancy grid stay at the sample. Renderers take `a` from the camera, or `pixel` at
-/// the model's own resolution.
+/// along each axis). γ(x) and the occupancy grid stay at the sample.
+/// Renderers take `a` from the camera, or `pixel` at the model's own
+/// resolution.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct Footprint {
     /// Angular size of a training pixel, radians (finite, in `(0, 0.1]`):
