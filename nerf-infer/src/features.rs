@@ -108,15 +108,32 @@ impl Corners {
     /// kept in registers and written once.
     #[inline]
     pub fn blend(&self, base: usize, width: usize, value: impl Fn(usize) -> f32, out: &mut [f32]) {
-        let mut acc = [0.0f32; 8];
-        let n = out.len();
+        // one copy per number of values, so that the sums and the final
+        // write are fixed-size moves
+        match out.len() {
+            1 => self.blend_n::<1>(base, width, value, out),
+            2 => self.blend_n::<2>(base, width, value, out),
+            3 => self.blend_n::<3>(base, width, value, out),
+            4 => self.blend_n::<4>(base, width, value, out),
+            5 => self.blend_n::<5>(base, width, value, out),
+            6 => self.blend_n::<6>(base, width, value, out),
+            7 => self.blend_n::<7>(base, width, value, out),
+            8 => self.blend_n::<8>(base, width, value, out),
+            n => panic!("{n} values per entry: at most 8"),
+        }
+    }
+
+    /// [`Corners::blend`] of `N` values per entry.
+    #[inline(always)]
+    fn blend_n<const N: usize>(&self, base: usize, width: usize, value: impl Fn(usize) -> f32, out: &mut [f32]) {
+        let mut acc = [0.0f32; N];
         for k in 0..8 {
             let e = (base + self.entry[k] as usize) * width;
-            for (j, v) in acc[..n].iter_mut().enumerate() {
+            for (j, v) in acc.iter_mut().enumerate() {
                 *v += self.weight[k] * value(e + j);
             }
         }
-        out.copy_from_slice(&acc[..n]);
+        out.copy_from_slice(&acc);
     }
 }
 

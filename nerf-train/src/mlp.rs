@@ -21,6 +21,49 @@ use nerf_infer::features::{Corners, FeatureGrid};
 use nerf_infer::format::{expected_shape, Encoding, Topology};
 use rayon::prelude::*;
 
+/// Runs `$body` with `$W` a constant equal to the feature width `$w`
+/// (1..=8, [`FeatureGrid::is_valid`]): the feature loops below are
+/// compiled once per width, their per-entry values fixed-size.
+macro_rules! per_width {
+    ($w:expr, $W:ident => $body:expr) => {
+        match $w {
+            1 => {
+                const $W: usize = 1;
+                $body
+            }
+            2 => {
+                const $W: usize = 2;
+                $body
+            }
+            3 => {
+                const $W: usize = 3;
+                $body
+            }
+            4 => {
+                const $W: usize = 4;
+                $body
+            }
+            5 => {
+                const $W: usize = 5;
+                $body
+            }
+            6 => {
+                const $W: usize = 6;
+                $body
+            }
+            7 => {
+                const $W: usize = 7;
+                $body
+            }
+            8 => {
+                const $W: usize = 8;
+                $body
+            }
+            w => panic!("feature width {w}: at most 8"),
+        }
+    };
+}
+
 /// Where one layer's tensors sit in the flat parameter vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LayerSlot {
@@ -206,37 +249,8 @@ impl Mlp {
     /// coarse level) are summed first and written once.
     fn scatter_level(&self, l: usize, corners: &[Corners], dgf: &[f32], gl: &mut [f32]) {
         let Some(f) = &self.features else { return };
-        // values per entry: at most 8 (`TrainConfig::feature_width`)
-        const W: usize = 8;
-        let (w, nl) = (f.width as usize, f.levels());
-        let mut acc = [[0.0f32; W]; 8];
-        let mut cell: Option<[u32; 8]> = None;
-        let mut flush = |entry: &[u32; 8], acc: &mut [[f32; W]; 8]| {
-            for (e, a) in entry.iter().zip(acc.iter_mut()) {
-                let e = *e as usize * w;
-                gl[e..e + w].iter_mut().zip(&a[..w]).for_each(|(g, v)| *g += v);
-                *a = [0.0; W];
-            }
-        };
-        for (i, c) in corners.iter().enumerate() {
-            // a footprint point merged into its sample's first (zero weights)
-            if c.weight == [0.0; 8] {
-                continue;
-            }
-            if cell != Some(c.entry) {
-                if let Some(entry) = &cell {
-                    flush(entry, &mut acc);
-                }
-                cell = Some(c.entry);
-            }
-            let d = &dgf[(i * nl + l) * w..(i * nl + l + 1) * w];
-            for (a, wk) in acc.iter_mut().zip(&c.weight) {
-                a[..w].iter_mut().zip(d).for_each(|(a, d)| *a += wk * d);
-            }
-        }
-        if let Some(entry) = &cell {
-            flush(entry, &mut acc);
-        }
+        let nl = f.levels();
+        per_width!(f.width as usize, W => scatter_level_w::<W>(nl, l, corners, dgf, gl));
     }
 
     /// Swaps the grid-value gradient of the last [`Mlp::backward_layers`]
@@ -380,30 +394,9 @@ impl Mlp {
         let (w, nl, t) = (f.width as usize, f.levels(), &p[self.table..]);
         resize(&mut a.gf, s * nl * w);
         a.corners.resize(K * s * nl, Corners::default());
-        let share = 1.0 / K as f32;
         for l in 0..nl {
-            let base = f.offset(l);
-            for i in 0..s {
-                let mut c: [Corners; K] = std::array::from_fn(|m| f.corners_f32(l, foot[K * i + m]));
-                let out = &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w];
-                let corners = &mut a.corners[l * K * s + K * i..l * K * s + K * i + K];
-                if c.iter().all(|k| k.entry == c[0].entry) {
-                    let weight = std::array::from_fn(|j| share * c.iter().map(|k| k.weight[j]).sum::<f32>());
-                    let one = Corners { entry: c[0].entry, weight };
-                    one.blend(base, w, |k| t[k], out);
-                    corners[0] = one;
-                    corners[1..].fill(Corners { entry: c[0].entry, weight: [0.0; 8] });
-                } else {
-                    let (mut sum, mut one) = ([0.0f32; 8], [0.0f32; 8]);
-                    for (k, slot) in c.iter_mut().zip(corners.iter_mut()) {
-                        k.weight.iter_mut().for_each(|v| *v *= share);
-                        k.blend(base, w, |e| t[e], &mut one[..w]);
-                        sum[..w].iter_mut().zip(&one[..w]).for_each(|(s, v)| *s += v);
-                        *slot = *k;
-                    }
-                    out.copy_from_slice(&sum[..w]);
-                }
-            }
+            let corners = &mut a.corners[l * K * s..(l + 1) * K * s];
+            per_width!(w, W => footprint_level::<W>(f, l, t, foot, &mut a.gf, corners));
         }
         (a.s, a.k) = (s, K);
     }
@@ -626,6 +619,76 @@ impl Mlp {
     /// the view layer's direction part counted per sample.
     pub fn macs_per_sample(&self) -> usize {
         self.slots.iter().map(|s| s.din * s.dout).sum()
+    }
+}
+
+/// Level `l` of [`Mlp::encode_footprint`] for a grid of width `W`: each
+/// sample's values (`gf`, `S × levels × W`) the mean over its footprint
+/// points `foot` (`K` per sample) and their corners (`corners`, `K` per
+/// sample) with weights divided by `K`; points that share one cell are
+/// blended as one set of corners, the others' weights left at zero.
+fn footprint_level<const W: usize>(
+    f: &FeatureGrid<'_>,
+    l: usize,
+    t: &[f32],
+    foot: &[[f32; 3]],
+    gf: &mut [f32],
+    corners: &mut [Corners],
+) {
+    const K: usize = FOOTPRINT_POINTS;
+    let (base, nl) = (f.offset(l), f.levels());
+    let share = 1.0 / K as f32;
+    for (i, (pts, slots)) in foot.chunks_exact(K).zip(corners.chunks_exact_mut(K)).enumerate() {
+        let mut c: [Corners; K] = std::array::from_fn(|m| f.corners_f32(l, pts[m]));
+        let out = &mut gf[(i * nl + l) * W..][..W];
+        if c.iter().all(|k| k.entry == c[0].entry) {
+            let weight = std::array::from_fn(|j| share * c.iter().map(|k| k.weight[j]).sum::<f32>());
+            let one = Corners { entry: c[0].entry, weight };
+            one.blend(base, W, |k| t[k], out);
+            slots[0] = one;
+            slots[1..].fill(Corners { entry: c[0].entry, weight: [0.0; 8] });
+        } else {
+            let (mut sum, mut one) = ([0.0f32; W], [0.0f32; W]);
+            for (k, slot) in c.iter_mut().zip(slots.iter_mut()) {
+                k.weight.iter_mut().for_each(|v| *v *= share);
+                k.blend(base, W, |e| t[e], &mut one);
+                sum.iter_mut().zip(&one).for_each(|(s, v)| *s += v);
+                *slot = *k;
+            }
+            out.copy_from_slice(&sum);
+        }
+    }
+}
+
+/// [`Mlp::scatter_level`] of a grid of width `W` and `nl` levels.
+fn scatter_level_w<const W: usize>(nl: usize, l: usize, corners: &[Corners], dgf: &[f32], gl: &mut [f32]) {
+    let mut acc = [[0.0f32; W]; 8];
+    let mut cell: Option<[u32; 8]> = None;
+    let flush = |entry: &[u32; 8], acc: &mut [[f32; W]; 8], gl: &mut [f32]| {
+        for (e, a) in entry.iter().zip(acc.iter_mut()) {
+            let g = &mut gl[*e as usize * W..][..W];
+            g.iter_mut().zip(a.iter()).for_each(|(g, v)| *g += v);
+            *a = [0.0; W];
+        }
+    };
+    for (i, c) in corners.iter().enumerate() {
+        // a footprint point merged into its sample's first (zero weights)
+        if c.weight == [0.0; 8] {
+            continue;
+        }
+        if cell != Some(c.entry) {
+            if let Some(entry) = &cell {
+                flush(entry, &mut acc, gl);
+            }
+            cell = Some(c.entry);
+        }
+        let d = &dgf[(i * nl + l) * W..][..W];
+        for (a, wk) in acc.iter_mut().zip(&c.weight) {
+            a.iter_mut().zip(d).for_each(|(a, d)| *a += wk * d);
+        }
+    }
+    if let Some(entry) = &cell {
+        flush(entry, &mut acc, gl);
     }
 }
 
