@@ -119,6 +119,7 @@ impl Corners {
             6 => self.blend_n::<6>(base, width, value, out),
             7 => self.blend_n::<7>(base, width, value, out),
             8 => self.blend_n::<8>(base, width, value, out),
+            0 => {}
             n => panic!("{n} values per entry: at most 8"),
         }
     }

@@ -622,11 +622,12 @@ impl Mlp {
     }
 }
 
-/// Level `l` of [`Mlp::encode_footprint`] for a grid of width `W`: each
-/// sample's values (`gf`, `S × levels × W`) the mean over its footprint
-/// points `foot` (`K` per sample) and their corners (`corners`, `K` per
-/// sample) with weights divided by `K`; points that share one cell are
-/// blended as one set of corners, the others' weights left at zero.
+/// Level `l` of [`Mlp::encode_footprint`] for a grid of width `W`: writes
+/// each sample's values (in `gf`, `S × levels × W`) as the mean over its
+/// `K` footprint points `foot`, and the points' corners (in `corners`, `K`
+/// per sample) with their weights divided by `K`. When all `K` points of a
+/// sample lie in one cell, their weights are summed into the first slot and
+/// blended once, and the other slots are set to that cell with zero weights.
 fn footprint_level<const W: usize>(
     f: &FeatureGrid<'_>,
     l: usize,
@@ -747,7 +748,7 @@ mod tests {
                 let w = f.width as usize;
                 let level = &g[m.table + f.offset(l) * w..m.table + f.offset(l + 1) * w];
                 let touched = level.iter().filter(|v| v.abs() > 1e-3).count();
-                assert!(touched >= 8, "{touched} table gradients in a level");
+                assert!(touched >= 8, "{touched} table gradients in level {l}");
             }
         }
         let (mut checked, mut kinks) = (0, 0);
@@ -786,33 +787,44 @@ mod tests {
         check_gradients(topo, enc);
     }
 
-    /// A small network with two dense levels and one hashed, a skip layer
-    /// that also reads them.
-    fn with_feature_grid() -> Mlp {
+    /// A small network with two dense levels and one hashed of `width`
+    /// values per entry, a skip layer that also reads them.
+    fn with_feature_grid(width: u8) -> Mlp {
         let topo = Topology { depth: 3, width: 8, skip_mask: 1 << 2, view_dependent: true, view_width: 4 };
         let f = FeatureGrid {
-            width: 2,
+            width,
             log2_table: 5,
             frac_bits: 0,
             resolutions: nerf_infer::features::geometric_resolutions(3, 1, 5),
             table: &[],
             narrow: None,
         };
-        let enc = Encoding { pos_freqs: 1, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 6 };
+        let enc = Encoding { pos_freqs: 1, dir_freqs: 1, include_input: true, raw_frac_bits: 12, grid_dim: 3 * width };
         let m = Mlp::new(topo, enc).with_features(Some(f));
         // levels of 1, 2 and 5 cells: 8 and 27 vertices (dense), 216 > 32 (hashed)
-        assert_eq!(m.n_params, m.table + (8 + 27 + 32) * 2);
+        assert_eq!(m.n_params, m.table + (8 + 27 + 32) * width as usize);
         m
     }
 
     #[test]
     fn gradients_match_finite_differences_with_a_feature_grid() {
-        check_gradients_with(with_feature_grid(), false);
+        check_gradients_with(with_feature_grid(2), false);
     }
 
     #[test]
     fn gradients_match_finite_differences_with_footprint_means_of_the_features() {
-        check_gradients_with(with_feature_grid(), true);
+        check_gradients_with(with_feature_grid(2), true);
+    }
+
+    #[test]
+    fn gradients_match_finite_differences_at_feature_widths_3_4_and_8() {
+        // the feature loops are compiled once per width: an odd one,
+        // another even one and the widest, with and without footprints
+        for width in [3, 4, 8] {
+            for footprint in [false, true] {
+                check_gradients_with(with_feature_grid(width), footprint);
+            }
+        }
     }
 
     #[test]
