@@ -99,6 +99,26 @@ pub struct Corners {
     pub weight: [f32; 8],
 }
 
+/// Runs `$body` with `$W` a constant equal to the feature width `$w`
+/// (1..=8, [`FeatureGrid::is_valid`](crate::features::FeatureGrid::is_valid); panics on any other), so that loops
+/// over an entry's values are compiled once per width, fixed-size:
+/// `per_width!(g.width as usize, W => f::<W>(...))`.
+#[macro_export]
+macro_rules! per_width {
+    ($w:expr, $W:ident => $body:expr) => {
+        $crate::per_width!(@arms $w, $W, $body, 1 2 3 4 5 6 7 8)
+    };
+    (@arms $w:expr, $W:ident, $body:expr, $($n:literal)*) => {
+        match $w {
+            $($n => {
+                const $W: usize = $n;
+                $body
+            })*
+            w => panic!("feature width {w}: 1 to 8"),
+        }
+    };
+}
+
 impl Corners {
     /// `out = Σ weight[c] · value(entry)` over the 8 corners, where the
     /// level's entries start at `base` and hold `out.len()` values each
@@ -110,17 +130,8 @@ impl Corners {
     pub fn blend(&self, base: usize, width: usize, value: impl Fn(usize) -> f32, out: &mut [f32]) {
         // one copy per number of values, so that the sums and the final
         // write are fixed-size moves
-        match out.len() {
-            1 => self.blend_n::<1>(base, width, value, out),
-            2 => self.blend_n::<2>(base, width, value, out),
-            3 => self.blend_n::<3>(base, width, value, out),
-            4 => self.blend_n::<4>(base, width, value, out),
-            5 => self.blend_n::<5>(base, width, value, out),
-            6 => self.blend_n::<6>(base, width, value, out),
-            7 => self.blend_n::<7>(base, width, value, out),
-            8 => self.blend_n::<8>(base, width, value, out),
-            0 => {}
-            n => panic!("{n} values per entry: at most 8"),
+        if !out.is_empty() {
+            crate::per_width!(out.len(), N => self.blend_n::<N>(base, width, value, out));
         }
     }
 

@@ -19,50 +19,8 @@ use nerf_infer::camera::FOOTPRINT_POINTS;
 use nerf_infer::encoding::encode_f32;
 use nerf_infer::features::{Corners, FeatureGrid};
 use nerf_infer::format::{expected_shape, Encoding, Topology};
+use nerf_infer::per_width;
 use rayon::prelude::*;
-
-/// Runs `$body` with `$W` a constant equal to the feature width `$w`
-/// (1..=8, [`FeatureGrid::is_valid`]): the feature loops below are
-/// compiled once per width, their per-entry values fixed-size.
-macro_rules! per_width {
-    ($w:expr, $W:ident => $body:expr) => {
-        match $w {
-            1 => {
-                const $W: usize = 1;
-                $body
-            }
-            2 => {
-                const $W: usize = 2;
-                $body
-            }
-            3 => {
-                const $W: usize = 3;
-                $body
-            }
-            4 => {
-                const $W: usize = 4;
-                $body
-            }
-            5 => {
-                const $W: usize = 5;
-                $body
-            }
-            6 => {
-                const $W: usize = 6;
-                $body
-            }
-            7 => {
-                const $W: usize = 7;
-                $body
-            }
-            8 => {
-                const $W: usize = 8;
-                $body
-            }
-            w => panic!("feature width {w}: at most 8"),
-        }
-    };
-}
 
 /// Where one layer's tensors sit in the flat parameter vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
