@@ -276,7 +276,8 @@ fn fit_within_a_byte_budget_keeps_the_most_accurate_model_that_fits_and_says_wha
     assert!(out.contains("fit: not training 6x96: it does not fit --max-bytes 40000"), "{out}");
     let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
     let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 5, "every candidate that fits, once (no sample search without a target): {csv}");
+    // the seven candidates but 6x96
+    assert_eq!(rows.len(), 6, "every candidate that fits, once (no sample search without a target): {csv}");
     assert!(rows.iter().all(|r| r[7].parse::<usize>().unwrap() <= max), "{csv}");
     let best = rows.iter().max_by(|a, b| a[4].parse::<f64>().unwrap().total_cmp(&b[4].parse().unwrap())).unwrap();
     assert!(out.contains(&format!("fit: chose {} at", best[0])), "the most accurate: {out}\n{csv}");
@@ -323,9 +324,10 @@ fn fit_keeps_the_cheapest_candidate_that_reaches_the_target_and_tables_what_it_t
     assert!(err.trim_end().lines().last().unwrap().starts_with("error: no candidate reached 99.00 dB"), "{err}");
     let csv = std::fs::read_to_string(run.join("fit.csv")).unwrap();
     let cost: Vec<usize> = csv.lines().skip(1).map(|l| l.split(',').nth(8).unwrap().parse().unwrap()).collect();
-    assert_eq!(cost.len(), 6, "{csv}");
+    assert_eq!(cost.len(), 7, "{csv}");
     assert!(cost.windows(2).all(|w| w[0] < w[1]), "not cheapest first: {cost:?}");
     assert!(csv.contains("\nfeatures,"), "the feature-grid candidate was not tried: {csv}");
+    assert!(csv.contains("\nfeatures-2x32,"), "the narrow feature-grid candidate was not tried: {csv}");
     assert!(!run.join("model.nerf").exists());
 }
 

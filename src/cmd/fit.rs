@@ -20,6 +20,7 @@
 //! the target. What each candidate gave up to fit is printed and tabled.
 
 use super::{create_dir, eval, num_in, train, write_atomic, CaptureArgs, CmdResult, FixedBits, SplitArg, WeightBits};
+use nerf_infer::camera::FOOTPRINT_POINTS;
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::Split;
 use nerf_train::export::{quantise, random_model, OwnedModel};
@@ -71,6 +72,7 @@ pub fn candidates() -> Vec<(&'static str, TrainConfig)> {
         ("3x64", TrainConfig { depth: 3, ..g.clone() }),
         ("4x64", g.clone()),
         ("features", TrainConfig::features()),
+        ("features-2x32", TrainConfig { width: 32, view_width: 32, footprint: false, ..TrainConfig::features() }),
         ("6x96", TrainConfig { depth: 6, width: 96, view_width: 32, pos_freqs: 10, dir_freqs: 4, ..g }),
     ];
     c.sort_by_key(|(_, cfg)| cost(cfg));
@@ -91,9 +93,11 @@ pub fn macs(cfg: &TrainConfig) -> usize {
 pub const FEATURE_LEVEL_MACS: usize = 500;
 
 /// A candidate's cost per sample: [`macs`] plus its feature-grid levels
-/// at [`FEATURE_LEVEL_MACS`] each.
+/// at [`FEATURE_LEVEL_MACS`] each, once per point read (the
+/// [`FOOTPRINT_POINTS`] of a pixel footprint, else one).
 pub fn cost(cfg: &TrainConfig) -> usize {
-    macs(cfg) + cfg.feature_levels as usize * FEATURE_LEVEL_MACS
+    let points = if cfg.footprint { FOOTPRINT_POINTS } else { 1 };
+    macs(cfg) + cfg.feature_levels as usize * FEATURE_LEVEL_MACS * points
 }
 
 /// One tried candidate.
