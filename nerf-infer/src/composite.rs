@@ -92,10 +92,23 @@ pub trait Compositor<T, S, D, C>: Copy + Default {
     type W;
     /// The finished pixel.
     type Pixel;
+    /// What one sample does to the transmittance, as [`Compositor::add_factor`]
+    /// takes it (f32: `α`; fixed point: `exp(−σδ)` in Q30), computed once
+    /// per sample: the march works out where a block's ray stops, then adds
+    /// the same samples with their colours.
+    type Factor: Copy + Default;
     /// Transmittance before the next sample.
     fn transmittance(&self) -> Self::W;
+    /// The factor of a sample of raw density `sigma` over an interval `delta`.
+    fn factor(sigma: S, delta: D) -> Self::Factor;
+    /// Adds a sample at `t` whose factor [`Compositor::factor`] gave and
+    /// returns its weight.
+    fn add_factor(&mut self, factor: Self::Factor, rgb: C, t: T) -> Self::W;
     /// Adds a sample at `t` and returns its weight.
-    fn add(&mut self, sigma: S, delta: D, rgb: C, t: T) -> Self::W;
+    #[inline]
+    fn add(&mut self, sigma: S, delta: D, rgb: C, t: T) -> Self::W {
+        self.add_factor(Self::factor(sigma, delta), rgb, t)
+    }
     /// Finishes the ray on the background; `far` is the depth of empty space.
     fn finish(&self, white_background: bool, far: T) -> Self::Pixel;
 }
@@ -103,18 +116,25 @@ pub trait Compositor<T, S, D, C>: Copy + Default {
 impl Compositor<f32, f32, f32, [f32; 3]> for CompositorF32 {
     type W = f32;
     type Pixel = Pixel;
+    type Factor = f32;
 
     #[inline(always)]
     fn transmittance(&self) -> f32 {
         self.transmittance
     }
 
-    /// Adds one sample (`delta` in world units, `f32::INFINITY` for the last
-    /// interval; colour clamped to `[0, 1]`, NaN read as 0; `t` the sample's
-    /// ray parameter) and returns its weight `wᵢ` in `[0, 1]`.
+    /// `α` ([`alpha_f32`]; `delta` in world units, `f32::INFINITY` for the
+    /// last interval).
+    #[inline(always)]
+    fn factor(sigma_raw: f32, delta: f32) -> f32 {
+        alpha_f32(sigma_raw, delta)
+    }
+
+    /// Adds one sample of opacity `alpha` (colour clamped to `[0, 1]`, NaN
+    /// read as 0; `t` the sample's ray parameter) and returns its weight
+    /// `wᵢ` in `[0, 1]`.
     #[inline]
-    fn add(&mut self, sigma_raw: f32, delta: f32, rgb: [f32; 3], t: f32) -> f32 {
-        let alpha = alpha_f32(sigma_raw, delta);
+    fn add_factor(&mut self, alpha: f32, rgb: [f32; 3], t: f32) -> f32 {
         let w = self.transmittance * alpha;
         self.transmittance *= 1.0 - alpha;
         for (acc, c) in self.rgb.iter_mut().zip(rgb) {
@@ -192,17 +212,25 @@ pub fn survival_fixed(sigma_q10: i32, delta_q16: i32) -> u32 {
 impl Compositor<i32, i32, i32, [u16; 3]> for CompositorFixed {
     type W = u32;
     type Pixel = PixelFixed;
+    type Factor = u32;
 
     #[inline(always)]
     fn transmittance(&self) -> u32 {
         self.transmittance
     }
 
-    /// Adds one sample: σ in Q10, δ in Q16 ([`DELTA_INF_Q16`] for the last
-    /// interval), colour in Q15, `t` in Q16. Returns the weight in Q30.
+    /// `exp(−σδ)` in Q30 ([`survival_fixed`]): σ in Q10, δ in Q16
+    /// ([`DELTA_INF_Q16`] for the last interval).
+    #[inline(always)]
+    fn factor(sigma_q10: i32, delta_q16: i32) -> u32 {
+        survival_fixed(sigma_q10, delta_q16)
+    }
+
+    /// Adds one sample that lets `survival` (Q30) through: colour in Q15,
+    /// `t` in Q16. Returns the weight in Q30.
     #[inline]
-    fn add(&mut self, sigma_q10: i32, delta_q16: i32, rgb: [u16; 3], t_q16: i32) -> u32 {
-        let e = survival_fixed(sigma_q10, delta_q16) as u64;
+    fn add_factor(&mut self, survival: u32, rgb: [u16; 3], t_q16: i32) -> u32 {
+        let e = survival as u64;
         let t = self.transmittance as u64;
         let alpha = T_ONE as u64 - e;
         let half = 1u64 << (T_FRAC - 1);

@@ -139,11 +139,11 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
         // which samples are composited (the ray stops before the first one
         // met with transmittance below the threshold) and which of those
         // carry weight: only they need the colour branch
-        let mut delta = [P::T::default(); B];
+        let mut factor = [<P::Compositor as Compositor<_, _, _, _>>::Factor::default(); B];
         let (mut probe, mut used, mut rows, mut n_rows) = (comp, 0, [0usize; B], 0);
         while used < len && probe.transmittance() >= r.early_stop {
-            delta[used] = P::delta(ray, t, idx[used]);
-            let w = probe.add(block.sigma[used], delta[used], P::Rgb::default(), t[idx[used]]);
+            factor[used] = P::Compositor::factor(block.sigma[used], P::delta(ray, t, idx[used]));
+            let w = probe.add_factor(factor[used], P::Rgb::default(), t[idx[used]]);
             rows[n_rows] = used;
             n_rows += (need_rgb && w > zero) as usize;
             used += 1;
@@ -163,7 +163,7 @@ fn pass<P: NumericPath, K: LayerKernel<P>, const B: usize>(
             } else {
                 P::Rgb::default() // weight 0: the colour adds nothing
             };
-            let w = comp.add(block.sigma[k], delta[k], rgb, t[idx[k]]);
+            let w = comp.add_factor(factor[k], rgb, t[idx[k]]);
             if let Some(ws) = weights.as_deref_mut() {
                 ws[idx[k]] = w;
             }
