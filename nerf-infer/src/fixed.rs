@@ -50,8 +50,18 @@ pub fn to_fixed(x: f32, frac: u32) -> i32 {
     } else if v <= i32::MIN as f32 {
         i32::MIN
     } else {
-        libm::roundf(v) as i32
+        round_half_away(v)
     }
+}
+
+/// `v` rounded to the nearest integer, halves away from zero (as
+/// `libm::roundf`), for `|v| < 2³¹`: the integer part and the fraction are
+/// exact in f32 (an f32 of magnitude ≥ 2²³ is an integer already).
+#[inline(always)]
+fn round_half_away(v: f32) -> i32 {
+    let whole = v as i32; // toward zero
+    let frac = v - whole as f32;
+    whole + (frac >= 0.5) as i32 - (frac <= -0.5) as i32
 }
 
 /// Arithmetic right shift by `n` (0..=63) rounding half up.
@@ -343,6 +353,28 @@ mod tests {
             let want = libm::exp(-(x as f64) / 67108864.0) * 1073741824.0;
             let got = exp_neg_q26_q30(x) as f64;
             assert!((got - want).abs() <= 2.0 + want * 2e-7, "x={x}: {got} vs {want}");
+        }
+    }
+
+    #[test]
+    fn rounding_halves_away_from_zero_as_libm_does() {
+        let mut h = 0x9E37_79B9u32;
+        let check = |v: f32| {
+            if v.abs() < 2147483520.0 {
+                assert_eq!(round_half_away(v), libm::roundf(v) as i32, "{v}");
+            }
+        };
+        for v in [0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, 0.49999997, -0.49999997, 8388607.5, -8388607.5, 8388609.0] {
+            check(v);
+        }
+        for _ in 0..200_000 {
+            h ^= h << 13;
+            h ^= h >> 17;
+            h ^= h << 5;
+            // any f32 below 2^31 in magnitude, and quarters around zero
+            check(f32::from_bits(h));
+            check(f32::from_bits(h & 0xC7FF_FFFF)); // magnitudes below 2^9
+            check((h % 2_000_000) as f32 * 0.25 - 250_000.0);
         }
     }
 

@@ -40,6 +40,45 @@ impl<'a> Occupancy<'a> {
         self.bits.get(i >> 3).is_some_and(|b| b >> (i & 7) & 1 != 0)
     }
 
+    /// Calls `f` with the coordinates `[x, y, z]` of every occupied cell,
+    /// in index order: the set bits found a byte at a time, the
+    /// coordinates stepped from the byte's first cell (divisions once per
+    /// non-zero byte, not per cell).
+    pub fn for_each_occupied(&self, mut f: impl FnMut([usize; 3])) {
+        let r = self.res as usize;
+        let n = r * r * r;
+        for (b, &byte) in self.bits.iter().enumerate() {
+            // most bytes are 0: only the set bits cost anything
+            if byte == 0 {
+                continue;
+            }
+            let first = 8 * b;
+            let (mut at, mut c) = (first, [first % r, (first / r) % r, first / (r * r)]);
+            let mut rest = byte;
+            while rest != 0 {
+                let i = first + rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if i >= n {
+                    return;
+                }
+                // step the coordinates from cell `at` to cell `i`
+                while at < i {
+                    let step = (i - at).min(r - c[0]);
+                    (at, c[0]) = (at + step, c[0] + step);
+                    if c[0] == r {
+                        c[0] = 0;
+                        c[1] += 1;
+                        if c[1] == r {
+                            c[1] = 0;
+                            c[2] += 1;
+                        }
+                    }
+                }
+                f(c);
+            }
+        }
+    }
+
     /// Number of occupied cells.
     pub fn occupied_cells(&self) -> usize {
         let r = self.res as usize;
@@ -117,18 +156,10 @@ impl CoarseOccupancy {
         }
         let mut c =
             Self { res: r, shift, m: ((r - 1) >> shift) + 1, bits: [0; COARSE_RES * COARSE_RES * COARSE_RES / 8] };
-        for (b, &byte) in g.bits.iter().enumerate() {
-            // most bytes are 0: only the set bits cost anything
-            let mut rest = byte;
-            while rest != 0 {
-                let i = 8 * b + rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                if i < r * r * r {
-                    let j = c.index([i % r, (i / r) % r, i / (r * r)].map(|x| x >> shift));
-                    c.bits[j >> 3] |= 1 << (j & 7);
-                }
-            }
-        }
+        g.for_each_occupied(|cell| {
+            let j = c.index(cell.map(|x| x >> shift));
+            c.bits[j >> 3] |= 1 << (j & 7);
+        });
         c
     }
 
@@ -178,22 +209,12 @@ pub const BOX_MARGIN: f32 = 1e-3;
 pub fn occupied_box(g: &Occupancy<'_>) -> Option<([f32; 3], [f32; 3])> {
     let r = g.res as usize;
     let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
-    for (b, &byte) in g.bits.iter().enumerate() {
-        if byte == 0 {
-            continue;
+    g.for_each_occupied(|c| {
+        for a in 0..3 {
+            lo[a] = lo[a].min(c[a]);
+            hi[a] = hi[a].max(c[a]);
         }
-        for k in 0..8 {
-            let i = 8 * b + k;
-            if byte >> k & 1 == 0 || i >= r * r * r {
-                continue;
-            }
-            let c = [i % r, (i / r) % r, i / (r * r)];
-            for a in 0..3 {
-                lo[a] = lo[a].min(c[a]);
-                hi[a] = hi[a].max(c[a]);
-            }
-        }
-    }
+    });
     if lo[0] == usize::MAX {
         return None;
     }
@@ -229,6 +250,33 @@ mod tests {
         for c in cells {
             let i = c[0] + res * (c[1] + res * c[2]);
             bits[i / 8] |= 1 << (i % 8);
+        }
+    }
+
+    #[test]
+    fn the_occupied_cells_are_found_in_index_order_with_their_coordinates() {
+        for res in [1u16, 3, 5, 8, 13] {
+            let r = res as usize;
+            let mut bits = [0u8; grid_bytes(13)];
+            let bits = &mut bits[..grid_bytes(res)];
+            for i in 0..r * r * r {
+                if (i * 7 + i / 3) % 5 < 2 || i + 1 == r * r * r {
+                    bits[i / 8] |= 1 << (i % 8);
+                }
+            }
+            // padding bits past the last cell are ignored
+            if !(r * r * r).is_multiple_of(8) {
+                *bits.last_mut().unwrap() |= 0x80;
+            }
+            let g = Occupancy { res, bits };
+            let mut want = (0..r * r * r).filter(|&i| g.cell(i)).map(|i| [i % r, (i / r) % r, i / (r * r)]);
+            let mut found = 0;
+            g.for_each_occupied(|c| {
+                assert_eq!(Some(c), want.next(), "res {res}, cell {found}");
+                found += 1;
+            });
+            assert_eq!(want.next(), None, "res {res}: {found} found");
+            assert!(found > 0);
         }
     }
 
