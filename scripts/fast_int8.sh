@@ -6,7 +6,7 @@
 # to int8 (`nerf export --bits 8`) and, once every run has finished,
 # evaluated on the 10 validation views on one core (the fastest of three
 # renders per view) with early termination at 1e-3 and 1e-2, and at 1e-2
-# with 160 and 128 samples per ray instead of the trained 192. Appends one row per
+# with 160, 144 and 128 samples per ray instead of the trained 192. Appends one row per
 # configuration and render to docs/fast_int8.csv: date, commit, CPU, cores,
 # configuration, steps, early termination, samples per ray (stratified),
 # PSNR, samples evaluated per ray, µs per ray, int8 bytes.
@@ -52,7 +52,7 @@ for ((i = 0; i < ${#names[@]}; i += 2)); do
   for p in "${pids[@]}"; do wait "$p"; done
 done
 for n in "${names[@]}"; do
-  for render in "1e-3 192" "1e-2 192" "1e-2 160" "1e-2 128"; do
+  for render in "1e-3 192" "1e-2 192" "1e-2 160" "1e-2 144" "1e-2 128"; do
     read -r ert coarse <<< "$render"
     "$bin" eval "$work/$n/int8.nerf" --data "$root/lego" --split val --threads 1 --repeat 3 \
       --early-stop "$ert" --coarse "$coarse" > "$work/eval.json"
