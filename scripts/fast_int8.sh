@@ -13,13 +13,13 @@
 #
 #   scripts/fast_int8.sh [DATA_ROOT] [STEPS] [CONFIG...]
 #
-# DATA_ROOT holds lego/; STEPS defaults to 30000; CONFIG to every name:
+# DATA_ROOT holds lego/; STEPS defaults to 60000; CONFIG to every name:
 #   default          the default configuration (the features preset)
 #   2x32             32-wide layers, no pixel footprint
 #   2x32-alpha0.1    the same, cells kept while a step is at least 10 % opaque
 set -euo pipefail
 root=${1:-../shared/data}
-iters=${2:-30000}
+iters=${2:-60000}
 shift $(($# < 2 ? $# : 2))
 names=("$@")
 [ ${#names[@]} -gt 0 ] || names=(default 2x32 2x32-alpha0.1)

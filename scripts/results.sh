@@ -19,7 +19,7 @@ steps=(
   "default|25|scripts/lego_default.sh ROOT 10 0 1 && scripts/lego_default.sh ROOT 1 0 1"
   "full|95|scripts/lego_full.sh ROOT 90 1"
   "tradeoff|12|scripts/tradeoff.sh ROOT 10"
-  "fast-int8|30|scripts/fast_int8.sh ROOT 30000"
+  "fast-int8|35|scripts/fast_int8.sh ROOT 60000"
   "int8-loss|15|scripts/int8_loss.sh ROOT 3"
   "table-bits|12|scripts/table_bits.sh ROOT 10"
   "captures|40|scripts/captures.sh ROOT 5"

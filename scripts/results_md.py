@@ -165,8 +165,8 @@ def fast_int8_section():
              f"**{r['us_per_ray']}**", thousands(r["bytes_int8"]), run(r)] for r in rs]
     t = table(["<configuration", "steps", "early termination", "samples per ray", "PSNR int8", "evaluated per ray",
                "µs/ray int8", "int8 bytes", "<run"], body)
-    return ("int8 toward 1 µs per ray", "fast-int8", """`scripts/fast_int8.sh DATA_ROOT 30000`: configurations that
-trade accuracy for speed, each trained 30 000 steps on lego at 100×100 on
+    return ("int8 toward 1 µs per ray", "fast-int8", """`scripts/fast_int8.sh DATA_ROOT 60000`: configurations that
+trade accuracy for speed, each trained 60 000 steps on lego at 100×100 on
 one thread with seed 0, exported with `nerf export --bits 8` and evaluated
 on the 10 validation views on one core (the fastest of three renders per
 view), with early termination at 10⁻³ and 10⁻², and at 10⁻² with 160,
