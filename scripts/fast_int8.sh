@@ -2,7 +2,7 @@
 # The int8 render's time per ray against its PSNR, for configurations that
 # trade accuracy for speed: each CONFIG (a name from the list below) is
 # trained on lego at 1/8 size (100x100) for STEPS steps on one thread with
-# seed 0 (two at a time, so the runs are the same on any machine), exported
+# seed 0 (so the models are the same on any machine; two at a time), exported
 # to int8 (`nerf export --bits 8`) and, once every run has finished,
 # evaluated on the 10 validation views on one core (the fastest of three
 # renders per view) with early termination at 1e-3 and 1e-2, and at 1e-2
@@ -46,10 +46,13 @@ for ((i = 0; i < ${#names[@]}; i += 2)); do
   echo "== training ${names[*]:i:2}" >&2
   pids=()
   for n in "${names[@]:i:2}"; do
-    train "$n" &
+    (train "$n" || { echo "training $n failed:" >&2; cat "$work/$n.log" >&2; exit 1; }) &
     pids+=($!)
   done
-  for p in "${pids[@]}"; do wait "$p"; done
+  # both runs end before a failure stops the script (its scratch folder goes with it)
+  failed=0
+  for p in "${pids[@]}"; do wait "$p" || failed=1; done
+  [ "$failed" = 0 ]
 done
 for n in "${names[@]}"; do
   for render in "1e-3 192" "1e-2 192" "1e-2 160" "1e-2 144" "1e-2 128"; do

@@ -383,7 +383,8 @@ SECTIONS = [default_section, full_section, tradeoff_section, fast_int8_section, 
 
 
 def anchor(title):
-    return re.sub(r"[^a-z0-9 -]", "", title.lower()).replace(" ", "-")
+    """GitHub's id of a heading: lower case, letters (µ too), digits, spaces, hyphens and underscores kept."""
+    return re.sub(r"[^\w -]", "", title.lower()).replace(" ", "-")
 
 
 def readme_rows():

@@ -93,7 +93,8 @@ pub trait Compositor<T, S, D, C>: Copy + Default {
     /// The finished pixel.
     type Pixel;
     /// What one sample does to the transmittance, as [`Compositor::add_factor`]
-    /// takes it (f32: `α`; fixed point: `exp(−σδ)` in Q30), computed once
+    /// takes it (f32: `α` in `[0, 1]`; fixed point: `exp(−σδ)` in Q30,
+    /// `0..=T_ONE`), computed once
     /// per sample: the march works out where a block's ray stops, then adds
     /// the same samples with their colours.
     type Factor: Copy + Default;
@@ -130,9 +131,9 @@ impl Compositor<f32, f32, f32, [f32; 3]> for CompositorF32 {
         alpha_f32(sigma_raw, delta)
     }
 
-    /// Adds one sample of opacity `alpha` (colour clamped to `[0, 1]`, NaN
-    /// read as 0; `t` the sample's ray parameter) and returns its weight
-    /// `wᵢ` in `[0, 1]`.
+    /// Adds one sample of opacity `alpha` (in `[0, 1]`, as [`alpha_f32`]
+    /// gives it; colour clamped to `[0, 1]`, NaN read as 0; `t` the
+    /// sample's ray parameter) and returns its weight `wᵢ` in `[0, 1]`.
     #[inline]
     fn add_factor(&mut self, alpha: f32, rgb: [f32; 3], t: f32) -> f32 {
         let w = self.transmittance * alpha;
@@ -226,8 +227,9 @@ impl Compositor<i32, i32, i32, [u16; 3]> for CompositorFixed {
         survival_fixed(sigma_q10, delta_q16)
     }
 
-    /// Adds one sample that lets `survival` (Q30) through: colour in Q15,
-    /// `t` in Q16. Returns the weight in Q30.
+    /// Adds one sample that lets `survival` through (Q30, `0..=T_ONE`, as
+    /// [`survival_fixed`] gives it): colour in Q15, `t` in Q16. Returns the
+    /// weight in Q30.
     #[inline]
     fn add_factor(&mut self, survival: u32, rgb: [u16; 3], t_q16: i32) -> u32 {
         let e = survival as u64;

@@ -40,13 +40,17 @@ impl<'a> Occupancy<'a> {
         self.bits.get(i >> 3).is_some_and(|b| b >> (i & 7) & 1 != 0)
     }
 
-    /// Calls `f` with the coordinates `[x, y, z]` of every occupied cell,
-    /// in index order: the set bits found a byte at a time, the
-    /// coordinates stepped from the byte's first cell (divisions once per
-    /// non-zero byte, not per cell).
+    /// Calls `f` with the coordinates `[x, y, z]` (each in `0..res`) of
+    /// every occupied cell, in index order: the set bits found a byte at a
+    /// time, the coordinates stepped from the byte's first cell (divisions
+    /// once per non-zero byte, not per cell). Bits past the last cell are
+    /// ignored; a grid of `res` 0 has no cells.
     pub fn for_each_occupied(&self, mut f: impl FnMut([usize; 3])) {
         let r = self.res as usize;
         let n = r * r * r;
+        if n == 0 {
+            return;
+        }
         for (b, &byte) in self.bits.iter().enumerate() {
             // most bytes are 0: only the set bits cost anything
             if byte == 0 {
@@ -278,6 +282,8 @@ mod tests {
             assert_eq!(want.next(), None, "res {res}: {found} found");
             assert!(found > 0);
         }
+        // a grid without cells has nothing to find, whatever its bytes say
+        Occupancy { res: 0, bits: &[0xFF] }.for_each_occupied(|c| panic!("cell {c:?} in a grid of no cells"));
     }
 
     #[test]
