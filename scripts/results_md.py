@@ -89,6 +89,11 @@ def full_rows():
     return sorted(latest(rows("lego_full.csv"), "downscale"), key=lambda r: int(r["downscale"]))
 
 
+def fast_int8_rows():
+    """The latest docs/fast_int8.csv row of each configuration, steps and render."""
+    return latest(rows("fast_int8.csv"), "config", "steps", "early_stop", "coarse")
+
+
 def lego_size(r):
     """Lego's 800×800 photos at the row's downscale, as `N×N`."""
     n = 800 // int(r["downscale"])
@@ -160,7 +165,7 @@ about a trained model of that preset.""", t if rs else missing("int8-loss"))
 
 
 def fast_int8_section():
-    rs = latest(rows("fast_int8.csv"), "config", "steps", "early_stop", "coarse")
+    rs = fast_int8_rows()
     body = [[r["config"], thousands(r["steps"]), r["early_stop"], r["coarse"], f"**{r['psnr']}**", r["samples_per_ray"],
              f"**{r['us_per_ray']}**", thousands(r["bytes_int8"]), run(r)] for r in rs]
     t = table(["<configuration", "steps", "early termination", "samples per ray", "PSNR int8", "evaluated per ray",
@@ -407,8 +412,7 @@ def readme_rows():
         out.append((f"lego {lego_size(r)}, held-out views, the default after {r['minutes']} min",
                     f"{r['psnr_f32']} dB f32, {r['psnr_int8']} dB int8 ({r['us_int8']} µs per ray)",
                     "The default at full resolution"))
-    fast = [r for r in latest(rows("fast_int8.csv"), "config", "steps", "early_stop", "coarse")
-            if float(r["psnr"]) >= 32.0]
+    fast = [r for r in fast_int8_rows() if float(r["psnr"]) >= 32.0]
     if fast:
         r = min(fast, key=lambda r: float(r["us_per_ray"]))
         out.append((f"lego 100×100 int8, the fastest render at ≥ 32 dB ({r['config']}, {r['coarse']} samples, "

@@ -85,8 +85,9 @@ impl<'a> Occupancy<'a> {
 
     /// Number of occupied cells.
     pub fn occupied_cells(&self) -> usize {
-        let r = self.res as usize;
-        (0..r * r * r).filter(|&i| self.cell(i)).count()
+        let mut n = 0;
+        self.for_each_occupied(|_| n += 1);
+        n
     }
 
     /// Whether the cell holding normalised position `p` (f32, bounds ↦
