@@ -16,7 +16,7 @@ fn spec() -> SceneSpec {
 }
 
 fn opts(format: Format) -> LoadOptions {
-    LoadOptions { format, downscale: 1, holdout: 4, scene: SceneKind::Auto, lens: true, undistort: false }
+    LoadOptions { format, downscale: 1, holdout: 4, ..LoadOptions::default() }
 }
 
 #[test]
@@ -419,4 +419,77 @@ fn a_capture_all_around_trains_unbounded_and_both_paths_render_it() {
         let report = json(&["eval", s(m), "--data", s(&data), "--split", "val"]);
         assert!(report["psnr"].as_f64().unwrap().is_finite());
     }
+}
+
+#[test]
+fn llff_captures_are_fitted_as_colmap_ones() {
+    use nerf_train::dataset::colmap::colmap_views;
+    use nerf_train::dataset::synthetic::{write_llff, write_llff_room};
+    use nerf_train::dataset::write_poses_bounds;
+    let d = tmp("llff-fit");
+    // an inward 360° capture in LLFF's layout becomes unbounded, as its COLMAP twin
+    write_llff_room(&d.join("room_llff"), spec()).unwrap();
+    let room = load(&d.join("room_llff"), Split::Train, opts(Format::Auto)).unwrap();
+    assert!(room.scene.ndc.is_none() && room.scene.unbounded.is_some(), "{:?}", room.scene);
+    assert_eq!(room.capture.as_ref().unwrap().framing, nerf_infer::format::Framing::Unbounded);
+    assert!(room.ray_hit_fraction() > 0.99);
+    // a forward-facing one stays in NDC, and --scene applies to the layout
+    write_llff(&d.join("forward"), spec()).unwrap();
+    let fwd = load(&d.join("forward"), Split::Train, opts(Format::Auto)).unwrap();
+    assert!(fwd.scene.ndc.is_some() && fwd.scene.unbounded.is_none());
+    let forced = LoadOptions { scene: SceneKind::Forward, ..opts(Format::Auto) };
+    assert!(load(&d.join("room_llff"), Split::Train, forced).unwrap().scene.ndc.is_some());
+    let object = LoadOptions { scene: SceneKind::Object, ..opts(Format::Auto) };
+    let object = load(&d.join("room_llff"), Split::Train, object).unwrap().scene;
+    assert!(object.ndc.is_none() && object.unbounded.is_none());
+    // the COLMAP room written as LLFF (imgs2poses' bounds from the sparse points) gives the same cameras in the
+    // same fitted frame, and a near plane within a factor of two of the COLMAP fit's
+    write_colmap(&d.join("room"), spec(), ColmapText::Binary, true).unwrap();
+    let (views, points) = colmap_views(&d.join("room"), &d.join("room/sparse/0")).unwrap();
+    let conv = d.join("room_as_llff");
+    std::fs::create_dir_all(conv.join("images")).unwrap();
+    for v in &views {
+        std::fs::copy(&v.image, conv.join("images").join(v.image.file_name().unwrap())).unwrap();
+    }
+    write_poses_bounds(&conv, &views, &points).unwrap();
+    let a = load(&d.join("room"), Split::Test, opts(Format::Auto)).unwrap();
+    let b = load(&conv, Split::Test, opts(Format::Auto)).unwrap();
+    assert_eq!(a.views.len(), b.views.len());
+    for (u, v) in a.views.iter().zip(&b.views) {
+        assert_eq!(u.name, v.name);
+        let (p, q) = (u.camera.position, v.camera.position);
+        assert!((p - q).length() < 1e-4, "{}: {p} against {q}", u.name);
+    }
+    assert!(b.scene.unbounded.is_some());
+    let ratio = b.scene.near / a.scene.near;
+    assert!((0.5..2.0).contains(&ratio), "near {} against {}", b.scene.near, a.scene.near);
+}
+
+#[test]
+fn of_several_reconstructions_the_one_registering_the_most_images_loads() {
+    use nerf_train::dataset::colmap_io::{read_model, write_model_bin};
+    let d = tmp("colmap-models");
+    write_colmap(&d, spec(), ColmapText::Binary, true).unwrap();
+    // COLMAP's mapper numbers its models in no order of size: sparse/0 registers 3 of the 10 photos, sparse/1 all
+    let full = read_model(&d.join("sparse/0")).unwrap();
+    std::fs::create_dir_all(d.join("sparse/1")).unwrap();
+    write_model_bin(&d.join("sparse/1"), &full).unwrap();
+    let mut part = full.clone();
+    part.images.truncate(3);
+    write_model_bin(&d.join("sparse/0"), &part).unwrap();
+    let all = |o: LoadOptions| {
+        let (a, b) = (load(&d, Split::Train, o).unwrap(), load(&d, Split::Test, o).unwrap());
+        (a.views.len() + b.views.len(), a.notes)
+    };
+    let (n, notes) = all(opts(Format::Auto));
+    assert_eq!(n, 10);
+    let note = notes.iter().find(|n| n.contains("sparse/1")).expect("the choice is reported");
+    assert!(note.contains("(10; sparse/0: 3)") && note.contains("--sparse-model"), "{note}");
+    assert_eq!(all(LoadOptions { sparse_model: Some(0), ..opts(Format::Auto) }).0, 3);
+    let e = load(&d, Split::Train, LoadOptions { sparse_model: Some(5), ..opts(Format::Auto) }).unwrap_err();
+    let e = e.to_string();
+    assert!(e.contains("sparse/5") && e.contains("sparse/0, sparse/1"), "{e}");
+    // only a sparse/1 (sparse/0 deleted) is still a COLMAP capture
+    std::fs::remove_dir_all(d.join("sparse/0")).unwrap();
+    assert_eq!(all(opts(Format::Auto)).0, 10);
 }

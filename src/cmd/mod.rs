@@ -206,7 +206,7 @@ pub struct CaptureArgs {
     /// model: the one it was trained with].
     #[arg(long, value_name = "1..=100000", value_parser = num_in(1usize, 100_000))]
     pub llffhold: Option<usize>,
-    /// Scene treatment of COLMAP / instant-ngp captures: `auto` (from the cameras and points), `object` (a box
+    /// Scene treatment of LLFF, COLMAP and instant-ngp captures: `auto` (from the cameras and points), `object` (a box
     /// around what the cameras look at), `forward` (NDC, as LLFF), `unbounded` (bounds holding the object and
     /// the cameras, the surroundings in the space beyond them, contracted) [default: auto; with a model: the one it was trained
     /// with].
@@ -220,6 +220,10 @@ pub struct CaptureArgs {
     /// repeated, as COLMAP's image_undistorter) instead of bending its rays through the lens.
     #[arg(long, conflicts_with = "ignore_distortion")]
     pub undistort: bool,
+    /// COLMAP captures with several reconstructions (sparse/0, sparse/1, …): load sparse/N [default: the one
+    /// that registers the most images].
+    #[arg(long, value_name = "N")]
+    pub sparse_model: Option<u32>,
 }
 
 /// The hold-out `--llffhold` defaults to.
@@ -229,12 +233,13 @@ impl CaptureArgs {
     /// The flags as a run's checkpoint records them (`--resume` compares them).
     pub fn describe(&self) -> String {
         format!(
-            "--llffhold {} CaptureArgs {{ scene: {:?}, ignore_distortion: {}{} }}",
+            "--llffhold {} CaptureArgs {{ scene: {:?}, ignore_distortion: {}{}{} }}",
             self.llffhold.unwrap_or(DEFAULT_HOLDOUT),
             self.scene.unwrap_or_default(),
             self.ignore_distortion,
             // absent from runs made before the flag, so that they resume
-            if self.undistort { ", undistort: true" } else { "" }
+            if self.undistort { ", undistort: true" } else { "" },
+            self.sparse_model.map(|n| format!(", sparse_model: {n}")).unwrap_or_default()
         )
     }
 
@@ -312,6 +317,7 @@ pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs
         scene: capture.scene.unwrap_or_default().into(),
         lens: !capture.ignore_distortion,
         undistort: capture.undistort,
+        sparse_model: capture.sparse_model,
     };
     let data = dataset::load(dir, split, opts).map_err(|e| e.to_string())?;
     for n in &data.notes {

@@ -1,15 +1,15 @@
 //! `nerf scene`: writes the built-in scene as datasets.
 
 use super::{num_in, CmdResult};
-use nerf_train::dataset::synthetic::{write_blender, write_colmap, write_llff, ColmapText, SceneSpec};
+use nerf_train::dataset::synthetic::{write_blender, write_colmap, write_llff, write_llff_room, ColmapText, SceneSpec};
 use std::path::PathBuf;
 
 /// Arguments of `nerf scene`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Output directory; gets `blender/`, `llff/`, `colmap/` (binary model, JPEG, two cameras, one with
-    /// lens distortion), `colmap_text/` (the same as text) and `room/` (COLMAP, the scene inside a coloured
-    /// room: a 360° capture with a background).
+    /// lens distortion), `colmap_text/` (the same as text), `room/` (COLMAP, the scene inside a coloured
+    /// room: a 360° capture with a background) and `room_llff/` (a room capture in LLFF's layout).
     #[arg(long)]
     pub(crate) out: PathBuf,
     /// Image side in pixels.
@@ -35,6 +35,7 @@ pub fn run(a: Args) -> CmdResult {
     write_colmap(&a.out.join("colmap"), spec, ColmapText::Binary, false).map_err(|e| e.to_string())?;
     write_colmap(&a.out.join("colmap_text"), spec, ColmapText::Text, false).map_err(|e| e.to_string())?;
     write_colmap(&a.out.join("room"), spec, ColmapText::Binary, true).map_err(|e| e.to_string())?;
-    eprintln!("wrote {} (blender/, llff/, colmap/, colmap_text/, room/)", a.out.display());
+    write_llff_room(&a.out.join("room_llff"), spec).map_err(|e| e.to_string())?;
+    eprintln!("wrote {} (blender/, llff/, colmap/, colmap_text/, room/, room_llff/)", a.out.display());
     Ok(())
 }

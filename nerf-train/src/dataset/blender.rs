@@ -196,6 +196,7 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         lens: opts.lens,
         undistort: opts.undistort,
         white_background: t.white_background.unwrap_or(false),
+        nearest: None,
     };
     let mut data = if !select_all {
         build(&path, &views, &[], fixed, copts(Selection::Holdout(opts.holdout)))?

@@ -67,6 +67,10 @@ pub struct CaptureOptions {
     /// Composite photos with an alpha channel on white (and render the
     /// scene on white) instead of black.
     pub white_background: bool,
+    /// The nearest scene depth the capture's own files state (capture
+    /// units, > 0; LLFF's near bounds): a forward-facing capture is scaled
+    /// by it instead of by the sparse points' depths.
+    pub nearest: Option<f64>,
 }
 
 /// Builds the split `opts.split` of a capture. `all` holds every view in
@@ -95,7 +99,7 @@ pub fn build(
         None => {
             let f = fit_scene(&poses, points, opts.kind);
             if f.kind == SceneKind::Forward {
-                Frame::Forward(ForwardFrame::new(&poses, nearest_depth(&poses, points)))
+                Frame::Forward(ForwardFrame::new(&poses, opts.nearest.unwrap_or_else(|| nearest_depth(&poses, points))))
             } else {
                 Frame::Fitted(f)
             }

@@ -1,5 +1,6 @@
-//! COLMAP captures: `DIR/images/` and a sparse model in `DIR/sparse/0/`
-//! (or `DIR/sparse/`, or `DIR/`) as `.bin` or `.txt` ([`super::colmap_io`]).
+//! COLMAP captures: `DIR/images/` and a sparse model in `DIR/sparse/N/`
+//! (the one registering the most images, [`super::reconstructions`]), or
+//! `DIR/sparse/`, or `DIR/`, as `.bin` or `.txt` ([`super::colmap_io`]).
 //!
 //! Camera models: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV,
 //! FULL_OPENCV and OPENCV_FISHEYE (their distortion becomes the view's
@@ -12,8 +13,9 @@
 //! `[Rᵀx, −Rᵀy, −Rᵀz | −Rᵀt]`.
 
 use super::capture::{build, CaptureOptions, CaptureView, Intrinsics, Selection};
-use super::colmap_io::{find_model_dir, read_model, CameraModel, ColmapCamera, ColmapImage};
+use super::colmap_io::{read_model, CameraModel, ColmapCamera, ColmapImage};
 use super::lens::Lens;
+use super::reconstructions::choose_model;
 use super::types::{DataError, Dataset, LoadOptions, Split};
 use glam::{DMat3, DQuat, DVec3};
 use std::collections::{HashMap, HashSet};
@@ -76,11 +78,11 @@ pub fn image_pose(im: &ColmapImage) -> Option<(DMat3, DVec3)> {
     Some((DMat3::from_cols(rt.x_axis, -rt.y_axis, -rt.z_axis), centre))
 }
 
-/// Loads a COLMAP capture's split (see the module doc).
-pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, DataError> {
-    let model_dir = find_model_dir(dir)
-        .ok_or_else(|| DataError::new(dir, "no COLMAP model: expected sparse/0/ or sparse/ with cameras and images"))?;
-    let rec = read_model(&model_dir)?;
+/// The registered images of the COLMAP model in `model_dir` (a capture
+/// whose photos are in `dir/images/`) in name order, with their poses,
+/// intrinsics and lenses, and its sparse points (capture units).
+pub fn colmap_views(dir: &Path, model_dir: &Path) -> Result<(Vec<CaptureView>, Vec<DVec3>), DataError> {
+    let rec = read_model(model_dir)?;
     let cams: HashMap<u32, &ColmapCamera> = rec.cameras.iter().map(|c| (c.id, c)).collect();
     let img_dir = dir.join("images");
     if !img_dir.is_dir() {
@@ -91,12 +93,12 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
     let mut views = Vec::with_capacity(images.len());
     for im in &images {
         let what = format!("image {} ({})", im.id, im.name);
-        let cam = cams.get(&im.camera_id).ok_or_else(|| {
-            DataError::new(&model_dir, format!("{what}: camera {} is not in the model", im.camera_id))
-        })?;
+        let cam = cams
+            .get(&im.camera_id)
+            .ok_or_else(|| DataError::new(model_dir, format!("{what}: camera {} is not in the model", im.camera_id)))?;
         let (intrinsics, lens) =
-            camera_lens(cam).map_err(|e| DataError::new(&model_dir, format!("camera {}: {e}", cam.id)))?;
-        let pose = image_pose(im).ok_or_else(|| DataError::new(&model_dir, format!("{what}: invalid rotation")))?;
+            camera_lens(cam).map_err(|e| DataError::new(model_dir, format!("camera {}: {e}", cam.id)))?;
+        let pose = image_pose(im).ok_or_else(|| DataError::new(model_dir, format!("{what}: invalid rotation")))?;
         let image = img_dir.join(&im.name);
         if !image.is_file() {
             return Err(DataError::new(&image, format!("image not found (registered in {})", model_dir.display())));
@@ -104,6 +106,14 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         views.push(CaptureView { image, pose, intrinsics, lens });
     }
     let points: Vec<DVec3> = rec.points.iter().map(|p| DVec3::from(p.xyz)).collect();
+    Ok((views, points))
+}
+
+/// Loads a COLMAP capture's split (see the module doc).
+pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, DataError> {
+    let (model_dir, choice) = choose_model(dir, opts.sparse_model)?;
+    let (views, points) = colmap_views(dir, &model_dir)?;
+    let img_dir = dir.join("images");
     let copts = CaptureOptions {
         split,
         select: Selection::Holdout(opts.holdout),
@@ -112,17 +122,19 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         lens: opts.lens,
         undistort: opts.undistort,
         white_background: false,
+        nearest: None,
     };
     let mut data = build(&model_dir, &views, &points, None, copts)?;
-    let registered: HashSet<&str> = images.iter().map(|im| im.name.as_str()).collect();
+    let registered: HashSet<&std::ffi::OsStr> = views.iter().filter_map(|v| v.image.file_name()).collect();
     let unregistered = std::fs::read_dir(&img_dir)
         .map(|rd| {
             rd.filter_map(|e| e.ok())
                 .filter(|e| e.path().is_file())
-                .filter(|e| !registered.contains(e.file_name().to_string_lossy().as_ref()))
+                .filter(|e| !registered.contains(e.file_name().as_os_str()))
                 .count()
         })
         .unwrap_or(0);
+    data.notes.extend(choice);
     if unregistered > 0 {
         data.notes.push(format!("{}: {unregistered} images not registered by COLMAP, skipped", img_dir.display()));
     }

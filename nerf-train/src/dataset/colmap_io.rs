@@ -161,13 +161,6 @@ pub struct Reconstruction {
     pub points: Vec<ColmapPoint>,
 }
 
-/// The model folder of a capture: `dir/sparse/0`, `dir/sparse` or `dir`
-/// itself, the first that holds `cameras.bin` or `cameras.txt`.
-pub fn find_model_dir(dir: &Path) -> Option<PathBuf> {
-    let has = |d: &Path| d.join("cameras.bin").is_file() || d.join("cameras.txt").is_file();
-    [dir.join("sparse").join("0"), dir.join("sparse"), dir.to_path_buf()].into_iter().find(|d| has(d))
-}
-
 /// Reads the model in `model_dir`, each part from `.bin` if present, else
 /// `.txt`. Cameras and images are required; points are optional.
 pub fn read_model(model_dir: &Path) -> Result<Reconstruction, ParseError> {

@@ -12,6 +12,7 @@ mod image_io;
 pub mod lens;
 mod llff;
 mod npy;
+pub mod reconstructions;
 pub mod synthetic;
 mod types;
 
@@ -19,7 +20,7 @@ pub use blender::{load_blender, load_ngp};
 pub use fit::SceneKind;
 pub use image_io::{load_alpha, load_rgb, save_png_rgb};
 pub use lens::Lens;
-pub use llff::load_llff;
+pub use llff::{load_llff, write_poses_bounds};
 pub use npy::{parse_npy_f64, read_npy_f64, write_npy_f64};
 
 pub use types::{capture_record, rigid_pose, stem, DataError, Dataset, Format, LoadOptions, Split, View};
@@ -34,7 +35,7 @@ pub fn detect(dir: &Path) -> Result<Format, DataError> {
         Ok(Format::Llff)
     } else if dir.join("transforms.json").is_file() {
         Ok(Format::Ngp)
-    } else if colmap_io::find_model_dir(dir).is_some() {
+    } else if reconstructions::find_model_dir(dir).is_some() {
         Ok(Format::Colmap)
     } else if !dir.is_dir() {
         Err(DataError::new(dir, "no such directory"))
@@ -56,7 +57,7 @@ pub fn load(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, Data
         Format::Blender => load_blender(dir, split, opts.downscale),
         Format::Ngp => load_ngp(dir, split, opts),
         Format::Colmap => colmap::load_colmap(dir, split, opts),
-        Format::Llff => load_llff(dir, split, opts.downscale, opts.holdout),
+        Format::Llff => load_llff(dir, split, opts),
         Format::Auto => unreachable!("resolved above"),
     }
 }

@@ -260,11 +260,22 @@ pub struct LoadOptions {
     /// With `lens`: resample each distorted photo to a pinhole photo once at
     /// load instead of bending its rays.
     pub undistort: bool,
+    /// COLMAP: the reconstruction `sparse/N` to load (`None`: the one
+    /// registering the most images).
+    pub sparse_model: Option<u32>,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        Self { format: Format::Auto, downscale: 1, holdout: 8, scene: SceneKind::Auto, lens: true, undistort: false }
+        Self {
+            format: Format::Auto,
+            downscale: 1,
+            holdout: 8,
+            scene: SceneKind::Auto,
+            lens: true,
+            undistort: false,
+            sparse_model: None,
+        }
     }
 }
 
