@@ -49,6 +49,8 @@ enum Command {
     Web(cmd::web::Args),
     /// Generate the built-in scene as Blender, LLFF and COLMAP datasets (and a 360° capture with a background).
     Scene(cmd::scene::Args),
+    /// From a folder of photos (or a video) to a capture `nerf train` reads: COLMAP run on the CPU, headless.
+    Capture(cmd::capture::Args),
     /// The whole path on the built-in scene in a few minutes.
     Demo(cmd::demo::Args),
 }
@@ -82,6 +84,7 @@ fn dispatch(command: Command) -> cmd::CmdResult {
         Command::Web(a) => cmd::web::run(a),
         Command::Fit(a) => cmd::fit::run(a),
         Command::Scene(a) => cmd::scene::run(a),
+        Command::Capture(a) => cmd::capture::run(a),
         Command::Demo(a) => cmd::demo::run(a),
     }
 }
