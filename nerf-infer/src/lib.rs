@@ -104,6 +104,7 @@ pub mod layer;
 pub mod limits;
 pub mod network;
 pub mod occupancy;
+pub mod proposal;
 pub mod render;
 pub mod sampling;
 pub mod tensor;

@@ -3,8 +3,10 @@
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
-/// The newest format version this build reads and writes (it reads 1 to 9 too).
-pub const FORMAT_VERSION: u16 = 10;
+/// The newest format version this build reads and writes (it reads 1 to 10 too).
+pub const FORMAT_VERSION: u16 = 11;
+/// The version of models without a proposal grid.
+pub const FORMAT_VERSION_NO_PROPOSAL: u16 = 10;
 /// The version of models without a pixel footprint.
 pub const FORMAT_VERSION_NO_FOOTPRINT: u16 = 9;
 /// The version of models without a fitted orbit.

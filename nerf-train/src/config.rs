@@ -124,6 +124,21 @@ pub struct TrainConfig {
     /// run averages its last tenth or so, a long one its last `1/(1 − β)`
     /// steps.
     pub ema_decay: f32,
+    /// Cells per axis (`0..=128`; 0: none) of the proposal grid that places
+    /// the network's samples ([`crate::proposal`]): `n_coarse` stratified
+    /// samples composite it, and the network is evaluated at `n_main`
+    /// samples drawn from its weights and the last stratified one (minus
+    /// those in empty occupancy cells). `nerf train` turns it on at
+    /// [`Self::PROPOSAL_RES`] for unbounded and forward-facing scenes
+    /// unless the configuration names it; object scenes keep the
+    /// occupancy grid's stratified samples.
+    pub proposal_res: u16,
+    /// With a proposal grid: the network's samples per ray drawn from its
+    /// weights (`1..=255`), besides the last stratified one.
+    pub n_main: u16,
+    /// With a proposal grid: the learning rate of its log-densities (Adam,
+    /// decaying as `lr` does).
+    pub proposal_lr: f32,
 }
 
 impl Default for TrainConfig {
@@ -172,6 +187,9 @@ impl TrainConfig {
             footprint: false,
             footprint_from: 0.0,
             ema_decay: 0.0,
+            proposal_res: 0,
+            n_main: 48,
+            proposal_lr: 0.05,
         }
     }
 
@@ -370,8 +388,13 @@ impl TrainConfig {
 
     /// Default sample counts recorded in the model.
     pub fn samples(&self) -> Samples {
-        Samples { coarse: self.n_coarse, fine: self.n_fine }
+        let fine = if self.proposal_res > 0 { self.n_main } else { self.n_fine };
+        Samples { coarse: self.n_coarse, fine }
     }
+
+    /// The proposal grid's cells per axis that `nerf train` gives unbounded
+    /// and forward-facing scenes ([`Self::proposal_res`]).
+    pub const PROPOSAL_RES: u16 = 64;
 
     /// Checks ranges; the message names the offending field.
     pub fn validate(&self) -> Result<(), String> {
@@ -391,6 +414,17 @@ impl TrainConfig {
         let most = nerf_infer::format::max_coarse(self.n_fine as usize);
         if !(2..=most).contains(&(self.n_coarse as usize)) || self.n_fine as usize > nerf_infer::format::MAX_FINE {
             return Err("n_coarse must be 2..=1024 (2..=256 with n_fine) and n_fine at most 256".into());
+        }
+        if self.proposal_res > 0 {
+            if self.proposal_res > nerf_infer::proposal::MAX_PROPOSAL_RES || self.n_fine > 0 {
+                return Err("proposal_res must be 0..=128, and 0 with n_fine".into());
+            }
+            if !(1..=255).contains(&self.n_main) || !(3..=256).contains(&self.n_coarse) {
+                return Err("with a proposal grid, n_main must be 1..=255 and n_coarse 3..=256".into());
+            }
+            if !(self.proposal_lr.is_finite() && self.proposal_lr > 0.0) {
+                return Err(format!("proposal_lr {} must be a finite rate > 0", self.proposal_lr));
+            }
         }
         if self.batch_rays == 0 || self.chunk_rays == 0 {
             return Err("batch_rays and chunk_rays must be positive".into());

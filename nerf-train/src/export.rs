@@ -151,6 +151,9 @@ pub struct OwnedModel {
     /// Features averaged over each sample's pixel footprint (format
     /// version 10).
     pub footprint: Option<format::Footprint>,
+    /// The proposal grid (format version 11): its shape and scale
+    /// (`codes` empty) and the codes.
+    pub proposal: Option<(format::Proposal<'static>, Vec<u8>)>,
 }
 
 /// `shape` with `table` as its table (i16 or f32 values; no codebook).
@@ -214,6 +217,7 @@ impl OwnedModel {
             }),
             orbit: self.orbit,
             footprint: self.footprint,
+            proposal: self.proposal.as_ref().map(|(p, codes)| format::Proposal { codes, ..*p }),
         };
         format::to_bytes(&m)
     }
@@ -234,6 +238,7 @@ impl OwnedModel {
             narrow: m.narrow.map(|n| (n.bits, n.codebook.to_vec())),
             orbit: m.orbit,
             footprint: m.footprint,
+            proposal: m.proposal.map(|p| (format::Proposal { codes: &[], ..p }, p.codes.to_vec())),
         }
     }
 }
@@ -308,6 +313,10 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         narrow: None,
         orbit: None,
         footprint: tr.footprint().filter(|_| tr.scene.ndc.is_none()),
+        proposal: tr.proposal.as_ref().map(|g| {
+            let (log_min, log_step, codes) = g.codes();
+            (format::Proposal { res: g.res, log_min, log_step, codes: &[] }, codes)
+        }),
     }
 }
 

@@ -16,6 +16,7 @@ use crate::config::TrainConfig;
 use crate::dataset::Dataset;
 use crate::grid::DensityGrid;
 use crate::mlp::{Acts, GridGrad, Mlp};
+use crate::proposal::{ProposalGrid, RayProposal};
 use crate::rng::Rng;
 use crate::timing::{timed, StepTimes};
 use crate::volume::{
@@ -47,7 +48,7 @@ pub struct StepStats {
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 10;
+pub const CHECKPOINT_VERSION: u16 = 11;
 
 /// The density (1/world units, the fitted scene's) an unbounded scene's network starts with,
 /// the same at every point ([`Mlp::init_uniform_density`]). A ray there
@@ -127,6 +128,9 @@ pub struct Trainer {
     /// (as long as they, from the first step that updates them), which the model takes
     /// ([`Trainer::averaged`]); empty otherwise.
     pub ema: Vec<f32>,
+    /// The proposal grid placing the network's samples (runs with
+    /// `proposal_res > 0`).
+    pub proposal: Option<ProposalGrid>,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
@@ -136,7 +140,11 @@ pub struct Trainer {
 /// step to step: a feature grid's table makes each gradient megabytes, a
 /// chunk's corners hundreds of kilobytes, and fresh ones cost page faults.
 #[derive(Default)]
-struct GradPool(std::sync::Mutex<Vec<Vec<f32>>>, std::sync::Mutex<Vec<GridGrad>>);
+struct GradPool(std::sync::Mutex<Vec<Vec<f32>>>, std::sync::Mutex<Vec<GridGrad>>, std::sync::Mutex<PropGrads>);
+
+/// Each chunk's proposal-grid gradient, (cell, value) pairs, under the
+/// chunk's key (summed in key order: the same sum whatever the threads).
+type PropGrads = Vec<(u32, Vec<(u32, f32)>)>;
 
 impl Clone for GradPool {
     fn clone(&self) -> Self {
@@ -200,6 +208,10 @@ struct Workspace {
     cdf: Vec<f32>,
     acts_c: Acts,
     acts_f: Acts,
+    /// Each kept sample's index among its ray's samples (as `delta`).
+    kept: Vec<u32>,
+    /// Each ray's proposal (runs with a proposal grid).
+    props: Vec<RayProposal>,
     dsig: Vec<f32>,
     drgb: Vec<f32>,
 }
@@ -340,6 +352,7 @@ impl Trainer {
         }
         let adam = Adam::new(params.len(), table_values(&net, params.len()));
         let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
+        let proposal = (cfg.proposal_res > 0).then(|| ProposalGrid::new(cfg.proposal_res, UNBOUNDED_SIGMA_INIT));
         Self {
             cfg,
             scene,
@@ -354,7 +367,18 @@ impl Trainer {
             data: String::new(),
             pixel: 0.0,
             ema: Vec::new(),
+            proposal,
             pool: GradPool::default(),
+        }
+    }
+
+    /// The network's samples per ray before the occupancy grid's skipping:
+    /// `n_main` drawn from the proposal grid and its last stratified one,
+    /// else `n_coarse` stratified.
+    fn main_samples(&self) -> usize {
+        match self.proposal {
+            Some(_) => self.cfg.n_main as usize + 1,
+            None => self.cfg.n_coarse as usize,
         }
     }
 
@@ -473,6 +497,11 @@ impl Trainer {
                 let b = c.ema_decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
                 timed(&mut stats.times.adam, || average_into(&mut self.ema, p, b));
             }
+            let lr_p = c.proposal_lr * lr / c.lr;
+            timed(&mut stats.times.adam, || self.step_proposal(lr_p));
+        }
+        if let Ok(mut g) = self.pool.2.lock() {
+            g.clear();
         }
         self.pool.give(grad);
         self.step += 1;
@@ -548,6 +577,42 @@ impl Trainer {
         (grad, sq_c, sq_f, samples)
     }
 
+    /// One Adam step of the proposal grid (if the run has one) on the
+    /// chunks' gradients of the step, at learning rate `lr`.
+    fn step_proposal(&mut self, lr: f32) {
+        let Some(pg) = self.proposal.as_mut() else { return };
+        let mut chunks = self.pool.2.lock().map(|mut g| std::mem::take(&mut *g)).unwrap_or_default();
+        chunks.sort_unstable_by_key(|(key, _)| *key);
+        let mut grad = vec![0.0f32; pg.log_sigma.len()];
+        for (c, g) in chunks.iter().flat_map(|(_, list)| list) {
+            grad[*c as usize] += g;
+        }
+        if grad.iter().all(|g| g.is_finite()) {
+            let c = &self.cfg;
+            pg.step(&grad, lr, c.beta1, c.beta2, c.eps);
+        }
+    }
+
+    /// The interlevel loss's gradient of a chunk's rays, whose network
+    /// samples (`ws.t_c`, `main_samples` per ray, those kept in
+    /// `ws.kept`) got the weights `ws.w_c`: kept under the chunk's `key`
+    /// for [`Trainer::step_proposal`].
+    fn proposal_backward(&self, pg: &ProposalGrid, n_rays: usize, key: u32, scale: f32, ws: &Workspace) {
+        let nm = self.main_samples();
+        let mut list = Vec::new();
+        let mut w = vec![0.0f32; nm];
+        for i in 0..n_rays {
+            w.fill(0.0);
+            for s in ws.offs[i]..ws.offs[i + 1] {
+                w[ws.kept[s] as usize] = ws.w_c[s];
+            }
+            pg.backward(&ws.props[i], &ws.t_c[i * nm..(i + 1) * nm], &w, scale, &mut list);
+        }
+        if let Ok(mut g) = self.pool.2.lock() {
+            g.push((key, list));
+        }
+    }
+
     /// Density σ threshold of the grid: the density at which a sample of
     /// the default step (bounds diagonal / `n_coarse`, world units) has
     /// opacity `grid_alpha`.
@@ -603,7 +668,7 @@ impl Trainer {
     /// per ray) and `pos`, `delta`, `offs`, `dirs` (per kept sample with a
     /// grid, per ray without).
     fn coarse_samples(&self, rays: &[Sample], key: impl Fn(usize) -> u32, ws: &mut Workspace) {
-        let nc = self.cfg.n_coarse as usize;
+        let nc = self.main_samples();
         let intervals = self.cfg.distortion > 0.0;
         let grid = self.grid.as_ref().map(|g| g.view());
         ws.t_c.resize(rays.len() * nc, 0.0);
@@ -615,14 +680,22 @@ impl Trainer {
         ws.s_width.clear();
         ws.offs.clear();
         ws.offs.push(0);
+        ws.kept.clear();
+        if self.proposal.is_some() {
+            ws.props.resize_with(rays.len(), Default::default);
+        }
         // with footprints, every sample has its K points (a ray without one: its sample K times)
         const K: usize = nerf_infer::camera::FOOTPRINT_POINTS;
         let any_foot = rays.iter().any(|s| s.ray.foot.is_some());
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let t = &mut ws.t_c[i * nc..(i + 1) * nc];
-            ray.stratified(Some(key(i)), t);
+            match &self.proposal {
+                Some(pg) => pg.place(ray, key(i), self.cfg.n_coarse as usize, t, &mut ws.props[i]),
+                None => ray.stratified(Some(key(i)), t),
+            }
             match grid {
                 None => {
+                    ws.kept.extend(0..nc as u32);
                     for &ti in t.iter() {
                         let p = ray.at(ti).to_array();
                         ws.pos.push(p);
@@ -640,6 +713,7 @@ impl Trainer {
                     for j in 0..nc {
                         let p = ray.at(t[j]).to_array();
                         if g.at_f32(p) {
+                            ws.kept.push(j as u32);
                             ws.pos.push(p);
                             if any_foot {
                                 ws.foot.extend(ray.foot_at(t[j]).unwrap_or([p; K]));
@@ -692,6 +766,10 @@ impl Trainer {
             let (w, dw) = (&mut ws.w_c, &mut ws.dw);
             loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, priors, w, dw, &mut ws.dsig, &mut ws.drgb)
         });
+        if let Some(pg) = &self.proposal {
+            // the interlevel loss, a mean over the batch's rays as the colour loss is
+            timed(&mut t.composite, || self.proposal_backward(pg, r, key, 1.5 * scale, ws));
+        }
         let mut grid = None;
         if n_c > 0 && net.features.is_some() {
             timed(&mut t.backward, || net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
@@ -848,8 +926,16 @@ impl Trainer {
             None => t.cfg.grid_res == 0,
             Some(g) => g.res == t.cfg.grid_res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
         };
+        let proposal_ok = match &t.proposal {
+            None => t.cfg.proposal_res == 0,
+            Some(p) => {
+                let n = (p.res as usize).pow(3);
+                p.res == t.cfg.proposal_res && p.log_sigma.len() == n && p.adam.m.len() == n && p.adam.steps.len() == n
+            }
+        };
         let nets = if t.cfg.n_fine > 0 { 2 } else { 1 };
-        let sizes_ok = t.cfg.validate().is_ok()
+        let sizes_ok = proposal_ok
+            && t.cfg.validate().is_ok()
             && t.pixel.is_finite()
             && t.pixel >= 0.0
             && t.params.len() == t.mlp().n_params * nets

@@ -109,6 +109,10 @@ struct NewRun {
     /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]):
     /// unless `--config` names `n_coarse`.
     fit_samples: bool,
+    /// Place the network's samples with a proposal grid in unbounded and
+    /// forward-facing scenes ([`TrainConfig::proposal_res`]): unless
+    /// `--config` names `proposal_res`.
+    fit_proposal: bool,
 }
 
 impl NewRun {
@@ -117,6 +121,11 @@ impl NewRun {
     /// samples per ray set for them.
     fn for_data(&self, data: &Dataset) -> TrainConfig {
         let mut cfg = self.cfg.clone();
+        let open = data.scene.unbounded.is_some() || data.scene.ndc.is_some();
+        // one network over an occupancy grid: the presets whose stratified samples the proposal replaces
+        if self.fit_proposal && open && cfg.proposal_res == 0 && cfg.n_fine == 0 && cfg.grid_res > 0 {
+            cfg.proposal_res = TrainConfig::PROPOSAL_RES;
+        }
         if let Some(cells) = data.resolvable_cells() {
             if self.fit_features {
                 cfg.fit_features_to(cells);
@@ -135,7 +144,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
             .ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, features, paper)"))?,
         None => TrainConfig::default_preset(),
     };
-    let (mut fit_features, mut fit_samples) = (true, true);
+    let (mut fit_features, mut fit_samples, mut fit_proposal) = (true, true, true);
     let cfg = match &a.config {
         None => base,
         Some(path) => {
@@ -147,6 +156,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
             };
             fit_features = !over.contains_key("feature_max_res") && !over.contains_key("feature_log2_table");
             fit_samples = !over.contains_key("n_coarse");
+            fit_proposal = !over.contains_key("proposal_res");
             // the preset's fields, then the file's on top of them
             let mut merged = serde_json::to_value(&base).map_err(|e| bad(&e))?;
             if let Some(m) = merged.as_object_mut() {
@@ -156,7 +166,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
         }
     };
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    Ok(NewRun { cfg, fit_features, fit_samples })
+    Ok(NewRun { cfg, fit_features, fit_samples, fit_proposal })
 }
 
 /// The validation views, or none if the dataset has no such split.
@@ -290,7 +300,7 @@ pub fn run(a: Args) -> CmdResult {
 /// `--preset` and `--config`).
 pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    let run = NewRun { cfg, fit_features: false, fit_samples: false };
+    let run = NewRun { cfg, fit_features: false, fit_samples: false, fit_proposal: true };
     with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
 
@@ -328,6 +338,16 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
                 "feature grid sized to the photos: finest level {} cells per axis (was {}), 2^{} table entries per \
                  level (was 2^{}); set feature_max_res or feature_log2_table with --config to choose",
                 cfg.feature_max_res, run.cfg.feature_max_res, cfg.feature_log2_table, run.cfg.feature_log2_table
+            );
+        }
+        if cfg.proposal_res != run.cfg.proposal_res {
+            eprintln!(
+                "{} scene: the network's {} samples per ray placed by a {}³ proposal grid; set proposal_res 0 with \
+                 --config for the occupancy grid's {} stratified samples",
+                if data.scene.ndc.is_some() { "forward-facing" } else { "unbounded" },
+                cfg.n_main,
+                cfg.proposal_res,
+                cfg.n_coarse
             );
         }
         if cfg.n_coarse != run.cfg.n_coarse {

@@ -47,13 +47,14 @@ pub use records::{
 use crate::error::{Error, Result};
 pub use crate::features::{FeatureGrid, NarrowTable};
 pub use crate::occupancy::Occupancy;
+pub use crate::proposal::Proposal;
 use serde::{Deserialize, Serialize};
 
 pub use crate::limits::{
     max_coarse, FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_DENSITY16, FORMAT_VERSION_NO_FEATURES,
     FORMAT_VERSION_NO_FOOTPRINT, FORMAT_VERSION_NO_GRID, FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_ORBIT,
-    FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS,
-    MAX_INPUT, MAX_LAYERS, MAX_MARCH, MAX_WIDTH,
+    FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_PROPOSAL, FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE,
+    MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_MARCH, MAX_WIDTH,
 };
 pub use crate::tensor::{read_f32, read_i16, read_i32};
 
@@ -108,6 +109,12 @@ pub struct Model<'a> {
     /// Features averaged over each sample's pixel footprint (format
     /// version 10).
     pub footprint: Option<Footprint>,
+    /// The proposal grid that places the network's samples (format
+    /// version 11; [`crate::proposal`]): `samples.coarse` stratified
+    /// samples composite it, and the network is evaluated at
+    /// `samples.fine` samples drawn from its weights and the last stratified one.
+    #[serde(borrow)]
+    pub proposal: Option<Proposal<'a>>,
 }
 
 impl<'a> Model<'a> {
@@ -184,14 +191,16 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 10 with a pixel
-    /// footprint, 9 with a fitted orbit,
+    /// The format version this model is written as: 11 with a proposal
+    /// grid, 10 with a pixel footprint, 9 with a fitted orbit,
     /// 8 with 16-bit density heads, 7 with a narrow feature table, 6 with 16-bit parts, 5 with
     /// unbounded space, 4 with a capture record, 3 with a feature grid, 2
     /// with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.footprint.is_some() {
+        if self.proposal.is_some() {
             FORMAT_VERSION
+        } else if self.footprint.is_some() {
+            FORMAT_VERSION_NO_PROPOSAL
         } else if self.orbit.is_some() {
             FORMAT_VERSION_NO_FOOTPRINT
         } else if self.precise_density.is_some() {

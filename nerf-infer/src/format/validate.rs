@@ -63,7 +63,15 @@ impl Model<'_> {
         if sm.coarse < 2 || sm.coarse as usize > max_coarse(sm.fine as usize) || sm.fine as usize > MAX_FINE {
             return Err(Error::InvalidSamples);
         }
-        if (sm.fine > 0) != self.fine.is_some() {
+        if self.proposal.is_some() {
+            // the importance samples and the last stratified one share the fine buffer
+            if self.fine.is_some() || sm.fine == 0 || sm.fine as usize >= MAX_FINE {
+                return Err(Error::InvalidTopology("a proposal grid needs 1..=255 samples and no fine network"));
+            }
+            if !self.proposal.is_some_and(|p| p.is_valid()) {
+                return Err(Error::InvalidTopology("proposal grid resolution, length or density scale"));
+            }
+        } else if (sm.fine > 0) != self.fine.is_some() {
             return Err(Error::InvalidTopology("fine samples without a fine network or vice versa"));
         }
         if self.grid.is_some_and(|g| !g.is_valid()) {

@@ -10,10 +10,13 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
     /// Stratified samples for the coarse pass (2..=256 with a fine pass,
-    /// 2..=1024 without).
+    /// 2..=1024 without); with a proposal grid, the samples that composite
+    /// it ([`crate::proposal`]).
     pub coarse: usize,
     /// Importance samples for the fine pass (0..=256; 0 renders the coarse
-    /// network only; must be 0 if the model has no fine network).
+    /// network only; must be 0 if the model has neither a fine network nor
+    /// a proposal grid); with a proposal grid, the network's samples drawn
+    /// from its weights (0..=255; 0: the network at the stratified samples).
     pub fine: usize,
     /// Early ray termination: a sample met with transmittance below this is
     /// not composited, nor any after it (in `[0, 1)`; 0 disables). Decided
@@ -31,7 +34,11 @@ impl RenderOptions {
     }
 
     pub(super) fn validate(&self, model: &Model<'_>) -> Result<()> {
-        let fine_ok = self.fine <= MAX_FINE && (self.fine == 0 || model.fine.is_some());
+        // with a proposal grid the importance samples and the last stratified one share the fine buffer
+        let fine_ok = match model.proposal {
+            Some(_) => self.fine < MAX_FINE,
+            None => self.fine <= MAX_FINE && (self.fine == 0 || model.fine.is_some()),
+        };
         let stop_ok = self.early_stop.is_finite() && (0.0..1.0).contains(&self.early_stop);
         if !(2..=max_coarse(self.fine)).contains(&self.coarse) || !fine_ok || !stop_ok {
             return Err(Error::InvalidSamples);

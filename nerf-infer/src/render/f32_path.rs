@@ -12,6 +12,7 @@ use crate::error::{Error, Result};
 use crate::format::{Model, Scheme};
 use crate::network::F32;
 use crate::occupancy::{CoarseOccupancy, Occupancy};
+use crate::proposal::Proposal;
 use crate::sampling::sample_pdf_f32;
 
 impl NumericPath for F32 {
@@ -58,6 +59,15 @@ impl NumericPath for F32 {
     #[inline(always)]
     fn cell(grid: &Occupancy<'_>, p: [f32; 3]) -> [usize; 3] {
         grid.cell_f32(p)
+    }
+
+    fn sigma(s: f32) -> f32 {
+        s
+    }
+
+    #[inline(always)]
+    fn proposal_code(g: &Proposal<'_>, p: [f32; 3]) -> u8 {
+        g.code_f32(p)
     }
 
     #[inline(always)]

@@ -16,6 +16,7 @@ use crate::fixed::{sat_i32, shr_round_i64, to_fixed, POS_FRAC, T_ONE};
 use crate::format::{Model, Scheme};
 use crate::network::{check_i8_headroom, Fixed, W16, W8};
 use crate::occupancy::{CoarseOccupancy, Occupancy};
+use crate::proposal::Proposal;
 use crate::sampling::{sample_pdf_fixed, stratified_fixed, stratified_fixed_from};
 use crate::unbounded::{contract_q24, s_of_t_q30, t_of_s_q16};
 use glam::Vec3;
@@ -136,6 +137,16 @@ impl NumericPath for Fixed {
     #[inline(always)]
     fn cell(grid: &Occupancy<'_>, p: [i32; 3]) -> [usize; 3] {
         grid.cell_fixed(p, NPOS_FRAC)
+    }
+
+    fn sigma(s: f32) -> i32 {
+        // at most 1e6 · 2^10 < 2^31
+        libm::roundf(s.clamp(0.0, crate::proposal::MAX_PROPOSAL_SIGMA) * 1024.0) as i32
+    }
+
+    #[inline(always)]
+    fn proposal_code(g: &Proposal<'_>, p: [i32; 3]) -> u8 {
+        g.code_fixed(p, NPOS_FRAC)
     }
 
     #[inline(always)]

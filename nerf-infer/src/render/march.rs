@@ -1,7 +1,8 @@
 //! The march, written once for every numeric path: stratified samples,
 //! empty-space skipping, blocks of samples through the network, the
 //! quadrature front to back with early termination, and (with a fine
-//! network) a second pass over coarse + importance samples.
+//! network) a second pass over coarse + importance samples, or (with a
+//! proposal grid) one pass over samples drawn from the grid's weights.
 
 use super::path::NumericPath;
 use super::renderer::Renderer;
@@ -23,6 +24,41 @@ fn fine_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
     }
 }
 
+/// CDF level of the network's sample `j` of `n` drawn from a proposal
+/// grid's weights, Q16 in `(0, 65536)`: the middle of stratum `j`
+/// without jitter, a random point of it with.
+#[inline]
+fn main_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
+    let offset = match key {
+        None => 32768,
+        Some(k) => jitter_q16(k ^ 0x5EED_0B1D, j) as u64,
+    };
+    ((j as u64 * 65536 + offset) / n as u64) as u32
+}
+
+/// The proposal grid `g` composited along `ray` at the samples `t`: writes
+/// each sample's weight to `w` (its density from the code's entry of
+/// `sigma`; 0 once the transmittance is below the early-termination
+/// threshold, as the network's pass stops there).
+fn propose<P: NumericPath>(
+    r: &Renderer<'_, '_, P>,
+    g: &crate::proposal::Proposal<'_>,
+    sigma: &[P::Sigma; 256],
+    ray: &P::Ray,
+    t: &[P::T],
+    w: &mut [P::W],
+) {
+    let mut comp = P::Compositor::default();
+    for i in 0..t.len() {
+        if comp.transmittance() < r.early_stop {
+            w[i..].fill(P::W::default());
+            return;
+        }
+        let s = sigma[P::proposal_code(g, P::at(ray, t[i])) as usize];
+        w[i] = comp.add_factor(P::Compositor::factor(s, P::delta(ray, t, i)), P::Rgb::default(), t[i]);
+    }
+}
+
 /// Renders `ray` (already known to meet the scene) with kernel `K`: the
 /// coarse pass, then the fine pass if the options ask for one.
 pub(super) fn render<P: NumericPath, K: LayerKernel<P>, const B: usize>(
@@ -39,6 +75,17 @@ pub(super) fn render<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     let pr = P::ray(ray);
     let nc = r.opts.coarse;
     let Scratch { t, w_coarse, cdf, block, evaluations } = s;
+    if let (Some(sigma), Some(g)) = (&r.proposal, &m.proposal) {
+        // the proposal grid composited at the stratified samples, the network at samples drawn from its
+        // weights and at the last stratified sample (the interval out to the far plane)
+        let TwoPass { coarse: t_coarse, fine: t_main, .. } = two_pass(t);
+        let (t_p, w_p, nm) = (&mut t_coarse[..nc], &mut w_coarse[..nc], r.opts.fine);
+        P::samples(&pr, key, t_p);
+        propose::<P>(r, g, sigma, &pr, t_p, w_p);
+        P::sample_pdf(t_p, w_p, |j| main_u_q16(j, nm, key), cdf, &mut t_main[..nm]);
+        t_main[nm] = t_p[nc - 1];
+        return pass::<P, K, B>(r, &m.coarse, &pr, &t_main[..=nm], span, true, block, None, evaluations);
+    }
     let fine = if r.opts.fine > 0 { m.fine.as_ref() } else { None };
     let Some(fine_net) = fine else {
         // one pass: only the samples around the span are generated

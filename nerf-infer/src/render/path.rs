@@ -14,6 +14,7 @@ use crate::error::Result;
 use crate::format::Model;
 use crate::network::Numbers;
 use crate::occupancy::{CoarseOccupancy, Occupancy};
+use crate::proposal::Proposal;
 use core::fmt::Debug;
 
 /// A numeric path: the formats the march works in and its per-sample
@@ -51,6 +52,11 @@ pub trait NumericPath: Numbers + Debug {
     fn foot_at(ray: &Self::Ray, t: Self::T) -> Option<[Self::Pos; FOOTPRINT_POINTS]>;
     /// The grid cell holding `p`.
     fn cell(grid: &Occupancy<'_>, p: Self::Pos) -> [usize; 3];
+    /// A density (1/world units, `0..=`[`crate::proposal::MAX_PROPOSAL_SIGMA`])
+    /// in the network's density format (f32; Q10 rounded to nearest).
+    fn sigma(s: f32) -> Self::Sigma;
+    /// The code of the proposal grid's cell holding `p`.
+    fn proposal_code(g: &Proposal<'_>, p: Self::Pos) -> u8;
     /// Whether the grid cell holding `p` is occupied.
     fn occupied(grid: &Occupancy<'_>, p: Self::Pos) -> bool;
     /// How many samples of `t` the coarse occupancy level can rule out

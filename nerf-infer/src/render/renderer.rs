@@ -56,6 +56,9 @@ pub struct Renderer<'m, 'a, P: NumericPath> {
     /// [`crate::format::Footprint::pixel`] unless [`Renderer::with_pixel`]
     /// says otherwise; `None` for a model without a footprint.
     pixel: Option<f32>,
+    /// The density of each proposal code in the path's format, for a
+    /// model with a proposal grid rendered with importance samples.
+    pub(super) proposal: Option<[P::Sigma; 256]>,
 }
 
 impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
@@ -74,6 +77,10 @@ impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
             occ_box: occ_box(model),
             coarse: coarse_level(model),
             pixel: model.footprint.map(|f| f.pixel),
+            proposal: model
+                .proposal
+                .filter(|_| opts.fine > 0)
+                .map(|g| core::array::from_fn(|k| P::sigma(g.sigma_of(k as u8)))),
         })
     }
 
