@@ -41,9 +41,9 @@ print(f"{stamp},{name},{treatment},{minutes},{steps},{ms:.1f},{f['psnr']:.2f},{q
 PY
   tail -1 "$out_csv" >&2
 }
-run lego default "$root/lego" 8
 run bird default "$root/bird" 8
 run fox default "$root/fox" 8
+run lego default "$root/lego" 8
 run room default "$work/scene/room" 1
 run room-on-black "object" "$work/scene/colmap" 1 --scene object
 if [ "${BASELINE:-0}" = 1 ]; then
