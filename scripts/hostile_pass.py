@@ -270,6 +270,135 @@ def build_cases(work):
     for extra in ([], ["--resume", "--downscale", "2"], ["--resume", "--preset", "grid"], ["--resume", "--iters", "1"]):
         args = ["train", "--data", blender, "--val-views", "0", "--out", run] + (["--iters", "3"] if "--iters" not in extra else []) + extra
         cases.append(("runs into a folder that holds a run", args, [run, blender]))
+    cases.append(("runs into a folder that holds a run", ["fit", "--data", blender, "--target-psnr", "20",
+                                                          "--minutes", "0.01", "--out", run], [run, blender]))
+    cases += capture_cases(work, scene, run)
+    return cases
+
+
+def jpeg_claiming(src, dst, side):
+    """A copy of the JPEG `src` whose frame header says `side` x `side` pixels."""
+    b = bytearray(open(src, "rb").read())
+    for marker in (b"\xff\xc0", b"\xff\xc2"):
+        i = b.find(marker)
+        if i >= 0:
+            b[i + 5:i + 9] = side.to_bytes(2, "big") * 2
+            break
+    open(dst, "wb").write(bytes(b))
+
+
+def capture_cases(work, scene, run):
+    """Damaged photos, inputs that never end, outputs over the file read,
+    captures that contradict themselves, camera-path fields, checkpoints
+    given as models."""
+    import json
+    import struct
+    cases = []
+    colmap = os.path.join(scene, "colmap")
+    caps = os.path.join(work, "captures")
+    os.makedirs(caps)
+    # damaged photos: a header claiming a huge frame, in every layout that reads JPEG
+    for side in (60000, 30000, 65535):
+        d = os.path.join(caps, f"huge-{side}")
+        shutil.copytree(colmap, d)
+        jpeg_claiming(os.path.join(colmap, "images", "img_002.jpg"), os.path.join(d, "images", "img_002.jpg"), side)
+        for args in (["train", "--data", d, "--iters", "1", "--val-views", "0", "--out", os.path.join(work, "r-huge")],
+                     ["eval", MODEL, "--data", d, "--split", "val", "--llffhold", "2"]):
+            cases.append(("damaged photos", args, [d]))
+    for layout in ("room_llff",):
+        d = os.path.join(caps, f"huge-{layout}")
+        shutil.copytree(os.path.join(scene, layout), d)
+        jpeg_claiming(os.path.join(scene, layout, "images", "img_001.jpg"), os.path.join(d, "images", "img_001.jpg"),
+                      60000)
+        cases.append(("damaged photos", ["train", "--data", d, "--iters", "1", "--val-views", "0", "--out",
+                                         os.path.join(work, "r-huge-llff")], [d]))
+    # inputs that never end: FIFOs and devices named as files
+    fifo = os.path.join(caps, "fifo.json")
+    os.mkfifo(fifo)
+    for f in (fifo, "/dev/zero", "/dev/urandom"):
+        for args in (["render", MODEL, "--camera-path", f, "--size", "8", "--out", os.path.join(work, "r-fifo")],
+                     ["info", f], ["web", f, "--out", os.path.join(work, "w-fifo")],
+                     ["export", f, "--bits", "8", "--out", os.path.join(work, "x.nerf")],
+                     ["train", "--data", colmap, "--iters", "1", "--config", f, "--out", os.path.join(work, "r-c")]):
+            cases.append(("inputs that never end", args, [colmap]))
+    # outputs over the file a command reads
+    paths = os.path.join(caps, "paths")
+    subprocess.run([BIN, "render", MODEL, "--orbit", "3", "--size", "8", "--out", paths], check=True,
+                   capture_output=True)
+    cp = os.path.join(paths, "camera_path.json")
+    cases.append(("outputs over the file read", ["render", MODEL, "--camera-path", cp, "--size", "8", "--out", paths],
+                  [cp]))
+    # captures that contradict themselves
+    def colmap_edit(name, edit):
+        d = os.path.join(caps, name)
+        shutil.copytree(os.path.join(scene, "colmap_text"), d)
+        p = os.path.join(d, "sparse", "0")
+        edit(p)
+        cases.append(("captures that contradict themselves", ["train", "--data", d, "--iters", "1", "--val-views",
+                                                               "0", "--out", os.path.join(work, "r-" + name)], [d]))
+
+    def dup_image(p):
+        lines = open(os.path.join(p, "images.txt")).read().splitlines()
+        poses = [l for l in lines if l and not l.startswith("#")]
+        first = poses[0].split()
+        first[0] = "999"
+        first[5] = str(float(first[5]) + 0.5)
+        open(os.path.join(p, "images.txt"), "a").write(" ".join(first) + "\n\n")
+
+    def off_centre(p):
+        text = open(os.path.join(p, "cameras.txt")).read().splitlines()
+        out = []
+        for l in text:
+            f = l.split()
+            if l and not l.startswith("#") and f[1] == "PINHOLE":
+                f[6] = "5000"
+            out.append(" ".join(f))
+        open(os.path.join(p, "cameras.txt"), "w").write("\n".join(out) + "\n")
+
+    def one_image(p):
+        lines = open(os.path.join(p, "images.txt")).read().splitlines()
+        keep = [l for l in lines if l.startswith("#")]
+        poses = [l for l in lines if l and not l.startswith("#")]
+        open(os.path.join(p, "images.txt"), "w").write("\n".join(keep + poses[:1] + [""]) + "\n")
+
+    def bom(p):
+        text = open(os.path.join(p, "cameras.txt"), "rb").read()
+        open(os.path.join(p, "cameras.txt"), "wb").write(b"\xef\xbb\xbf" + text)
+
+    for name, e in {"duplicate-name": dup_image, "principal-point": off_centre, "one-image": one_image}.items():
+        colmap_edit(name, e)
+    # a byte-order mark is not a contradiction: the capture trains
+    d = os.path.join(caps, "bom")
+    shutil.copytree(os.path.join(scene, "colmap_text"), d)
+    bom(os.path.join(d, "sparse", "0"))
+    cases.append(("captures that contradict themselves", ["train", "--data", d, "--iters", "1", "--val-views", "0",
+                                                           "--out", os.path.join(work, "r-bom")], [d]))
+    # camera paths with bad fields
+    eye = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 4, 0, 0, 0, 1]
+    bad_paths = {
+        "fov0": {"camera_path": [{"camera_to_world": eye, "fov": 0, "aspect": 1}]},
+        "fov-30": {"camera_path": [{"camera_to_world": eye, "fov": -30, "aspect": 1}]},
+        "fov180": {"camera_path": [{"camera_to_world": eye, "fov": 180, "aspect": 1}]},
+        "fov1e9": {"camera_path": [{"camera_to_world": eye, "fov": 1e9, "aspect": 1}]},
+        "aspect0": {"camera_path": [{"camera_to_world": eye, "fov": 40, "aspect": 0}]},
+        "no-aspect": {"camera_path": [{"camera_to_world": eye, "fov": 40}]},
+        "no-matrix": {"camera_path": [{"fov": 40, "aspect": 1}]},
+        "no-fps": {"keyframes": [{"matrix": eye, "fov": 40, "aspect": 1}], "seconds": 2},
+        "negative-fps": {"keyframes": [{"matrix": eye, "fov": 40, "aspect": 1}], "fps": -24, "seconds": -2},
+        "zero-size": {"camera_path": [{"camera_to_world": eye, "fov": 40}], "render_width": 0, "render_height": 0},
+        "list": [1, 2],
+    }
+    for name, v in bad_paths.items():
+        p = os.path.join(caps, name + ".json")
+        open(p, "w").write(json.dumps(v))
+        cases.append(("camera paths with bad fields", ["render", MODEL, "--camera-path", p, "--size", "8", "--out",
+                                                        os.path.join(work, "r-path")], [p]))
+    # checkpoints given as models
+    ck = os.path.join(run, "checkpoint.bin")
+    for args in (["info", ck], ["web", ck, "--out", os.path.join(work, "w-ck")],
+                 ["eval", ck, "--data", colmap, "--split", "val"], ["render", ck, "--orbit", "2", "--out",
+                                                                     os.path.join(work, "r-ck")]):
+        cases.append(("checkpoints given as models", args, [run]))
     return cases
 
 

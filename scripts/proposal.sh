@@ -44,6 +44,9 @@ PY
 run bird default "$root/bird" 8
 run fox default "$root/fox" 8
 run lego default "$root/lego" 8
+# the network's samples per ray at render time against PSNR and time (docs/proposal_samples.csv)
+NERF_BIN="$bin" NERF_COMMIT="$commit" scripts/proposal_samples.sh "$work/bird-default/int8.nerf" "$root/bird" bird
+NERF_BIN="$bin" NERF_COMMIT="$commit" scripts/proposal_samples.sh "$work/fox-default/int8.nerf" "$root/fox" fox
 run room default "$work/scene/room" 1
 run room-on-black "object" "$work/scene/colmap" 1 --scene object
 if [ "${BASELINE:-0}" = 1 ]; then

@@ -210,8 +210,12 @@ fn a_full_disk_or_read_only_file_system_leaves_nothing_half_written() {
             // files written before the disk filled
             let p = &left[6..];
             assert!(!p.ends_with(".tmp"), "{head}: temporary file left: {p}");
+            // (`.nerf-outputs`: the output folder's record, written whole)
             assert!(
-                p.ends_with("train.jsonl") || p.ends_with(".png") || p.ends_with(".json"),
+                p.ends_with("train.jsonl")
+                    || p.ends_with(".png")
+                    || p.ends_with(".json")
+                    || p.ends_with(".nerf-outputs"),
                 "{head}: unexpected file left: {p}"
             );
         }

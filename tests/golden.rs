@@ -69,6 +69,29 @@ fn bless() {
         }
         writeln!(src, "];").unwrap();
     }
+    // golden8_proposal.nerf: an int8 model whose proposal grid (format version 11) places its samples in
+    // a ball about the centre
+    let pcfg = nerf_train::config::TrainConfig { n_fine: 0, n_coarse: 48, n_main: 16, proposal_res: 8, ..cfg };
+    let mut p = random_model(&pcfg, unit_scene(), 7, 6.0);
+    let (grid, codes) = p.proposal.as_mut().unwrap();
+    let r = grid.res as usize;
+    for (i, c) in codes.iter_mut().enumerate() {
+        let at = |k: usize| ((k as f32 + 0.5) / r as f32) * 2.0 - 1.0;
+        let d = (at(i % r).powi(2) + at(i / r % r).powi(2) + at(i / (r * r)).powi(2)).sqrt();
+        *c = if d < 0.7 { 40 + (i % 7) as u8 * 30 } else { 0 };
+    }
+    (grid.log_min, grid.log_step) = (-1.0, 0.03);
+    let f32_bytes = p.to_bytes().unwrap();
+    let bytes = quantise(&Model::from_bytes(&f32_bytes).unwrap(), Scheme::I8).unwrap().to_bytes().unwrap();
+    std::fs::write(data_dir().join("golden8_proposal.nerf"), &bytes).unwrap();
+    let name = "golden8_proposal.nerf";
+    writeln!(src, "/// Expected pixels of `{name}`: (r, g, b, opacity) in Q15 and depth in Q16, 16×16 row-major.")
+        .unwrap();
+    writeln!(src, "pub const GOLDEN8_PROPOSAL: [(u16, u16, u16, u16, i32); 256] = [").unwrap();
+    for p in &render_golden(&bytes) {
+        writeln!(src, "    ({}, {}, {}, {}, {}),", p.rgb[0], p.rgb[1], p.rgb[2], p.opacity, p.depth).unwrap();
+    }
+    writeln!(src, "];").unwrap();
     std::fs::write(data_dir().join("golden_expected.rs"), src).unwrap();
 }
 

@@ -45,6 +45,8 @@ pub enum Error {
     InvalidTile,
     /// The output buffer is too small for the encoded model.
     BufferTooSmall,
+    /// The blob is a training checkpoint (`NERFCKPT`), not a model.
+    Checkpoint,
 }
 
 impl fmt::Display for Error {
@@ -86,6 +88,11 @@ impl fmt::Display for Error {
             Error::InvalidCamera => write!(f, "camera parameters are not finite or the pose is not rigid"),
             Error::InvalidTile => write!(f, "tile outside the image or output buffer too small"),
             Error::BufferTooSmall => write!(f, "output buffer too small"),
+            Error::Checkpoint => write!(
+                f,
+                "a training checkpoint, not a model: give the model.nerf of the same run folder (nerf train --resume \
+                 continues the run)"
+            ),
         }
     }
 }

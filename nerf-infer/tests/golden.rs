@@ -62,6 +62,20 @@ fn int8_golden_pixels_with_a_16_bit_density_head_are_bit_exact() {
     assert_ne!(expected::GOLDEN8_DENSITY, expected::GOLDEN8_PRECISE);
 }
 
+/// An int8 model with a proposal grid (format version 11): the network is
+/// evaluated only at the samples the grid places.
+#[test]
+fn int8_golden_pixels_with_a_proposal_grid_are_bit_exact() {
+    let blob = include_bytes!("data/golden8_proposal.nerf");
+    assert_eq!(u16::from_le_bytes([blob[4], blob[5]]), 11);
+    check::<8>(blob, &expected::GOLDEN8_PROPOSAL);
+    check::<1>(blob, &expected::GOLDEN8_PROPOSAL);
+    check::<3>(blob, &expected::GOLDEN8_PROPOSAL);
+    // the grid's placement shows: some pixels are opaque, some clear
+    let opacity = |k: usize| expected::GOLDEN8_PROPOSAL[k].3;
+    assert!((0..256).any(|k| opacity(k) > 30000) && (0..256).any(|k| opacity(k) < 3000));
+}
+
 fn render_with<const B: usize>(blob: &[u8], early_stop: f32) -> [PixelFixed; 256] {
     let model = Model::from_bytes(blob).unwrap();
     let opts = RenderOptions { early_stop, ..RenderOptions::from_model(&model) };

@@ -19,19 +19,49 @@ pub const EPS: f32 = 1e-7;
 /// `edges` and weights `w_p` (one more edge than weights). Adds
 /// `scale · ∂L/∂ŵⱼ` to `dw_p` (as long as `w_p`) and returns `L`.
 pub fn interlevel(t: &[f32], w: &[f32], edges: &[f32], w_p: &[f32], scale: f32, dw_p: &mut [f32]) -> f32 {
+    let m = w_p.len();
+    debug_assert!(w.len() == t.len() && edges.len() == m + 1 && dw_p.len() == m);
+    // a difference array of the gradient
+    let mut diff = vec![0.0f64; m + 1];
+    let mut loss = 0.0f64;
+    bounds(t, w, edges, w_p, |i, bound, lo, hi| {
+        let excess = (w[i] - bound).max(0.0);
+        if excess > 0.0 {
+            let d = w[i] + EPS;
+            loss += (excess * excess / d) as f64;
+            let g = (-2.0 * excess / d * scale) as f64;
+            diff[lo] += g;
+            diff[hi] -= g;
+        }
+    });
+    let mut run = 0.0f64;
+    for (j, d) in dw_p.iter_mut().enumerate() {
+        run += diff[j];
+        *d += run as f32;
+    }
+    loss as f32
+}
+
+/// The network's weight along one ray that the proposal leaves unbounded,
+/// `Σᵢ max(0, wᵢ − bᵢ)` (arguments as [`interlevel`]'s): 0 when the
+/// proposal bounds every interval, at most `Σ wᵢ`.
+pub fn unbounded_weight(t: &[f32], w: &[f32], edges: &[f32], w_p: &[f32]) -> f32 {
+    let mut sum = 0.0f32;
+    bounds(t, w, edges, w_p, |i, bound, _, _| sum += (w[i] - bound).max(0.0));
+    sum
+}
+
+/// Calls `f(i, bᵢ, lo, hi)` for each of the network's intervals `i` that
+/// proposal intervals `lo..hi` overlap (see the module doc).
+fn bounds(t: &[f32], w: &[f32], edges: &[f32], w_p: &[f32], mut f: impl FnMut(usize, f32, usize, usize)) {
     let (n, m) = (t.len(), w_p.len());
-    debug_assert!(w.len() == n && edges.len() == m + 1 && dw_p.len() == m);
-    // prefix sums of the proposal's weights, and a difference array of the gradient
-    let mut prefix = 0.0f64;
+    debug_assert!(w.len() == n && edges.len() == m + 1);
     let mut cum = Vec::with_capacity(m + 1);
     cum.push(0.0f64);
     for &v in w_p {
-        prefix += v as f64;
-        cum.push(prefix);
+        cum.push(cum[cum.len() - 1] + v as f64);
     }
-    let mut diff = vec![0.0f64; m + 1];
     let (mut lo, mut hi) = (0usize, 0usize);
-    let mut loss = 0.0f64;
     for i in 0..n {
         let (a, b) = (t[i], if i + 1 < n { t[i + 1] } else { f32::INFINITY });
         // proposal intervals j with e_j < b and e_{j+1} > a: lo..hi
@@ -42,25 +72,10 @@ pub fn interlevel(t: &[f32], w: &[f32], edges: &[f32], w_p: &[f32], scale: f32, 
         while hi < m && edges[hi] < b {
             hi += 1;
         }
-        if lo >= hi {
-            continue;
-        }
-        let bound = (cum[hi] - cum[lo]) as f32;
-        let excess = (w[i] - bound).max(0.0);
-        if excess > 0.0 {
-            let d = w[i] + EPS;
-            loss += (excess * excess / d) as f64;
-            let g = (-2.0 * excess / d * scale) as f64;
-            diff[lo] += g;
-            diff[hi] -= g;
+        if lo < hi {
+            f(i, (cum[hi] - cum[lo]) as f32, lo, hi);
         }
     }
-    let mut run = 0.0f64;
-    for (j, d) in dw_p.iter_mut().enumerate() {
-        run += diff[j];
-        *d += run as f32;
-    }
-    loss as f32
 }
 
 #[cfg(test)]
@@ -84,6 +99,8 @@ mod tests {
         assert!((l - 0.8).abs() < 1e-5, "{l}");
         // raising the middle proposal weight lowers the loss
         assert!(g[1] < 0.0 && g[0] == 0.0, "{g:?}");
+        assert!((unbounded_weight(&t, &w, &edges, &w_p) - 0.8).abs() < 1e-6);
+        assert_eq!(unbounded_weight(&t, &w, &edges, &[0.05, 0.9, 0.05]), 0.0);
     }
 
     #[test]

@@ -28,4 +28,5 @@ pub mod proposal;
 pub mod rng;
 pub mod timing;
 pub mod train;
+pub mod userfile;
 pub mod volume;

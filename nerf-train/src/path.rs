@@ -91,20 +91,38 @@ pub fn to_camera_path(cams: &[Camera], fps: f32) -> serde_json::Value {
 /// does ([`keyframes::interpolate`]). Errors name the file and the camera.
 pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> {
     let bad = |m: String| format!("{}: {m}", path.display());
-    let text = std::fs::read_to_string(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+    let text = crate::userfile::read_user_text(path, crate::userfile::MAX_JSON, "camera path")?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("malformed JSON: {e}")))?;
     if let Some(t) = v.get("camera_type").and_then(|t| t.as_str()).filter(|t| *t != "perspective") {
         return Err(bad(format!("camera_type {t} is not supported (perspective is)")));
     }
-    let default_aspect = match (v.get("render_width"), v.get("render_height")) {
-        (Some(w), Some(h)) => w.as_f64().zip(h.as_f64()).map(|(w, h)| w / h),
+    if !v.is_object() {
+        return Err(bad("expected a JSON object with a camera_path list or keyframes".into()));
+    }
+    // a field present with a value of the wrong type is an error, not a default
+    let number = |k: &str| -> Result<Option<f64>, String> {
+        match v.get(k) {
+            None | Some(serde_json::Value::Null) => Ok(None),
+            Some(x) => x.as_f64().map(Some).ok_or_else(|| bad(format!("{k} is not a number: {x}"))),
+        }
+    };
+    let default_aspect = match (number("render_width")?, number("render_height")?) {
+        (Some(w), Some(h)) if w > 0.0 && h > 0.0 => Some(w / h),
+        (Some(w), Some(h)) => return Err(bad(format!("render_width {w} and render_height {h} must be positive"))),
         _ => None,
     };
-    let list = |key: &str| v.get(key).and_then(|l| l.as_array()).filter(|l| !l.is_empty());
-    let (cams, keyed) = match (list("camera_path"), list("keyframes")) {
-        (Some(l), _) => (l, false),
-        (None, Some(l)) => (l, true),
+    let list = |key: &str| -> Result<Option<&Vec<serde_json::Value>>, String> {
+        match v.get(key) {
+            None | Some(serde_json::Value::Null) => Ok(None),
+            Some(serde_json::Value::Array(l)) => Ok(Some(l)),
+            Some(_) => Err(bad(format!("{key} is not a list"))),
+        }
+    };
+    let (cams, keyed) = match (list("camera_path")?, list("keyframes")?) {
+        (Some(l), _) if !l.is_empty() => (l, false),
+        (_, Some(l)) if !l.is_empty() => (l, true),
         (None, None) => return Err(bad("neither a camera_path list nor keyframes".into())),
+        _ => return Err(bad("its camera_path and keyframes lists are empty".into())),
     };
     if cams.len() > 100_000 {
         return Err(bad(format!("{} cameras listed (at most 100000 are rendered)", cams.len())));
@@ -121,11 +139,20 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
                 return Err(bad(format!("its matrix has {} numbers (16 or 12)", m.len())));
             }
             let m = if keyed && m.len() == 16 { row_major(m) } else { m };
-            let fov = c.get("fov").and_then(|f| f.as_f64()).unwrap_or(50.0);
-            let aspect = c.get("aspect").and_then(|a| a.as_f64()).or(default_aspect).unwrap_or(1.0);
-            let ok = (1.0..179.0).contains(&fov) && aspect.is_finite() && (0.01..100.0).contains(&aspect);
-            if !ok {
-                return Err(bad(format!("fov {fov}° or aspect {aspect} out of range")));
+            let field = |k: &str| match c.get(k) {
+                None | Some(serde_json::Value::Null) => Ok(None),
+                Some(x) => x.as_f64().map(Some).ok_or_else(|| bad(format!("{k} is not a number: {x}"))),
+            };
+            let fov =
+                field("fov")?.ok_or_else(|| bad("fov is missing (the vertical field of view, degrees)".into()))?;
+            if !(1.0..179.0).contains(&fov) {
+                return Err(bad(format!("fov {fov}° is out of range (1 to 179 degrees, vertical)")));
+            }
+            let aspect = field("aspect")?.or(default_aspect).ok_or_else(|| {
+                bad("aspect is missing (width / height), and the file has no render_width and render_height".into())
+            })?;
+            if !(0.01..100.0).contains(&aspect) {
+                return Err(bad(format!("aspect {aspect} is out of range (0.01 to 100, width / height)")));
             }
             let mut c2w = [[0f32; 4]; 3];
             for (r, row) in c2w.iter_mut().enumerate() {
@@ -141,18 +168,23 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
     if !keyed {
         return Ok(parsed.into_iter().map(|p| p.0).collect());
     }
-    let number = |k: &str| v.get(k).and_then(|x| x.as_f64());
-    let fps = number("fps").unwrap_or(24.0);
-    let seconds = number("seconds").unwrap_or(parsed.len() as f64);
+    let fps = number("fps")?.ok_or_else(|| bad("keyframes without fps (frames per second)".into()))?;
+    let seconds = number("seconds")?.ok_or_else(|| bad("keyframes without seconds (the video's length)".into()))?;
+    if !(fps > 0.0 && seconds > 0.0) {
+        return Err(bad(format!("fps {fps} and seconds {seconds} must both be positive")));
+    }
     let frames = (fps * seconds).round();
     if !(1.0..=100_000.0).contains(&frames) {
         return Err(bad(format!("fps {fps} × seconds {seconds} gives {frames} frames (1 to 100000 are rendered)")));
     }
-    let smoothness = number("smoothness_value").unwrap_or(0.5);
+    let smoothness = number("smoothness_value")?.unwrap_or(0.5);
     if !(-1.0..=1.0).contains(&smoothness) {
         return Err(bad(format!("smoothness_value {smoothness} is out of range (-1 to 1)")));
     }
-    let cycle = v.get("is_cycle").and_then(|c| c.as_bool()).unwrap_or(false);
+    let cycle = match v.get("is_cycle") {
+        None | Some(serde_json::Value::Null) => false,
+        Some(c) => c.as_bool().ok_or_else(|| bad(format!("is_cycle is not true or false: {c}")))?,
+    };
     let timing = keyframes::Timing { frames: frames as usize, smoothness: smoothness as f32, cycle };
     let keys: Vec<Keyframe> =
         parsed.iter().map(|(c, fov, _)| Keyframe { rotation: c.rotation, position: c.position, fov: *fov }).collect();

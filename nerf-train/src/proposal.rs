@@ -53,6 +53,19 @@ pub struct RayProposal {
     pub w: Vec<f32>,
 }
 
+impl RayProposal {
+    /// The edges of the proposal's intervals: `sample_pdf_f32`'s bins,
+    /// between the midpoints of its samples (the first and last open).
+    pub fn edges(&self) -> Vec<f32> {
+        let n = self.t.len();
+        let mut edges = Vec::with_capacity(n + 1);
+        edges.push(f32::NEG_INFINITY);
+        edges.extend((0..n - 1).map(|j| 0.5 * (self.t[j] + self.t[j + 1])));
+        edges.push(f32::INFINITY);
+        edges
+    }
+}
+
 /// CDF level of the network's sample `j` of `n` in a stratum, jittered by
 /// `key` as the renderer's march jitters it (`None`: the middle).
 pub fn main_u(j: usize, n: usize, key: Option<u32>) -> f32 {
@@ -100,11 +113,7 @@ impl ProposalGrid {
     /// log-density to `grad` as (cell, value) pairs.
     pub fn backward(&self, prop: &RayProposal, t: &[f32], w: &[f32], scale: f32, grad: &mut Vec<(u32, f32)>) -> f32 {
         let n = prop.t.len();
-        // the proposal's intervals are sample_pdf's bins: between the midpoints of its samples
-        let mut edges = Vec::with_capacity(n + 1);
-        edges.push(f32::NEG_INFINITY);
-        edges.extend((0..n - 1).map(|j| 0.5 * (prop.t[j] + prop.t[j + 1])));
-        edges.push(f32::INFINITY);
+        let edges = prop.edges();
         let mut dw = vec![0.0; n];
         let loss = interlevel(t, w, &edges, &prop.w, scale, &mut dw);
         if dw.iter().all(|&g| g == 0.0) {

@@ -613,6 +613,45 @@ impl Trainer {
         }
     }
 
+    /// With a proposal grid: the mean over `batch` of the network's weight
+    /// along each ray that the grid's weights leave unbounded
+    /// ([`crate::interlevel::unbounded_weight`]; 0 when they bound it
+    /// everywhere, at most the ray's opacity), and the rays' mean opacity.
+    pub fn proposal_bound(&self, batch: &[Sample]) -> Option<(f32, f32)> {
+        self.proposal.as_ref()?;
+        let net = self.mlp();
+        let pc = &self.params[..net.n_params];
+        let nm = self.main_samples();
+        let mut ws = Workspace::default();
+        let (mut unbounded, mut opacity) = (0.0f64, 0.0f64);
+        for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
+            self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
+            let mut acts = Acts::default();
+            if !ws.pos.is_empty() {
+                net.encode_footprint(pc, &ws.pos, &ws.foot, &mut acts);
+                net.forward_layers(pc, &ws.dirs, true, &mut acts);
+            }
+            for (i, Sample { bg, .. }) in rays.iter().enumerate() {
+                let s = ws.offs[i]..ws.offs[i + 1];
+                let mut kept_w = vec![0.0; s.len()];
+                if !s.is_empty() {
+                    let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end]);
+                    composite(sig, rgb, &ws.delta[s.clone()], *bg, &mut kept_w);
+                }
+                let mut w = vec![0.0f32; nm];
+                for (k, j) in s.clone().enumerate() {
+                    w[ws.kept[j] as usize] = kept_w[k];
+                }
+                let prop = &ws.props[i];
+                let t = &ws.t_c[i * nm..(i + 1) * nm];
+                unbounded += crate::interlevel::unbounded_weight(t, &w, &prop.edges(), &prop.w) as f64;
+                opacity += w.iter().sum::<f32>() as f64;
+            }
+        }
+        let n = batch.len().max(1) as f64;
+        Some(((unbounded / n) as f32, (opacity / n) as f32))
+    }
+
     /// Density σ threshold of the grid: the density at which a sample of
     /// the default step (bounds diagonal / `n_coarse`, world units) has
     /// opacity `grid_alpha`.

@@ -1,7 +1,7 @@
 //! `nerf eval`: renders a split through nerf-infer and prints one JSON
 //! object with PSNR, SSIM, per-view scores, µs per ray and model size.
 
-use super::{create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
+use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
 use clap::Parser;
 use nerf_infer::RenderOptions;
 use nerf_train::dataset::save_png_rgb;
@@ -118,10 +118,13 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
     opts.coarse = a.coarse.unwrap_or(opts.coarse);
     opts.fine = a.fine.unwrap_or(opts.fine);
     opts.early_stop = a.early_stop;
-    if let Some(dir) = &a.save {
-        super::refuse_inside(dir, "--save", &a.data)?;
-        create_dir(dir)?;
-    }
+    let _out = match &a.save {
+        Some(dir) => {
+            super::refuse_inside(dir, "--save", &a.data)?;
+            Some(super::outdir::OutDir::claim(dir, "--save", "eval")?)
+        }
+        None => None,
+    };
     let ref_bytes = a.reference.as_ref().map(|p| read_model(p)).transpose()?;
     let reference = match (&a.reference, &ref_bytes) {
         (Some(p), Some(b)) => Some(decode(p, b)?),

@@ -148,7 +148,14 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
         force: true,
         ..train::Args::new(a.data.clone(), a.minutes, dir.clone())
     };
-    train::run_config(args, cfg.clone())?;
+    train::run_config(args, cfg.clone()).map_err(|e| match e.starts_with("interrupted") {
+        // a candidate's checkpoint cannot be resumed through fit
+        true => format!(
+            "interrupted while training candidate {}: nerf fit does not resume; run it again with a new --out",
+            dir.display()
+        ),
+        false => e,
+    })?;
     let f32_path = dir.join("model.nerf");
     let bytes = super::read_model(&f32_path)?;
     let m = super::decode(&f32_path, &bytes)?;
@@ -387,6 +394,13 @@ pub fn run(a: Args) -> CmdResult {
     if a.out.join("fit.csv").exists() {
         return Err(format!("{}: holds the results of a fit (fit.csv); choose another --out", a.out.display()));
     }
+    // the kept model is written as OUT/model.nerf: never over a training run's
+    if let Some(f) = ["model.nerf", "checkpoint.bin", "train.jsonl"].iter().find(|f| a.out.join(f).exists()) {
+        return Err(format!(
+            "{}: holds a training run ({f}); nerf fit writes its own model.nerf there: choose another --out",
+            a.out.display()
+        ));
+    }
     let (downscale, capture) = (a.capture.downscale.unwrap_or(1), a.capture);
     let data = super::load_split(&a.data, Split::Train, downscale, capture)?;
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
@@ -395,6 +409,8 @@ pub fn run(a: Args) -> CmdResult {
     super::load_split(&a.data, Split::Val, downscale, capture)
         .map_err(|e| format!("{e} (nerf fit scores candidates on the validation views)"))?;
     create_dir(&a.out)?;
+    // one process per output folder: a train or another fit started into it is refused
+    let _lock = super::lock_run_dir(&a.out)?;
     let mut rows = Vec::new();
     // per candidate that reached the target: name, samples, µs/ray, cost per ray
     let mut reached: Vec<(&'static str, u16, f64, usize)> = Vec::new();

@@ -59,6 +59,12 @@ pub fn run(a: Args) -> CmdResult {
         })),
         "orbit": m.orbit,
         "footprint": m.footprint.map(|f| serde_json::json!({ "pixel": f.pixel })),
+        "proposal": m.proposal.map(|p| serde_json::json!({
+            "res": p.res,
+            "bytes": p.codes.len(),
+            "occupied_cells": p.codes.iter().filter(|&&c| c > 0).count(),
+            "sigma_max": p.sigma_of(255),
+        })),
         "coarse": net(&m.coarse),
         "fine": m.fine.as_ref().map(net),
         "precise": m.coarse.precise.map(|p| serde_json::json!({
@@ -157,6 +163,18 @@ pub fn run(a: Args) -> CmdResult {
             "  footprint: features averaged over {} points across each sample's pixel ({:.3} mrad per training pixel)",
             nerf_infer::camera::FOOTPRINT_POINTS,
             1e3 * f.pixel
+        );
+    }
+    if let Some(p) = m.proposal {
+        let occupied = p.codes.iter().filter(|&&c| c > 0).count();
+        println!(
+            "  proposal grid: {}³ density codes ({} B, {:.1} % of cells not empty) place the network's {} samples per \
+             ray among {} stratified ones",
+            p.res,
+            p.codes.len(),
+            100.0 * occupied as f64 / p.codes.len().max(1) as f64,
+            m.samples.fine,
+            m.samples.coarse
         );
     }
     println!("  trained: {} iterations at downscale {}", m.meta.iterations, m.meta.train_downscale);

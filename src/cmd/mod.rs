@@ -7,6 +7,7 @@ pub mod export;
 pub mod fit;
 pub mod info;
 pub mod mesh;
+pub mod outdir;
 pub mod render;
 pub mod runlog;
 pub mod scene;
@@ -361,7 +362,9 @@ pub fn same_frame(data: &Dataset, model: &nerf_infer::Model<'_>, model_path: &Pa
 
 /// Reads a model file into memory.
 pub fn read_model(path: &Path) -> Result<Vec<u8>, String> {
-    std::fs::read(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))
+    // the header's payload length is a u32
+    let max = nerf_infer::format::HEADER_LEN as u64 + u32::MAX as u64;
+    nerf_train::userfile::read_user_file(path, max, "model file")
 }
 
 /// Decodes a model, naming the file on failure.

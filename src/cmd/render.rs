@@ -3,7 +3,7 @@
 //! colour, the depth as 16-bit PNG in scene units (the step written to
 //! `depth.json`) and as a colour-mapped preview, and the opacity.
 
-use super::{create_dir, decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
+use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
 use nerf_infer::format::Scene;
 use nerf_infer::{Camera, RenderOptions};
 use nerf_train::dataset::save_png_rgb;
@@ -109,6 +109,17 @@ pub fn run(a: Args) -> CmdResult {
     if let Some(d) = &a.data {
         super::refuse_inside(&a.out, "--out", d)?;
     }
+    if let Some(p) = &a.camera_path {
+        // the render writes the expanded path as OUT/camera_path.json: never over the file it reads
+        if super::refuse_same_file(&a.out.join("camera_path.json"), "--out", p).is_err() {
+            return Err(format!(
+                "--out {}: would replace the --camera-path file {} with the expanded camera list; choose another \
+                 --out",
+                a.out.display(),
+                p.display()
+            ));
+        }
+    }
     let ds = a.capture.downscale_for(&model);
     let path: Option<Vec<Camera>> = match (&a.data, a.orbit, a.trajectory, &a.camera_path) {
         (_, Some(n), _, _) => {
@@ -164,7 +175,7 @@ pub fn run(a: Args) -> CmdResult {
             MAX_GIF_BYTES / 1_000_000_000
         ));
     }
-    create_dir(&a.out)?;
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "render")?;
     super::write_atomic(&a.out.join("depth.json"), meta.to_string().as_bytes())?;
     if let Some(path) = &path {
         // the path as nerfstudio's camera_path.json, to edit and render again with --camera-path

@@ -29,6 +29,7 @@ impl Args {
 
 /// Runs `nerf scene`.
 pub fn run(a: Args) -> CmdResult {
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "scene")?;
     let spec = SceneSpec { size: a.size, train: a.train, ..SceneSpec::default() };
     write_blender(&a.out.join("blender"), spec).map_err(|e| e.to_string())?;
     write_llff(&a.out.join("llff"), spec).map_err(|e| e.to_string())?;

@@ -7,9 +7,7 @@
 //! writes `tradeoff.csv` and `tradeoff.png` (PSNR against µs/ray, Pareto
 //! front marked) and prints the table.
 
-use super::{
-    create_dir, decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, SplitArg,
-};
+use super::{decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, SplitArg};
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
 use nerf_train::export::quantise_acts;
@@ -120,7 +118,7 @@ pub fn run(a: Args) -> CmdResult {
     let data = load_split(&a.data, a.split.into(), downscale, capture)?;
     super::same_frame(&data, &mf, &a.model)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
-    create_dir(&a.out)?;
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "tradeoff")?;
     let knobs = sweep(&mf);
     // Repetitions are interleaved (every point once, then again), so drift
     // in the machine's speed reaches all points alike.

@@ -149,7 +149,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
         None => base,
         Some(path) => {
             let bad = |e: &dyn std::fmt::Display| format!("{}: invalid configuration: {e}", path.display());
-            let text = std::fs::read_to_string(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+            let text = nerf_train::userfile::read_user_text(path, nerf_train::userfile::MAX_JSON, "--config")?;
             let over: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&e))?;
             let serde_json::Value::Object(over) = over else {
                 return Err(bad(&"expected a JSON object of configuration fields"));
@@ -318,7 +318,7 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
     }
     let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
     let (mut tr, data) = if a.resume && ckpt.is_file() {
-        let b = std::fs::read(&ckpt).map_err(|e| format!("{}: cannot read: {e}", ckpt.display()))?;
+        let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
         let tr = Trainer::from_bytes(&b).ok_or_else(|| {
             format!("{}: not a valid checkpoint (corrupt, or written by an older build)", ckpt.display())
         })?;

@@ -12,6 +12,9 @@ pub(super) fn check_header(bytes: &[u8]) -> Result<(u16, &[u8])> {
     if bytes[0..4] != MAGIC {
         return Err(Error::BadMagic);
     }
+    if bytes.get(4..8) == Some(b"CKPT") {
+        return Err(Error::Checkpoint);
+    }
     if bytes.len() < HEADER_LEN {
         return Err(Error::Truncated);
     }

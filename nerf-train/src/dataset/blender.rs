@@ -62,9 +62,10 @@ struct Transforms {
 }
 
 fn read_transforms(path: &Path) -> Result<Transforms, DataError> {
-    let text = std::fs::read_to_string(path).map_err(|e| DataError::new(path, format!("cannot read: {e}")))?;
-    let t: Transforms =
-        serde_json::from_str(&text).map_err(|e| DataError::new(path, format!("malformed JSON: {e}")))?;
+    let bytes = crate::userfile::read_checked(path, crate::userfile::MAX_JSON).map_err(|e| DataError::new(path, e))?;
+    let text = String::from_utf8(bytes).map_err(|_| DataError::new(path, "not UTF-8 text"))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let t: Transforms = serde_json::from_str(text).map_err(|e| DataError::new(path, format!("malformed JSON: {e}")))?;
     if t.frames.is_empty() {
         return Err(DataError::new(path, "no frames"));
     }
@@ -197,6 +198,7 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         undistort: opts.undistort,
         white_background: t.white_background.unwrap_or(false),
         nearest: None,
+        upright: true,
     };
     let mut data = if !select_all {
         build(&path, &views, &[], fixed, copts(Selection::Holdout(opts.holdout)))?
@@ -260,12 +262,25 @@ fn ngp_views(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<CaptureView
         if !ok {
             return Err(DataError::new(path, format!("{what}: invalid intrinsics")));
         }
+        if !(0.0..=w).contains(&cx) || !(0.0..=h).contains(&cy) {
+            return Err(DataError::new(
+                path,
+                format!("{what}: principal point ({cx}, {cy}) lies outside the {w}x{h} image"),
+            ));
+        }
         let lens = ngp_lens(path, &what, &f.intr, &t.intr)?;
         let intrinsics = CaptureIntrinsics { size: [w, h], focal: [fx, fy], centre: [cx, cy] };
         out.push(CaptureView { image, pose: (rot, pos), intrinsics, lens });
     }
     if out.is_empty() {
-        return Err(DataError::new(path, format!("none of the {} frames' images exist", t.frames.len())));
+        let first = t.frames.first().map(|f| f.file_path.as_str()).unwrap_or_default();
+        return Err(DataError::new(
+            path,
+            format!(
+                "none of the {} frames' images exist (the first names {first}, relative to the file's folder)",
+                t.frames.len()
+            ),
+        ));
     }
     Ok((out, missing))
 }

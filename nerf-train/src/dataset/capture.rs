@@ -4,7 +4,7 @@
 //! the loaded size. Used by the COLMAP and instant-ngp loaders.
 
 use super::fit::{fit_scene, pose_rows, Pose, SceneKind};
-use super::image_io::load_rgb;
+use super::image_io::{image_size, load_rgb, load_rgb_stored};
 use super::lens::Lens;
 use super::llff::{ndc_scene, ForwardFrame};
 use super::types::{capture_record, stem, DataError, Dataset, Split, View};
@@ -71,6 +71,9 @@ pub struct CaptureOptions {
     /// units, > 0; LLFF's near bounds): a forward-facing capture is scaled
     /// by it instead of by the sparse points' depths.
     pub nearest: Option<f64>,
+    /// Apply each photo's EXIF orientation (false: the pixels as stored,
+    /// as COLMAP, which ignores the tag, computed the poses on them).
+    pub upright: bool,
 }
 
 /// Builds the split `opts.split` of a capture. `all` holds every view in
@@ -111,22 +114,30 @@ pub fn build(
     };
     let mut views = Vec::new();
     for (_, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
-        let (w, h, rgb) = load_rgb(&v.image, opts.downscale, opts.white_background)?;
-        let k = &v.intrinsics;
-        let (sx, sy) = (k.size[0] / w as f64, k.size[1] / h as f64);
         // the image's shape must be the camera's (the downscale crops at most n − 1 pixels a side); a photo
-        // turned by its EXIF orientation, or another photo, is not what the poses were computed on
+        // turned by its EXIF orientation, or another photo, is not what the poses were computed on: checked
+        // on its header before its pixels are decoded
+        let (fw, fh) = image_size(&v.image, opts.upright)?;
         let n = opts.downscale as f64;
+        let (w, h) = (fw / opts.downscale, fh / opts.downscale);
+        let k = &v.intrinsics;
+        let (sx, sy) = (k.size[0] / w.max(1) as f64, k.size[1] / h.max(1) as f64);
         if (sx / sy - 1.0).abs() > 0.01 + n / k.size[0].min(k.size[1]) {
             return Err(DataError::new(
                 &v.image,
                 format!(
-                    "image is {w}x{h} at downscale {n} (after its EXIF orientation) but its camera is {}x{}: not \
-                     the shape of the photo the poses were computed on",
-                    k.size[0], k.size[1]
+                    "image is {w}x{h} at downscale {n}{} but its camera is {}x{}: not the shape of the photo the \
+                     poses were computed on",
+                    if opts.upright { " (after its EXIF orientation)" } else { "" },
+                    k.size[0],
+                    k.size[1]
                 ),
             ));
         }
+        let (w, h, rgb) = match opts.upright {
+            true => load_rgb(&v.image, opts.downscale, opts.white_background)?,
+            false => load_rgb_stored(&v.image, opts.downscale, opts.white_background)?,
+        };
         let c2w = match &frame {
             Frame::Fixed(_) => pose_rows(&v.pose),
             Frame::Fitted(f) => f.apply(&v.pose),
@@ -145,7 +156,15 @@ pub fn build(
         views.push(View { name: stem(&v.image), file: v.image.clone(), camera, rgb, alpha: Vec::new(), lens });
     }
     if views.is_empty() {
-        return Err(DataError::new(path, format!("no images in the {} split", opts.split.name())));
+        let hint = match opts.select {
+            Selection::Holdout(n) => format!(
+                " ({} registered photos, every {n}-th held out{})",
+                all.len(),
+                if all.len() < 2 { ": a capture needs at least two" } else { ": give a larger --llffhold" }
+            ),
+            Selection::From(_) => String::new(),
+        };
+        return Err(DataError::new(path, format!("no images in the {} split{hint}", opts.split.name())));
     }
     let capture = match opts.select {
         Selection::Holdout(n) => {

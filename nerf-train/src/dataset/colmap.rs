@@ -61,6 +61,13 @@ pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), String> {
     if !ok || !lens.is_finite() {
         return Err("non-finite or non-positive camera parameters".into());
     }
+    // a principal point outside the photo is no lens a photo was taken with (a unit or field mix-up)
+    if !(0.0..=size[0]).contains(&intr.centre[0]) || !(0.0..=size[1]).contains(&intr.centre[1]) {
+        return Err(format!(
+            "principal point ({}, {}) lies outside the {}x{} image",
+            intr.centre[0], intr.centre[1], c.width, c.height
+        ));
+    }
     Ok((intr, lens))
 }
 
@@ -123,6 +130,7 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         undistort: opts.undistort,
         white_background: false,
         nearest: None,
+        upright: false,
     };
     let mut data = build(&model_dir, &views, &points, None, copts)?;
     let registered: HashSet<&std::ffi::OsStr> = views.iter().filter_map(|v| v.image.file_name()).collect();

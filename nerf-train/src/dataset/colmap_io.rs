@@ -180,6 +180,16 @@ pub fn read_model(model_dir: &Path) -> Result<Reconstruction, ParseError> {
     let cameras = if cb { read_cameras_bin(&cp)? } else { read_cameras_txt(&cp)? };
     let (ip, ib) = pick("images").ok_or_else(|| missing("images"))?;
     let images = if ib { read_images_bin(&ip)? } else { read_images_txt(&ip)? };
+    // one photo with two poses contradicts itself: which one is right cannot be told
+    let mut names: std::collections::HashMap<&str, u32> = Default::default();
+    for im in &images {
+        if let Some(first) = names.insert(im.name.as_str(), im.id) {
+            return Err(err(
+                &ip,
+                format!("images {first} and {} both name {}: one photo with two poses; remove one", im.id, im.name),
+            ));
+        }
+    }
     let ids: HashSet<u32> = cameras.iter().map(|c| c.id).collect();
     if let Some(im) = images.iter().find(|im| !ids.contains(&im.camera_id)) {
         return Err(err(
@@ -199,11 +209,7 @@ pub fn read_model(model_dir: &Path) -> Result<Reconstruction, ParseError> {
 const MAX_FILE: u64 = 2 << 30;
 
 fn read_file(path: &Path) -> Result<Vec<u8>, ParseError> {
-    let len = std::fs::metadata(path).map_err(|e| err(path, format!("cannot read: {e}")))?.len();
-    if len > MAX_FILE {
-        return Err(err(path, format!("{len} bytes: larger than the 2 GiB this reader accepts")));
-    }
-    std::fs::read(path).map_err(|e| err(path, format!("cannot read: {e}")))
+    crate::userfile::read_checked(path, MAX_FILE).map_err(|e| err(path, e))
 }
 
 /// A little-endian cursor over a binary model file.
@@ -378,6 +384,7 @@ pub fn parse_points_bin(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapPoint>, P
 /// The non-comment, non-blank lines of a text model with their line numbers.
 fn text_lines(path: &Path, bytes: &[u8]) -> Result<Vec<(usize, String)>, ParseError> {
     let text = std::str::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     Ok(text.lines().enumerate().map(|(i, l)| (i + 1, l.to_string())).filter(|(_, l)| !l.starts_with('#')).collect())
 }
 
@@ -435,6 +442,7 @@ pub fn read_images_txt(path: &Path) -> Result<Vec<ColmapImage>, ParseError> {
 /// [`read_images_txt`] on the file's bytes (`path` names it in errors).
 pub fn parse_images_txt(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapImage>, ParseError> {
     let text = std::str::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.starts_with('#'));
     let mut out = Vec::new();
     let mut seen = HashSet::new();

@@ -5,21 +5,79 @@
 use super::types::DataError;
 use std::path::Path;
 
-/// Decodes the image at `path` (format from its content) upright: the
-/// rotation or mirroring its EXIF orientation tag asks for is applied, as
-/// a photo viewer shows it.
-pub fn read_upright(path: &Path) -> Result<image::DynamicImage, DataError> {
+/// Longest side of a photo the loaders decode, pixels (a 200-megapixel
+/// phone's photo is 16 320 wide).
+pub const MAX_SIDE: u32 = 20_000;
+
+/// Most pixels of a photo the loaders decode (as RGBA f32, 16 bytes each:
+/// 2.4 GB; a 108-megapixel phone photo has 108 million).
+pub const MAX_PIXELS: u64 = 150_000_000;
+
+/// The decoder of the image at `path` (format from its content), with
+/// limits on its size and allocations, its header read; and its EXIF orientation.
+fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, image::metadata::Orientation), DataError> {
     use image::ImageDecoder;
     let bad = |e: &dyn std::fmt::Display| DataError::new(path, format!("cannot read image: {e}"));
     if !path.is_file() {
-        return Err(DataError::new(path, "cannot read image: no such file"));
+        return Err(DataError::new(path, "cannot read image: no such file (or not a regular file)"));
     }
-    let reader = image::ImageReader::open(path).map_err(|e| bad(&e))?.with_guessed_format().map_err(|e| bad(&e))?;
+    // the decoders' own allocations bounded; the size is checked below, on the header, with the numbers named
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(4 * MAX_PIXELS);
+    let mut reader = image::ImageReader::open(path).map_err(|e| bad(&e))?.with_guessed_format().map_err(|e| bad(&e))?;
+    reader.limits(limits);
     let mut decoder = reader.into_decoder().map_err(|e| bad(&e))?;
+    let (w, h) = decoder.dimensions();
+    if w as u64 * h as u64 > MAX_PIXELS || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(DataError::new(
+            path,
+            format!(
+                "cannot read image: its header says {w}x{h} pixels, more than the {MAX_SIDE} a side and \
+                 {MAX_PIXELS} in all the loaders decode (a damaged file?)"
+            ),
+        ));
+    }
     let orientation = decoder.orientation().unwrap_or(image::metadata::Orientation::NoTransforms);
+    Ok((decoder, orientation))
+}
+
+/// The size of the image at `path` from its header alone: as
+/// [`read_upright`] decodes it (after its EXIF orientation) if `upright`,
+/// else as stored.
+pub fn image_size(path: &Path, upright: bool) -> Result<(u32, u32), DataError> {
+    use image::metadata::Orientation::*;
+    use image::ImageDecoder;
+    let (d, o) = decoder(path)?;
+    let (w, h) = d.dimensions();
+    let turned = upright && matches!(o, Rotate90 | Rotate270 | Rotate90FlipH | Rotate270FlipH);
+    Ok(if turned { (h, w) } else { (w, h) })
+}
+
+/// Decodes the image at `path` (format from its content) upright: the
+/// rotation or mirroring its EXIF orientation tag asks for is applied, as
+/// a photo viewer shows it. A header claiming more than [`MAX_SIDE`]
+/// pixels a side or [`MAX_PIXELS`] in all is refused before any pixel is
+/// decoded.
+pub fn read_upright(path: &Path) -> Result<image::DynamicImage, DataError> {
+    read_image(path, true)
+}
+
+/// [`read_upright`], or with `upright` false the pixels as stored (the
+/// EXIF orientation ignored, as COLMAP reads photos).
+fn read_image(path: &Path, upright: bool) -> Result<image::DynamicImage, DataError> {
+    let bad = |e: &dyn std::fmt::Display| DataError::new(path, format!("cannot read image: {e}"));
+    let (decoder, orientation) = decoder(path)?;
     let mut img = image::DynamicImage::from_decoder(decoder).map_err(|e| bad(&e))?;
-    img.apply_orientation(orientation);
+    if upright {
+        img.apply_orientation(orientation);
+    }
     Ok(img)
+}
+
+/// [`load_rgb`] of the pixels as stored, the EXIF orientation ignored: the
+/// photos of a COLMAP reconstruction, whose poses were computed on them so.
+pub fn load_rgb_stored(path: &Path, downscale: u32, white_bg: bool) -> Result<(u32, u32, Vec<[f32; 3]>), DataError> {
+    rgba_of(path, read_image(path, false)?, downscale, white_bg).map(|(w, h, rgb, _)| (w, h, rgb))
 }
 
 /// Loads an image as RGB in `[0, 1]`: RGBA is composited on white if
@@ -49,7 +107,17 @@ pub fn load_rgba(
     downscale: u32,
     white_bg: bool,
 ) -> Result<(u32, u32, Vec<[f32; 3]>, Option<Vec<f32>>), DataError> {
-    let img = read_upright(path)?;
+    rgba_of(path, read_upright(path)?, downscale, white_bg)
+}
+
+/// [`load_rgba`] of the decoded `img` of `path`.
+#[allow(clippy::type_complexity)]
+fn rgba_of(
+    path: &Path,
+    img: image::DynamicImage,
+    downscale: u32,
+    white_bg: bool,
+) -> Result<(u32, u32, Vec<[f32; 3]>, Option<Vec<f32>>), DataError> {
     let has_alpha = img.color().has_alpha();
     let img = img.to_rgba32f();
     let (w, h) = img.dimensions();

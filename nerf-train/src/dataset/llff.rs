@@ -98,6 +98,7 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
         undistort: false,
         white_background: false,
         nearest: Some(min_near),
+        upright: false,
     };
     build(&npy, &views, &near_points, None, copts)
 }

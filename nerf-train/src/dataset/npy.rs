@@ -5,7 +5,7 @@ use std::path::Path;
 
 /// Reads a C-order 2-D `<f8` or `<f4` array; returns (rows, cols, values).
 pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> {
-    let bytes = std::fs::read(path).map_err(|e| DataError::new(path, format!("cannot read: {e}")))?;
+    let bytes = crate::userfile::read_checked(path, 256 << 20).map_err(|e| DataError::new(path, e))?;
     parse_npy_f64(path, &bytes)
 }
 
