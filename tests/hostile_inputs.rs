@@ -250,3 +250,13 @@ fn output_folders_hold_one_commands_outputs_and_nothing_stale() {
     assert!(e.contains("notes.txt"), "{e}");
     assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"keep");
 }
+
+#[test]
+fn mesh_masks_need_photos_with_alpha() {
+    let d = tmp("mesh-masks");
+    write_colmap(&d.join("cap"), spec(), ColmapText::Binary, false).unwrap();
+    let out = d.join("m.ply");
+    // the COLMAP photos are opaque JPEGs: no silhouette to compare with
+    let e = fails(&["mesh", &model_file(), "--out", s(&out), "--resolution", "16", "--masks", s(&d.join("cap"))]);
+    assert!(e.contains("no alpha channel") && e.contains("img_"), "{e}");
+}

@@ -4,7 +4,7 @@
 
 use super::{decode, load_split, num_in, progress, read_model, refuse_same_file, with_threads, write_atomic};
 use super::{CaptureArgs, CmdResult, SplitArg};
-use nerf_train::dataset::load_alpha;
+use nerf_train::dataset::load_rgba;
 use nerf_train::mesh::silhouette::{iou, silhouette};
 use nerf_train::mesh::{extract, sample_density, write, Mesh, MeshOptions, MeshStats};
 use std::path::{Path, PathBuf};
@@ -82,6 +82,11 @@ pub fn run(a: Args) -> CmdResult {
     }
     let bytes = read_model(&a.model)?;
     let m = decode(&a.model, &bytes)?;
+    // the masks first: a capture that cannot be compared with fails before anything is extracted or written
+    let masks = match &a.masks {
+        Some(dir) => Some(with_threads(a.threads, || masks(dir, &a, &m))??),
+        None => None,
+    };
     let opts = MeshOptions { resolution: a.resolution, threshold: a.threshold, colours: !a.no_colours };
     let (mesh, dropped) = with_threads(a.threads, || -> Result<(Mesh, usize), String> {
         let pb = progress(a.resolution as u64 + 1, "density {bar:40} {pos}/{len} planes {elapsed}/{eta}");
@@ -98,10 +103,8 @@ pub fn run(a: Args) -> CmdResult {
         Kind::Obj => write::obj(&mesh),
     };
     write_atomic(&a.out, &file)?;
-    let per_view = match &a.masks {
-        Some(dir) => Some(with_threads(a.threads, || compare(&mesh, dir, &a, &m))??),
-        None => None,
-    };
+    let per_view: Option<Vec<f64>> =
+        masks.map(|ms| ms.iter().map(|(cam, mask)| iou(&silhouette(&mesh, cam), mask)).collect());
     let report = Report {
         mesh: a.out.clone(),
         resolution: a.resolution,
@@ -117,15 +120,26 @@ pub fn run(a: Args) -> CmdResult {
     Ok(())
 }
 
-/// IoU of the mesh's silhouette with each view's alpha mask (alpha > ½).
-fn compare(mesh: &Mesh, dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Result<Vec<f64>, String> {
+/// The camera and alpha mask (alpha > ½) of each view of `--masks`, to
+/// compare the mesh's silhouette with.
+fn masks(dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Result<Vec<(nerf_infer::Camera, Vec<bool>)>, String> {
     use rayon::prelude::*;
     let capture = a.capture.for_model(m, &a.model)?;
     let data = load_split(dir, a.split.into(), capture.downscale_for(m), capture)?;
+    super::same_frame(&data, m, &a.model)?;
     data.views
         .par_iter()
         .map(|v| {
-            let (w, h, alpha) = load_alpha(&v.file, data.downscale).map_err(|e| e.to_string())?;
+            let (w, h, _, alpha) = load_rgba(&v.file, data.downscale, false).map_err(|e| e.to_string())?;
+            // an opaque photo has no mask: its IoU would say nothing
+            let alpha = alpha.ok_or_else(|| {
+                format!(
+                    "{}: --masks {}: the photo has no alpha channel; give a capture whose photos are masked (RGBA, as \
+                     Blender renders them)",
+                    v.file.display(),
+                    dir.display()
+                )
+            })?;
             if (w, h) != (v.camera.width, v.camera.height) {
                 return Err(format!(
                     "{}: alpha mask {w}x{h} but camera {}x{}",
@@ -134,8 +148,7 @@ fn compare(mesh: &Mesh, dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Resu
                     v.camera.height
                 ));
             }
-            let mask: Vec<bool> = alpha.iter().map(|&x| x > 0.5).collect();
-            Ok(iou(&silhouette(mesh, &v.camera), &mask))
+            Ok((v.camera, alpha.iter().map(|&x| x > 0.5).collect()))
         })
         .collect()
 }

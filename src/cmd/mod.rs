@@ -260,6 +260,13 @@ impl CaptureArgs {
                 c.holdout
             ));
         }
+        if self.undistort && !c.lens {
+            return Err(format!(
+                "{}: --undistort: the model was trained with --ignore-distortion (its photos taken as pinholes), so \
+                 there is no lens to undo; leave --undistort out",
+                path.display()
+            ));
+        }
         let scene = match c.framing {
             Framing::Files => SceneArg::Auto,
             Framing::Object => SceneArg::Object,
@@ -344,6 +351,15 @@ pub fn same_frame(data: &Dataset, model: &nerf_infer::Model<'_>, model_path: &Pa
                 m.views,
                 d.views,
                 if d.views == m.views { " with other held-out images" } else { "" }
+            );
+        } else if d.views != m.views {
+            // split otherwise (a trajectory loads every view): the counts still tell another capture
+            eprintln!(
+                "warning: {}: trained on a capture of {} views; this one has {}: not the capture the model was \
+                 trained on",
+                model_path.display(),
+                m.views,
+                d.views
             );
         }
     }

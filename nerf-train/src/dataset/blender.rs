@@ -253,7 +253,12 @@ fn ngp_views(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<CaptureView
         let fx = match (pick(f.intr.fl_x, t.intr.fl_x), t.camera_angle_x) {
             (Some(fx), _) => fx,
             (None, Some(fov)) => 0.5 * w / (0.5 * fov).tan(),
-            (None, None) => return Err(DataError::new(path, "neither camera_angle_x nor fl_x given")),
+            (None, None) => {
+                return Err(DataError::new(
+                    path,
+                    format!("{what}: no fl_x of its own and none for the file (nor camera_angle_x)"),
+                ))
+            }
         };
         let fy = pick(f.intr.fl_y, t.intr.fl_y).unwrap_or(fx);
         let cx = pick(f.intr.cx, t.intr.cx).unwrap_or(w / 2.0);

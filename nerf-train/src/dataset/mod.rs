@@ -18,7 +18,7 @@ mod types;
 
 pub use blender::{load_blender, load_ngp};
 pub use fit::SceneKind;
-pub use image_io::{load_alpha, load_rgb, save_png_rgb};
+pub use image_io::{load_alpha, load_rgb, load_rgba, save_png_rgb};
 pub use lens::Lens;
 pub use llff::{load_llff, write_poses_bounds};
 pub use npy::{parse_npy_f64, read_npy_f64, write_npy_f64};
