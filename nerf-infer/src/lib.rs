@@ -4,7 +4,8 @@
 //!
 //! Pipeline, one module per stage: [`camera`] (pixel → ray) →
 //! [`sampling`] (where along the ray; [`unbounded`] for scenes without
-//! bounds, [`occupancy`] to skip empty space) → [`encoding`] (γ, and the
+//! bounds, [`occupancy`] to skip empty space, [`proposal`] to place the
+//! network's samples in unbounded and forward-facing scenes) → [`encoding`] (γ, and the
 //! learned [`features`]) → [`network`] (the MLP) → [`composite`] (the
 //! quadrature) → [`render`] (the march over one ray, written once for both
 //! numeric paths, and [`render::tile`]). [`format`](mod@format) decodes

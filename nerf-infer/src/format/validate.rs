@@ -77,6 +77,9 @@ impl Model<'_> {
         if self.grid.is_some_and(|g| !g.is_valid()) {
             return Err(Error::InvalidTopology("occupancy grid resolution or length"));
         }
+        if self.proposal.is_some() && !cfg!(feature = "proposal") {
+            return Err(Error::Capacity("proposal grid (nerf-infer built without its `proposal` feature)"));
+        }
         if self.features.is_some() && !cfg!(feature = "feature-grid") {
             return Err(Error::Capacity("feature grid (nerf-infer built without its `feature-grid` feature)"));
         }

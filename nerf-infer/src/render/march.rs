@@ -24,6 +24,7 @@ fn fine_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
     }
 }
 
+#[cfg(feature = "proposal")]
 /// CDF level of the network's sample `j` of `n` drawn from a proposal
 /// grid's weights, Q16 in `(0, 65536)`: the middle of stratum `j`
 /// without jitter, a random point of it with.
@@ -36,6 +37,7 @@ fn main_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
     ((j as u64 * 65536 + offset) / n as u64) as u32
 }
 
+#[cfg(feature = "proposal")]
 /// The proposal grid `g` composited along `ray` at the samples `t`: writes
 /// each sample's weight to `w` (its density from the code's entry of
 /// `sigma`; 0 once the transmittance is below the early-termination
@@ -75,6 +77,7 @@ pub(super) fn render<P: NumericPath, K: LayerKernel<P>, const B: usize>(
     let pr = P::ray(ray);
     let nc = r.opts.coarse;
     let Scratch { t, w_coarse, cdf, block, evaluations } = s;
+    #[cfg(feature = "proposal")]
     if let (Some(sigma), Some(g)) = (&r.proposal, &m.proposal) {
         // the proposal grid composited at the stratified samples, the network at samples drawn from its
         // weights and at the last stratified sample (the interval out to the far plane)

@@ -58,6 +58,7 @@ pub struct Renderer<'m, 'a, P: NumericPath> {
     pixel: Option<f32>,
     /// The density of each proposal code in the path's format, for a
     /// model with a proposal grid rendered with importance samples.
+    #[cfg(feature = "proposal")]
     pub(super) proposal: Option<[P::Sigma; 256]>,
 }
 
@@ -77,6 +78,7 @@ impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
             occ_box: occ_box(model),
             coarse: coarse_level(model),
             pixel: model.footprint.map(|f| f.pixel),
+            #[cfg(feature = "proposal")]
             proposal: model
                 .proposal
                 .filter(|_| opts.fine > 0)
