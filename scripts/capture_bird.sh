@@ -12,13 +12,6 @@ root=$(realpath "${1:-../shared/data}")
 steps_n=${2:-1500}
 . "$(dirname "$0")/lib.sh"
 "$bin" capture --photos "$root/bird/images" --out "$work/bird_capture" 2>&1 | tee "$work/capture.log" >&2
-train() { # name data
-  "$bin" train --data "$2" --downscale 8 --iters "$steps_n" --threads 1 --seed 0 --out "$work/$1" > "$work/$1.log" 2>&1
-  "$bin" eval "$work/$1/model.nerf" --data "$2" --split val --threads 1 > "$work/$1/eval.json"
-}
-train shipped "$root/bird" &
-train captured "$work/bird_capture" &
-wait %1 || { cat "$work/shipped.log" >&2; exit 1; }
-wait %2 || { cat "$work/captured.log" >&2; exit 1; }
+side_by_side "$steps_n" shipped "$root/bird" captured "$work/bird_capture"
 record bird "shipped sparse/0 (equal steps; seed 0; one thread)" "-" "$(steps "$work/shipped")" "$work/shipped/eval.json"
 record bird "nerf capture's reconstruction (equal steps; seed 0; one thread)" "-" "$(steps "$work/captured")" "$work/captured/eval.json"

@@ -35,3 +35,21 @@ print(f"{stamp},{cap},{name},{minutes},{steps},{e['psnr']:.2f},{e['ssim']:.4f}")
 PY
   tail -1 "$csv" >&2
 }
+
+# side_by_side STEPS NAME_A DATA_A NAME_B DATA_B: trains both captures STEPS
+# steps at 1/8 size on one thread each at once (seed 0) into $work/NAME and
+# scores each on its held-out views ($work/NAME/eval.json); shows a failed
+# run's log and stops.
+side_by_side() {
+  local n=$1
+  one() { # name data
+    "$bin" train --data "$2" --downscale 8 --iters "$n" --threads 1 --seed 0 --out "$work/$1" > "$work/$1.log" 2>&1
+    "$bin" eval "$work/$1/model.nerf" --data "$2" --split val --threads 1 > "$work/$1/eval.json"
+  }
+  one "$2" "$3" &
+  local a=$!
+  one "$4" "$5" &
+  local b=$!
+  wait $a || { cat "$work/$2.log" >&2; exit 1; }
+  wait $b || { cat "$work/$4.log" >&2; exit 1; }
+}

@@ -13,14 +13,7 @@ steps_n=${2:-1500}
 . "$(dirname "$0")/lib.sh"
 cargo build --release --quiet -p nerf-train --example colmap_to_llff
 target/release/examples/colmap_to_llff "$root/bird" "$work/bird_llff"
-train() { # name data
-  "$bin" train --data "$2" --downscale 8 --iters "$steps_n" --threads 1 --seed 0 --out "$work/$1" > "$work/$1.log" 2>&1
-  "$bin" eval "$work/$1/model.nerf" --data "$2" --split val --threads 1 > "$work/$1/eval.json"
-}
-train colmap "$root/bird" &
-train llff "$work/bird_llff" &
-wait %1 || { cat "$work/colmap.log" >&2; exit 1; }
-wait %2 || { cat "$work/llff.log" >&2; exit 1; }
+side_by_side "$steps_n" colmap "$root/bird" llff "$work/bird_llff"
 grep -h "scene\|unbounded\|forward" "$work/colmap.log" "$work/llff.log" >&2 || true
 record bird "colmap layout (equal steps; seed 0; one thread)" "-" "$(steps "$work/colmap")" "$work/colmap/eval.json"
 record bird "llff layout (equal steps; seed 0; one thread)" "-" "$(steps "$work/llff")" "$work/llff/eval.json"
