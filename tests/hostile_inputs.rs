@@ -260,3 +260,27 @@ fn mesh_masks_need_photos_with_alpha() {
     let e = fails(&["mesh", &model_file(), "--out", s(&out), "--resolution", "16", "--masks", s(&d.join("cap"))]);
     assert!(e.contains("no alpha channel") && e.contains("img_"), "{e}");
 }
+
+#[test]
+fn an_output_record_never_reaches_outside_its_folder_or_into_a_users_files() {
+    let d = tmp("outdir-record");
+    let victim = d.join("victim.txt");
+    std::fs::write(&victim, b"keep").unwrap();
+    // a record naming files outside its folder: they are not the record's
+    let out = d.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let record = format!("nerf render\n{}\n../victim.txt\n.\n\n", victim.display());
+    std::fs::write(out.join(".nerf-outputs"), record).unwrap();
+    ok(&["render", &model_file(), "--orbit", "2", "--size", "8", "--out", s(&out)]);
+    assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+    // a file a user puts inside a subfolder of a command's outputs stops the next run
+    let sc = d.join("scene");
+    ok(&["scene", "--out", s(&sc), "--size", "8", "--train", "2"]);
+    std::fs::write(sc.join("room").join("notes.txt"), b"mine").unwrap();
+    let e = fails(&["scene", "--out", s(&sc), "--size", "8", "--train", "2"]);
+    assert!(e.contains("notes.txt") && e.contains("did not write"), "{e}");
+    assert_eq!(std::fs::read(sc.join("room").join("notes.txt")).unwrap(), b"mine");
+    // without it, the scene is written again in place
+    std::fs::remove_file(sc.join("room").join("notes.txt")).unwrap();
+    ok(&["scene", "--out", s(&sc), "--size", "8", "--train", "2"]);
+}

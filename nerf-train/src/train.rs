@@ -524,6 +524,10 @@ impl Trainer {
     /// (`chunks` and its split, `scatter`).
     fn gradients_timed(&self, batch: &[Sample], step_key: u32, times: &mut StepTimes) -> (Vec<f32>, f64, f64, usize) {
         let start = std::time::Instant::now();
+        // the proposal grid's gradient is this batch's alone
+        if let Ok(mut g) = self.pool.2.lock() {
+            g.clear();
+        }
         let net = self.mlp();
         let np = self.params.len();
         // the parameters each thread accumulates: all but a feature grid's table
@@ -969,7 +973,12 @@ impl Trainer {
             None => t.cfg.proposal_res == 0,
             Some(p) => {
                 let n = (p.res as usize).pow(3);
-                p.res == t.cfg.proposal_res && p.log_sigma.len() == n && p.adam.m.len() == n && p.adam.steps.len() == n
+                p.res > 0
+                    && p.res == t.cfg.proposal_res
+                    && p.log_sigma.len() == n
+                    && p.adam.m.len() == n
+                    && p.adam.v.len() == n
+                    && p.adam.steps.len() == n
             }
         };
         let nets = if t.cfg.n_fine > 0 { 2 } else { 1 };

@@ -98,9 +98,13 @@ pub fn run(a: Args) -> CmdResult {
     let name = a.out.file_name().ok_or_else(|| format!("--out {}: not a folder name", a.out.display()))?;
     let parent = a.out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     super::create_dir(parent)?;
-    let work = parent.join(format!(".{}.partial", name.to_string_lossy()));
+    // this process's own work folder: another capture into the same OUT never shares it
+    let work = parent.join(format!(".{}.partial-{}", name.to_string_lossy(), std::process::id()));
     if work.exists() {
-        let _ = std::fs::remove_dir_all(&work);
+        return Err(format!(
+            "{}: exists (left by an earlier capture); remove it or name another --out",
+            work.display()
+        ));
     }
     super::create_dir(&work.join("images"))?;
     let _lock = lock_run_dir(&work)?;

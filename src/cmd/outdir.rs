@@ -2,16 +2,18 @@
 //! one policy. A command claims its folder before it writes anything: the
 //! folder is created if missing and locked for the command's lifetime (a
 //! second process writing it is refused), and it must be empty or hold
-//! this same command's outputs of an earlier run, which its record
-//! (`.nerf-outputs`: the command, then each entry it wrote) names; those
-//! are removed first, so a shorter render leaves none of a longer one's
+//! nothing but this same command's outputs of an earlier run, which its
+//! record (`.nerf-outputs`: the command, then each file it wrote, relative
+//! to the folder) names; those files are removed first (and the folders
+//! they leave empty), so a shorter render leaves none of a longer one's
 //! frames. A folder holding anything else (a user's files, another
-//! command's results, a training run) is refused, and nothing in it is
-//! touched. When the command ends well, the record lists what the folder
-//! holds.
+//! command's results, a training run, a file added among the outputs) is
+//! refused, and nothing in it is touched. When the command ends, well or
+//! not, the record lists the files the folder then holds.
 
 use super::{create_dir, lock_run_dir};
-use std::path::{Path, PathBuf};
+use std::collections::BTreeSet;
+use std::path::{Component, Path, PathBuf};
 
 /// The record of a folder's outputs.
 pub const RECORD: &str = ".nerf-outputs";
@@ -24,12 +26,36 @@ pub struct OutDir {
     _lock: std::fs::File,
 }
 
-/// The command and entries a folder's record names, if it has one.
-fn record(dir: &Path) -> Option<(String, Vec<String>)> {
+/// Every file under `dir` (symbolic links as files, not followed), as
+/// paths relative to it, the record left out.
+fn files(dir: &Path) -> Result<BTreeSet<PathBuf>, String> {
+    let mut out = BTreeSet::new();
+    let mut todo = vec![PathBuf::new()];
+    while let Some(rel) = todo.pop() {
+        let rd =
+            std::fs::read_dir(dir.join(&rel)).map_err(|e| format!("{}: cannot list: {e}", dir.join(&rel).display()))?;
+        for e in rd.filter_map(|e| e.ok()) {
+            let p = rel.join(e.file_name());
+            match e.file_type() {
+                Ok(t) if t.is_dir() => todo.push(p),
+                _ if p.as_os_str() == RECORD => {}
+                _ => {
+                    out.insert(p);
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The command and files a folder's record names, if it has one; names
+/// that leave the folder (absolute, `..`) are not the record's.
+fn record(dir: &Path) -> Option<(String, BTreeSet<PathBuf>)> {
     let text = std::fs::read_to_string(dir.join(RECORD)).ok()?;
     let mut lines = text.lines();
     let command = lines.next()?.strip_prefix("nerf ")?.to_string();
-    Some((command, lines.map(str::to_string).collect()))
+    let inside = |p: &Path| !p.as_os_str().is_empty() && p.components().all(|c| matches!(c, Component::Normal(_)));
+    Some((command, lines.map(PathBuf::from).filter(|p| inside(p)).collect()))
 }
 
 impl OutDir {
@@ -40,38 +66,26 @@ impl OutDir {
         }
         create_dir(dir)?;
         let lock = lock_run_dir(dir)?;
-        let entries: Vec<String> = std::fs::read_dir(dir)
-            .map_err(|e| format!("{flag} {}: cannot list: {e}", dir.display()))?
-            .filter_map(|e| e.ok())
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| n != RECORD)
-            .collect();
+        let present = files(dir)?;
         let (owner, ours) = record(dir).unwrap_or_default();
-        if !entries.is_empty() && owner.is_empty() {
+        if let Some(other) = present.iter().find(|p| owner != command || !ours.contains(*p)) {
+            let whose = if owner.is_empty() || owner == command { String::new() } else { format!(" (nerf {owner})") };
             return Err(format!(
-                "{flag} {}: the folder holds files nerf {command} did not write ({}); give a new or empty folder",
+                "{flag} {}: holds {}, which nerf {command} did not write{whose}; give a new or empty folder",
                 dir.display(),
-                entries.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
+                other.display()
             ));
         }
-        if !entries.is_empty() && owner != command {
-            return Err(format!(
-                "{flag} {}: holds the outputs of nerf {owner}; give another folder to nerf {command}",
-                dir.display()
-            ));
-        }
-        if let Some(other) = entries.iter().find(|e| !ours.contains(e)) {
-            return Err(format!(
-                "{flag} {}: holds {other}, which nerf {command} did not write; give a new or empty folder",
-                dir.display()
-            ));
-        }
-        // the earlier run's outputs: gone before the new ones are written
-        for e in &ours {
-            let p = dir.join(e);
-            let gone = if p.is_dir() { std::fs::remove_dir_all(&p) } else { std::fs::remove_file(&p) };
-            if let Err(err) = gone.or_else(|e| if p.exists() { Err(e) } else { Ok(()) }) {
-                return Err(format!("{}: cannot remove an earlier output: {err}", p.display()));
+        // the earlier run's outputs, all of them recorded: gone before the new ones are written
+        for p in &present {
+            let full = dir.join(p);
+            std::fs::remove_file(&full)
+                .map_err(|e| format!("{}: cannot remove an earlier output: {e}", full.display()))?;
+            // the folders that held it, if now empty (a folder holding anything stays)
+            for a in p.ancestors().skip(1).filter(|a| !a.as_os_str().is_empty()) {
+                if std::fs::remove_dir(dir.join(a)).is_err() {
+                    break;
+                }
             }
         }
         let this = Self { dir: dir.to_path_buf(), command, _lock: lock };
@@ -80,20 +94,11 @@ impl OutDir {
         Ok(this)
     }
 
-    /// Records what the folder now holds: called when the command has
-    /// written its outputs (and after a failure, so that a rerun may
-    /// replace what it left).
+    /// Records the files the folder now holds as this command's.
     pub fn write_record(&self) -> Result<(), String> {
         let mut text = format!("nerf {}\n", self.command);
-        let mut names: Vec<String> = std::fs::read_dir(&self.dir)
-            .map_err(|e| format!("{}: cannot list: {e}", self.dir.display()))?
-            .filter_map(|e| e.ok())
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .filter(|n| n != RECORD)
-            .collect();
-        names.sort();
-        for n in names {
-            text.push_str(&n);
+        for p in files(&self.dir)? {
+            text.push_str(&p.to_string_lossy());
             text.push('\n');
         }
         super::write_atomic(&self.dir.join(RECORD), text.as_bytes())

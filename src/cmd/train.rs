@@ -124,7 +124,11 @@ impl NewRun {
         let open = data.scene.unbounded.is_some() || data.scene.ndc.is_some();
         // one network over an occupancy grid: the presets whose stratified samples the proposal replaces
         if self.fit_proposal && open && cfg.proposal_res == 0 && cfg.n_fine == 0 && cfg.grid_res > 0 {
-            cfg.proposal_res = TrainConfig::PROPOSAL_RES;
+            // only a configuration the grid can serve (n_coarse 3..=256, n_main 1..=255) gets it
+            let with = TrainConfig { proposal_res: TrainConfig::PROPOSAL_RES, ..cfg.clone() };
+            if with.validate().is_ok() {
+                cfg = with;
+            }
         }
         if let Some(cells) = data.resolvable_cells() {
             if self.fit_features {

@@ -60,7 +60,9 @@ impl Model<'_> {
             return Err(Error::InvalidTopology("skip mask names a layer outside 1..depth"));
         }
         let sm = &self.samples;
-        if sm.coarse < 2 || sm.coarse as usize > max_coarse(sm.fine as usize) || sm.fine as usize > MAX_FINE {
+        // importance samples need two bins of weights: three coarse samples
+        let least = if sm.fine > 0 { 3 } else { 2 };
+        if sm.coarse < least || sm.coarse as usize > max_coarse(sm.fine as usize) || sm.fine as usize > MAX_FINE {
             return Err(Error::InvalidSamples);
         }
         if self.proposal.is_some() {

@@ -40,7 +40,9 @@ impl RenderOptions {
             None => self.fine <= MAX_FINE && (self.fine == 0 || model.fine.is_some()),
         };
         let stop_ok = self.early_stop.is_finite() && (0.0..1.0).contains(&self.early_stop);
-        if !(2..=max_coarse(self.fine)).contains(&self.coarse) || !fine_ok || !stop_ok {
+        // importance samples need two bins of weights: three coarse samples
+        let least = if self.fine > 0 { 3 } else { 2 };
+        if !(least..=max_coarse(self.fine)).contains(&self.coarse) || !fine_ok || !stop_ok {
             return Err(Error::InvalidSamples);
         }
         Ok(())

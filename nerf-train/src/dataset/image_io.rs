@@ -23,7 +23,8 @@ fn decoder(path: &Path) -> Result<(impl image::ImageDecoder, image::metadata::Or
     }
     // the decoders' own allocations bounded; the size is checked below, on the header, with the numbers named
     let mut limits = image::Limits::default();
-    limits.max_alloc = Some(4 * MAX_PIXELS);
+    // (16-bit RGBA: 8 bytes a pixel)
+    limits.max_alloc = Some(8 * MAX_PIXELS);
     let mut reader = image::ImageReader::open(path).map_err(|e| bad(&e))?.with_guessed_format().map_err(|e| bad(&e))?;
     reader.limits(limits);
     let mut decoder = reader.into_decoder().map_err(|e| bad(&e))?;
