@@ -282,8 +282,8 @@ int8 export rendered on the held-out views with S stratified samples
 compositing the proposal grid and N network samples drawn from its weights
 (`nerf eval --coarse S --fine N`), one core, early termination 10⁻³, the
 fastest of three. The network's samples are placed where the grid's weight
-is, so early termination cuts few of them: the time follows the counts
-(the grid's pass costs about 3.5 µs per ray at 192 stratified samples).""", t if rs else missing("proposal"))
+is, so early termination cuts few of them: the time follows the counts,
+and the grid's pass at the stratified samples is part of every row's.""", t if rs else missing("proposal"))
 
 
 def duration(ns):

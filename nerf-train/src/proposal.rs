@@ -49,8 +49,14 @@ pub struct RayProposal {
     pub cell: Vec<u32>,
     /// Each sample's `δ` (world units; the last one infinite).
     pub delta: Vec<f32>,
+    /// Each sample's density (1/world units).
+    pub sigma: Vec<f32>,
     /// Each sample's weight.
     pub w: Vec<f32>,
+    /// Working memory reused from ray to ray: the colours the weights are
+    /// composited with (zeros, three per sample) and the CDF.
+    zeros: Vec<f32>,
+    cdf: Vec<f32>,
 }
 
 impl RayProposal {
@@ -98,12 +104,14 @@ impl ProposalGrid {
         prop.cell.extend(prop.t.iter().map(|&t| self.cell(ray.at(t).to_array())));
         prop.delta.clear();
         push_deltas(&prop.t, ray.dir_len, &mut prop.delta);
-        let sigma: Vec<f32> = prop.cell.iter().map(|&c| self.log_sigma[c as usize].exp()).collect();
+        prop.sigma.clear();
+        prop.sigma.extend(prop.cell.iter().map(|&c| self.log_sigma[c as usize].exp()));
         prop.w.resize(n_coarse, 0.0);
-        composite(&sigma, &vec![0.0; 3 * n_coarse], &prop.delta, [0.0; 3], &mut prop.w);
-        let mut cdf = vec![0.0; n_coarse];
+        prop.zeros.resize(3 * n_coarse, 0.0);
+        prop.cdf.resize(n_coarse, 0.0);
+        composite(&prop.sigma, &prop.zeros, &prop.delta, [0.0; 3], &mut prop.w);
         let pdf_key = key ^ 0x9E37_79B9;
-        sample_pdf_f32(&prop.t, &prop.w, |j| main_u(j, n_main, Some(pdf_key)), &mut cdf, &mut out[..n_main]);
+        sample_pdf_f32(&prop.t, &prop.w, |j| main_u(j, n_main, Some(pdf_key)), &mut prop.cdf, &mut out[..n_main]);
         out[n_main] = prop.t[n_coarse - 1];
     }
 
@@ -119,11 +127,11 @@ impl ProposalGrid {
         if dw.iter().all(|&g| g == 0.0) {
             return loss;
         }
-        let sigma: Vec<f32> = prop.cell.iter().map(|&c| self.log_sigma[c as usize].exp()).collect();
+        // the densities of the forward pass (the grid has not moved since)
+        let (sigma, zeros) = (&prop.sigma, &prop.zeros);
         let mut dsigma = vec![0.0; n];
-        let zeros = vec![0.0; 3 * n];
         let mut drgb = vec![0.0; 3 * n];
-        composite_back(&sigma, &zeros, &prop.delta, [0.0; 3], &prop.w, [0.0; 3], &dw, &mut dsigma, &mut drgb);
+        composite_back(sigma, zeros, &prop.delta, [0.0; 3], &prop.w, [0.0; 3], &dw, &mut dsigma, &mut drgb);
         // σ = exp(v): ∂L/∂v = σ ∂L/∂σ
         grad.extend(prop.cell.iter().zip(sigma.iter().zip(&dsigma)).map(|(&c, (&s, &d))| (c, s * d)));
         loss
