@@ -111,6 +111,7 @@ pub mod sampling;
 pub mod tensor;
 pub mod unbounded;
 
+pub use arch::{kernels, use_kernels, Kernels};
 pub use camera::{Camera, Ray};
 pub use composite::{Pixel, PixelFixed};
 pub use error::{Error, Result};

@@ -2,7 +2,9 @@
 //! bit (also on Cortex-M). Regenerate with the workspace's
 //! `cargo test --release --test golden -- --ignored bless`.
 
-use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, ScratchFixed, Tile};
+use nerf_infer::{
+    render_tile, use_kernels, Camera, Kernels, Model, PixelFixed, RenderOptions, RendererFixed, ScratchFixed, Tile,
+};
 
 #[allow(dead_code)]
 mod expected {
@@ -74,6 +76,30 @@ fn int8_golden_pixels_with_a_proposal_grid_are_bit_exact() {
     // the grid's placement shows: some pixels are opaque, some clear
     let opacity = |k: usize| expected::GOLDEN8_PROPOSAL[k].3;
     assert!((0..256).any(|k| opacity(k) > 30000) && (0..256).any(|k| opacity(k) < 3000));
+}
+
+/// The SIMD kernels give the portable references' bits: every set this
+/// build carries and this CPU runs renders every golden model's pixels
+/// (the int8 layer, its requantiser, the sine and the feature lookups all
+/// run in these renders). The only test here that changes the kernels;
+/// the others, if they run meanwhile, render the same pixels with them.
+#[test]
+fn golden_pixels_are_the_same_with_every_kernel_set() {
+    let mut ran = Vec::new();
+    for k in Kernels::ALL {
+        if !use_kernels(k) {
+            continue;
+        }
+        ran.push(k);
+        check::<8>(include_bytes!("data/golden.nerf"), &expected::GOLDEN16);
+        check::<8>(include_bytes!("data/golden8.nerf"), &expected::GOLDEN8);
+        check::<8>(include_bytes!("data/golden8_precise.nerf"), &expected::GOLDEN8_PRECISE);
+        check::<8>(include_bytes!("data/golden8_density.nerf"), &expected::GOLDEN8_DENSITY);
+        check::<3>(include_bytes!("data/golden8_proposal.nerf"), &expected::GOLDEN8_PROPOSAL);
+    }
+    assert!(use_kernels(Kernels::best()));
+    eprintln!("kernel sets checked: {ran:?}");
+    assert!(ran.contains(&Kernels::Portable) && ran.contains(&Kernels::best()));
 }
 
 fn render_with<const B: usize>(blob: &[u8], early_stop: f32) -> [PixelFixed; 256] {

@@ -10,27 +10,43 @@
 //! | sine of phases, Q15 | [`crate::fixed::sin_turns_q15`] | `avx2::sin_turns_q15_x8` | (AVX2) | (portable) |
 //! | width-2 feature-grid lookups | [`FeatureGrid::encode_fixed`] | `avx2::features_w2` | (AVX2) | (portable) |
 //!
-//! The choice is made at compile time from the target features the build
-//! enables (`-C target-cpu=native`, or `x86-64-v3` for AVX2); without them
+//! The choice is made once per process, at first use ([`kernels`]): with
+//! the `std` feature, x86-64 builds carry the AVX2 and AVX-512 VNNI
+//! kernels whatever the build's target features, and pick the best the
+//! CPU has (`is_x86_feature_detected!`), so a plain `cargo build` of a
+//! program that depends on this crate gets them. Without `std` the choice
+//! is made at compile time from the target features the build enables
+//! (`RUSTFLAGS="-C target-cpu=native"`, or `-C target-cpu=x86-64-v3` for
+//! AVX2, `-C target-feature=+avx512bw,+avx512vnni` for VNNI); without them
 //! every contract runs its portable reference, as on Cortex-M. wasm32 with
-//! `simd128` (which the browser viewer is built with) has its own int8
-//! layer; its tests run in the browser (`tests/web.rs`: the page's frames
-//! against the host's, bit for bit), the others here.
+//! `simd128` (`RUSTFLAGS="-C target-feature=+simd128"`, as the browser
+//! viewer is built) has its own int8 layer; its tests run in the browser
+//! (`tests/web.rs`: the page's frames against the host's, bit for bit), the
+//! others here. Every kernel gives the same bits, so the pixels do not
+//! depend on the kernels chosen ([`use_kernels`] chooses others, for
+//! benchmarks and tests).
+//!
 //! Portable code never calls into this module's submodules; the rest of the
 //! crate calls the functions and the [`IntKernel`] trait below. The tests at
-//! the end run every implementation built against its reference.
+//! the end run every implementation the build carries and the CPU runs
+//! against its reference.
 //!
 //! To add an architecture: a folder beside `avx2/` with the kernels it
-//! speeds up, a `cfg` arm in the functions below, and a line in the tests'
-//! list.
+//! speeds up and a token type that proves the CPU has them, a
+//! [`Kernels`] variant and its detection, an arm in the functions below,
+//! and a line in the tests' list.
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-#[cfg_attr(all(target_feature = "avx512bw", target_feature = "avx512vnni"), allow(dead_code))]
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
 mod avx2;
-#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
+#[cfg(all(
+    target_arch = "x86_64",
+    any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+))]
 mod vnni;
 #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
 mod wasm;
+
+use core::sync::atomic::{AtomicU8, Ordering};
 
 use crate::camera::FOOTPRINT_POINTS;
 use crate::features::FeatureGrid;
@@ -38,27 +54,137 @@ use crate::fixed::sin_turns_q15;
 use crate::format::{Layer, MAX_WIDTH};
 use crate::layer::{accumulate, requant_rows, Input, IntWeight, W16, W8};
 
-/// Whether the AVX2 int8 kernels are built (and AVX-512 VNNI is not).
-const AVX2_ONLY: bool = cfg!(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
-));
+/// A set of SIMD kernels for the contracts of this module.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernels {
+    /// The portable references (any target).
+    Portable,
+    /// x86-64 AVX2: the int8 layer, its requantiser, the sine and width-2
+    /// feature lookups.
+    Avx2,
+    /// x86-64 AVX-512 VNNI (with `avx512f` and `avx512bw`) for the int8
+    /// layer and its requantiser, AVX2 for the rest.
+    Avx512Vnni,
+    /// wasm32 SIMD128: the int8 layer.
+    Simd128,
+}
 
-/// Whether the wasm SIMD128 int8 kernel is built.
-const WASM_SIMD: bool = cfg!(all(target_arch = "wasm32", target_feature = "simd128"));
+impl Kernels {
+    /// Every set, best last.
+    pub const ALL: [Kernels; 4] = [Kernels::Portable, Kernels::Simd128, Kernels::Avx2, Kernels::Avx512Vnni];
 
-/// The dense-layer kernels of an integer weight type, as built for this
-/// target.
+    /// Whether this build carries the set and the CPU running it has the
+    /// instructions it needs.
+    pub fn available(self) -> bool {
+        match self {
+            Kernels::Portable => true,
+            Kernels::Avx2 => has_avx2(),
+            Kernels::Avx512Vnni => has_vnni(),
+            Kernels::Simd128 => cfg!(all(target_arch = "wasm32", target_feature = "simd128")),
+        }
+    }
+
+    /// The best set [`Kernels::available`].
+    pub fn best() -> Kernels {
+        *Kernels::ALL.iter().rev().find(|k| k.available()).unwrap_or(&Kernels::Portable)
+    }
+}
+
+/// Whether the AVX2 kernels are built and the CPU has AVX2.
+#[inline]
+fn has_avx2() -> bool {
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
+    return std::arch::is_x86_feature_detected!("avx2");
+    #[cfg(not(all(target_arch = "x86_64", feature = "std")))]
+    return cfg!(all(target_arch = "x86_64", target_feature = "avx2"));
+}
+
+/// Whether the VNNI kernels are built and the CPU has what they need.
+#[inline]
+fn has_vnni() -> bool {
+    #[cfg(all(target_arch = "x86_64", feature = "std"))]
+    return std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512bw")
+        && std::arch::is_x86_feature_detected!("avx512vnni")
+        && has_avx2();
+    #[cfg(not(all(target_arch = "x86_64", feature = "std")))]
+    return cfg!(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"));
+}
+
+/// The kernels in use plus one; 0 until the first call of [`kernels`].
+static IN_USE: AtomicU8 = AtomicU8::new(0);
+
+/// The kernels this process runs: [`Kernels::best`], picked at the first
+/// call (one CPU feature check per process), unless [`use_kernels`] chose
+/// others.
+#[inline]
+pub fn kernels() -> Kernels {
+    match IN_USE.load(Ordering::Relaxed) {
+        0 => {
+            let k = Kernels::best();
+            IN_USE.store(k as u8 + 1, Ordering::Relaxed);
+            k
+        }
+        k => Kernels::ALL.into_iter().find(|&v| v as u8 + 1 == k).unwrap_or(Kernels::Portable),
+    }
+}
+
+/// Runs `k` from now on, in every thread, in place of [`kernels`]' choice;
+/// returns `false` (and changes nothing) if `k` is not
+/// [`Kernels::available`]. The pixels are the same whichever runs: this
+/// is for timing one against another and for tests.
+pub fn use_kernels(k: Kernels) -> bool {
+    if k.available() {
+        IN_USE.store(k as u8 + 1, Ordering::Relaxed);
+    }
+    k.available()
+}
+
+/// The kernels of one call, with the proof that the CPU has them.
+#[derive(Clone, Copy)]
+enum Active {
+    Portable,
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    Avx2(avx2::Avx2),
+    #[cfg(all(
+        target_arch = "x86_64",
+        any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+    ))]
+    Vnni(vnni::Vnni),
+    #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+    Simd128,
+}
+
+/// [`kernels`] as an [`Active`] set.
+#[inline]
+fn active() -> Active {
+    match kernels() {
+        #[cfg(all(
+            target_arch = "x86_64",
+            any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+        ))]
+        Kernels::Avx512Vnni => vnni::Vnni::new().map_or(Active::Portable, Active::Vnni),
+        #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+        Kernels::Avx2 => avx2::Avx2::new().map_or(Active::Portable, Active::Avx2),
+        #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+        Kernels::Simd128 => Active::Simd128,
+        _ => Active::Portable,
+    }
+}
+
+/// The dense-layer kernels of an integer weight type.
 pub trait IntKernel: IntWeight + Sized {
     /// Whether [`IntKernel::accumulate_wide`] also takes layers narrower
     /// than the portable tile (the colour head) faster than scalar dot
-    /// products.
-    const WIDE_TAKES_NARROW: bool = false;
+    /// products, with the kernels in use.
+    #[inline]
+    fn wide_takes_narrow() -> bool {
+        false
+    }
     /// `acc[s][c] += Σ_j x.rows[s][j] · W[x.row0 + j][c]` for the first
     /// `x.n` samples and every output of a layer at least
     /// [`crate::layer::TILE_C`] wide (or any width if
-    /// [`IntKernel::WIDE_TAKES_NARROW`]); the portable kernel by default.
+    /// [`IntKernel::wide_takes_narrow`]); the portable kernel by default.
     #[inline]
     fn accumulate_wide<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[Self::A; MAX_WIDTH]]) {
         accumulate::<Self, N>(l, 0, x, acc);
@@ -82,43 +208,62 @@ impl IntKernel for W16 {}
 
 /// int8 weights: VNNI for whole 32-wide tiles (the portable loop for the
 /// rest), else AVX2 `vpmaddwd` 8 outputs at a time (a short last group
-/// padded), else portable.
+/// padded), else SIMD128, else portable.
 impl IntKernel for W8 {
-    const WIDE_TAKES_NARROW: bool = AVX2_ONLY || WASM_SIMD;
+    #[inline]
+    fn wide_takes_narrow() -> bool {
+        match active() {
+            #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+            Active::Avx2(_) => true,
+            #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+            Active::Simd128 => true,
+            _ => false,
+        }
+    }
     #[inline]
     fn accumulate_wide<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, acc: &mut [[i32; MAX_WIDTH]]) {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-        {
-            vnni::accumulate_i8(l, x, acc);
-            let od = l.out_dim as usize;
-            accumulate::<W8, N>(l, od - od % crate::layer::TILE_C, x, acc);
+        match active() {
+            #[cfg(all(
+                target_arch = "x86_64",
+                any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+            ))]
+            Active::Vnni(k) => {
+                vnni::accumulate_i8(k, l, x, acc);
+                let od = l.out_dim as usize;
+                accumulate::<W8, N>(l, od - od % crate::layer::TILE_C, x, acc);
+            }
+            #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+            Active::Avx2(k) => avx2::accumulate_i8(k, l, x, acc),
+            #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+            Active::Simd128 => wasm::accumulate_i8(l, x, acc),
+            Active::Portable => accumulate::<W8, N>(l, 0, x, acc),
         }
-        #[cfg(all(
-            target_arch = "x86_64",
-            target_feature = "avx2",
-            not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
-        ))]
-        avx2::accumulate_i8(l, x, acc);
-        #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
-        wasm::accumulate_i8(l, x, acc);
-        #[cfg(not(any(
-            all(target_arch = "x86_64", target_feature = "avx2"),
-            all(target_arch = "wasm32", target_feature = "simd128")
-        )))]
-        accumulate::<W8, N>(l, 0, x, acc);
     }
     #[inline]
     fn requant_rows(l: &Layer<'_>, n: usize, acc: &[[i32; MAX_WIDTH]], out: &mut [[i16; MAX_WIDTH]], b: (i16, i16)) {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-        vnni::requant_i32(l, n, acc, out, b);
-        #[cfg(all(
-            target_arch = "x86_64",
-            target_feature = "avx2",
-            not(all(target_feature = "avx512bw", target_feature = "avx512vnni"))
-        ))]
-        avx2::requant_i32(l, n, acc, out, b);
-        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
-        requant_rows::<W8>(l, 0, n, acc, out, b);
+        match active() {
+            #[cfg(all(
+                target_arch = "x86_64",
+                any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+            ))]
+            Active::Vnni(k) => vnni::requant_i32(k, l, n, acc, out, b),
+            #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+            Active::Avx2(k) => avx2::requant_i32(k, l, n, acc, out, b),
+            _ => requant_rows::<W8>(l, 0, n, acc, out, b),
+        }
+    }
+}
+
+/// The AVX2 token of the kernels in use, if they include AVX2 (the VNNI
+/// set does).
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+#[inline]
+fn avx2_in_use() -> Option<avx2::Avx2> {
+    match active() {
+        Active::Avx2(k) => Some(k),
+        #[cfg(any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni")))]
+        Active::Vnni(k) => Some(k.avx2()),
+        _ => None,
     }
 }
 
@@ -127,9 +272,9 @@ impl IntKernel for W8 {
 #[inline]
 pub fn sin_turns_q15_slice(phases: &[u32], out: &mut [i16]) {
     debug_assert_eq!(phases.len(), out.len());
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    let done = avx2::sin_turns_q15_x8(phases, out);
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    let done = avx2_in_use().map_or(0, |k| avx2::sin_turns_q15_x8(k, phases, out));
+    #[cfg(not(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2"))))]
     let done = 0;
     for (o, &ph) in out[done..].iter_mut().zip(&phases[done..]) {
         *o = sin_turns_q15(ph);
@@ -141,9 +286,9 @@ pub fn sin_turns_q15_slice(phases: &[u32], out: &mut [i16]) {
 /// 8 levels per register, i16 or narrow tables).
 #[inline]
 pub fn feature_rows<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    if g.width == 2 {
-        avx2::features_w2(g, pos, out, at);
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    if let (2, Some(k)) = (g.width, avx2_in_use()) {
+        avx2::features_w2(k, g, pos, out, at);
         return;
     }
     for (p, o) in pos.iter().zip(out.iter_mut()) {

@@ -1,7 +1,8 @@
 //! Every kernel of this build against its portable reference, bit for bit:
 //! the kernel the crate picks (`selected_*`) and each architecture's own
-//! (`avx2_*`, `vnni_*`, where the build has them), on the same cases. One
-//! macro, one list: a new architecture adds its lines here.
+//! (`avx2_*`, `vnni_*`, where the build carries them; a kernel the CPU
+//! cannot run is reported and skipped), on the same cases. One macro, one
+//! list: a new architecture adds its lines here.
 
 extern crate std;
 use std::vec::Vec;
@@ -13,15 +14,22 @@ use crate::layer::{accumulate, requant_rows, Input};
 
 /// `$test`: for every case of `$cases`, `$kernel(&case)` equals
 /// `$reference(&case)`.
+/// `$token` is the kernel set's proof that the CPU has it (`Some(())`
+/// for kernels every CPU of the target runs).
 macro_rules! same_as_reference {
-    ($($(#[$cfg:meta])* $test:ident: $cases:expr, $kernel:expr, $reference:expr;)*) => {$(
+    ($($(#[$cfg:meta])* $test:ident($token:expr): $cases:expr, $kernel:expr, $reference:expr;)*) => {$(
         $(#[$cfg])*
         #[test]
         fn $test() {
+            let Some(k) = $token else {
+                std::eprintln!("{}: this CPU cannot run the kernel; skipped", stringify!($test));
+                return;
+            };
+            let kernel = |c| $kernel(k, c);
             let cases = $cases;
             assert!(!cases.is_empty());
             for (k, case) in cases.iter().enumerate() {
-                assert!($kernel(case) == $reference(case), "case {k}");
+                assert!(kernel(case) == $reference(case), "case {k}");
             }
         }
     )*};
@@ -58,16 +66,16 @@ fn sine_reference(phases: &[u32]) -> Vec<i16> {
     phases.iter().map(|&p| sin_turns_q15(p)).collect()
 }
 
-fn sine_selected(phases: &[u32]) -> Vec<i16> {
+fn sine_selected(_: (), phases: &[u32]) -> Vec<i16> {
     let mut out = std::vec![0; phases.len()];
     sin_turns_q15_slice(phases, &mut out);
     out
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-fn sine_avx2(phases: &[u32]) -> Vec<i16> {
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+fn sine_avx2(k: avx2::Avx2, phases: &[u32]) -> Vec<i16> {
     let mut out = std::vec![0; phases.len()];
-    let done = avx2::sin_turns_q15_x8(phases, &mut out);
+    let done = avx2::sin_turns_q15_x8(k, phases, &mut out);
     assert_eq!(done, phases.len() / 8 * 8);
     (out[..done].iter().copied()).chain(phases[done..].iter().map(|&p| sin_turns_q15(p))).collect()
 }
@@ -130,20 +138,23 @@ fn layer_reference(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
     layer_with(c, |l, x, acc| accumulate::<W8, MAX_WIDTH>(l, 0, x, acc))
 }
 
-fn layer_selected(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+fn layer_selected(_: (), c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
     layer_with(c, W8::accumulate_wide)
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-fn layer_avx2(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
-    layer_with(c, avx2::accumulate_i8)
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+fn layer_avx2(k: avx2::Avx2, c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+    layer_with(c, |l, x, acc| avx2::accumulate_i8(k, l, x, acc))
 }
 
 /// VNNI takes the whole 32-wide tiles; the portable loop the rest.
-#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-fn layer_vnni(c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
+#[cfg(all(
+    target_arch = "x86_64",
+    any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+))]
+fn layer_vnni(k: vnni::Vnni, c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
     layer_with(c, |l, x, acc| {
-        vnni::accumulate_i8(l, x, acc);
+        vnni::accumulate_i8(k, l, x, acc);
         accumulate::<W8, MAX_WIDTH>(l, c.od - c.od % crate::layer::TILE_C, x, acc)
     })
 }
@@ -217,18 +228,21 @@ fn requant_reference(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
     requant_with(c, |l, c, out| requant_rows::<W8>(l, 0, c.n, &c.acc, out, c.bounds))
 }
 
-fn requant_selected(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
+fn requant_selected(_: (), c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
     requant_with(c, |l, c, out| W8::requant_rows(l, c.n, &c.acc, out, c.bounds))
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-fn requant_avx2(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
-    requant_with(c, |l, c, out| avx2::requant_i32(l, c.n, &c.acc, out, c.bounds))
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+fn requant_avx2(k: avx2::Avx2, c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
+    requant_with(c, |l, c, out| avx2::requant_i32(k, l, c.n, &c.acc, out, c.bounds))
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-fn requant_vnni(c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
-    requant_with(c, |l, c, out| vnni::requant_i32(l, c.n, &c.acc, out, c.bounds))
+#[cfg(all(
+    target_arch = "x86_64",
+    any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+))]
+fn requant_vnni(k: vnni::Vnni, c: &RequantCase) -> Vec<[i16; MAX_WIDTH]> {
+    requant_with(c, |l, c, out| vnni::requant_i32(k, l, c.n, &c.acc, out, c.bounds))
 }
 
 // ---- feature-grid lookups
@@ -325,35 +339,41 @@ fn features_reference(c: &FeatureCase) -> Vec<[i16; 40]> {
     })
 }
 
-fn features_selected(c: &FeatureCase) -> Vec<[i16; 40]> {
+fn features_selected(_: (), c: &FeatureCase) -> Vec<[i16; 40]> {
     features_with(c, |g, pos, rows| feature_rows(g, pos, rows, 5))
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-fn features_avx2(c: &FeatureCase) -> Vec<[i16; 40]> {
-    features_with(c, |g, pos, rows| avx2::features_w2(g, pos, rows, 5))
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+fn features_avx2(k: avx2::Avx2, c: &FeatureCase) -> Vec<[i16; 40]> {
+    features_with(c, |g, pos, rows| avx2::features_w2(k, g, pos, rows, 5))
 }
 
 same_as_reference! {
-    selected_sine: sine_cases(), sine_selected, sine_reference;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    avx2_sine: sine_cases(), sine_avx2, sine_reference;
+    selected_sine(Some(())): sine_cases(), sine_selected, sine_reference;
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    avx2_sine(avx2::Avx2::new()): sine_cases(), sine_avx2, sine_reference;
 
-    selected_int8_layer: layer_cases(), layer_selected, layer_reference;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    avx2_int8_layer: layer_cases(), layer_avx2, layer_reference;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-    vnni_int8_layer: layer_cases(), layer_vnni, layer_reference;
+    selected_int8_layer(Some(())): layer_cases(), layer_selected, layer_reference;
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    avx2_int8_layer(avx2::Avx2::new()): layer_cases(), layer_avx2, layer_reference;
+    #[cfg(all(
+    target_arch = "x86_64",
+    any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+))]
+    vnni_int8_layer(vnni::Vnni::new()): layer_cases(), layer_vnni, layer_reference;
 
-    selected_int8_requantisation: requant_cases(), requant_selected, requant_reference;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    avx2_int8_requantisation: requant_cases(), requant_avx2, requant_reference;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx512bw", target_feature = "avx512vnni"))]
-    vnni_int8_requantisation: requant_cases(), requant_vnni, requant_reference;
+    selected_int8_requantisation(Some(())): requant_cases(), requant_selected, requant_reference;
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    avx2_int8_requantisation(avx2::Avx2::new()): requant_cases(), requant_avx2, requant_reference;
+    #[cfg(all(
+    target_arch = "x86_64",
+    any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
+))]
+    vnni_int8_requantisation(vnni::Vnni::new()): requant_cases(), requant_vnni, requant_reference;
 
-    selected_feature_lookups: feature_cases(), features_selected, features_reference;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    avx2_feature_lookups: feature_cases(), features_avx2, features_reference;
+    selected_feature_lookups(Some(())): feature_cases(), features_selected, features_reference;
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    avx2_feature_lookups(avx2::Avx2::new()): feature_cases(), features_avx2, features_reference;
 }
 
 /// The requantisation reference itself against `Requant::apply` and a

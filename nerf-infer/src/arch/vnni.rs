@@ -1,6 +1,8 @@
-//! The int8-weight layer kernel and its requantiser on x86-64 CPUs with AVX-512 VNNI (built when
-//! the target enables `avx512bw` and `avx512vnni`, e.g. `-C
-//! target-cpu=native` on such a CPU; elsewhere the portable kernel runs).
+//! The int8-weight layer kernel and its requantiser on x86-64 CPUs with
+//! AVX-512 VNNI (with `std`, in every x86-64 build, run where the CPU has
+//! `avx512f`, `avx512bw` and `avx512vnni`; without, built when the target
+//! enables `avx512bw` and `avx512vnni`). Each entry point takes a [`Vnni`]
+//! token, the proof that the CPU has them.
 //!
 //! `vpdpwssd` multiplies 32 pairs of i16 and adds each pair's two products
 //! to one of 16 i32 accumulators: 32 multiply-accumulates per instruction,
@@ -20,6 +22,27 @@ use core::mem::MaybeUninit;
 
 use crate::format::{Layer, MAX_INPUT, MAX_WIDTH};
 use crate::layer::{requant_rows, Input, W8};
+
+use super::avx2::Avx2;
+
+/// Proof that the CPU running this code has AVX-512 F, BW and VNNI (and
+/// AVX2): made only by [`Vnni::new`], which checks.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Vnni(Avx2);
+
+impl Vnni {
+    /// The token, if the CPU has the instructions.
+    #[inline]
+    pub(crate) fn new() -> Option<Self> {
+        Avx2::new().filter(|_| super::has_vnni()).map(Vnni)
+    }
+
+    /// The AVX2 token this one implies.
+    #[inline]
+    pub(crate) fn avx2(self) -> Avx2 {
+        self.0
+    }
+}
 
 /// Samples per register tile: 8 samples × 32 outputs is 16 accumulator
 /// registers, leaving room for the weights.
@@ -64,9 +87,13 @@ fn row_i16(weights: &[u8], od: usize, j: usize, c0: usize) -> __m512i {
 /// samples and the outputs `0..od − od % 32` of `l`, an int8 layer with
 /// `od` outputs (the caller finishes the rest), i32 accumulators.
 #[inline]
-pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, out: &mut [[i32; MAX_WIDTH]]) {
-    // SAFETY: this module is only compiled when the build enables
-    // avx512f, avx512bw and avx512vnni for the whole crate.
+pub(crate) fn accumulate_i8<const N: usize>(
+    _: Vnni,
+    l: &Layer<'_>,
+    x: Input<'_, i16, N>,
+    out: &mut [[i32; MAX_WIDTH]],
+) {
+    // SAFETY: the token proves the CPU has avx512f, avx512bw and avx512vnni.
     unsafe { accumulate_i8_vnni(l.weights, l.out_dim as usize, x, out) }
 }
 
@@ -157,14 +184,14 @@ fn accumulate_i8_vnni<const N: usize>(weights: &[u8], od: usize, x: Input<'_, i1
 /// (AVX-512 has the arithmetic shift and the 64-bit clamp AVX2 lacks),
 /// the last `od % 8` channels one by one.
 pub(crate) fn requant_i32(
+    _: Vnni,
     l: &Layer<'_>,
     n: usize,
     acc: &[[i32; MAX_WIDTH]],
     out: &mut [[i16; MAX_WIDTH]],
     bounds: (i16, i16),
 ) {
-    // SAFETY: this module is only compiled when the build enables
-    // avx512f and avx512bw for the whole crate.
+    // SAFETY: the token proves the CPU has avx512f and avx512bw.
     unsafe { requant_avx512(l, n, acc, out, bounds) }
 }
 

@@ -310,7 +310,7 @@ fn accumulate_int<W: IntKernel, const N: usize>(l: &Layer<'_>, x: Input<'_, i16,
         }
         return;
     }
-    if od < TILE_C && !W::WIDE_TAKES_NARROW {
+    if od < TILE_C && !W::wide_takes_narrow() {
         // the colour head: one dot product per output
         for (x, a) in input[..n].iter().zip(acc.iter_mut()) {
             for c in 0..od {

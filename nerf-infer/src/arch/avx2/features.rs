@@ -30,7 +30,13 @@ struct LevelLanes {
 /// [`FeatureGrid::encode_fixed`] of a width-2 grid at every position of
 /// `pos`, into `out[s][at..at + g.dim()]`: 8 levels per register, the same
 /// integer steps in lanes (bit-identical), the 8 corners read with gathers.
-pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: &mut [[i16; N]], at: usize) {
+pub(crate) fn features_w2<const N: usize>(
+    _: super::Avx2,
+    g: &FeatureGrid<'_>,
+    pos: &[[i32; 3]],
+    out: &mut [[i16; N]],
+    at: usize,
+) {
     // the gathers below read, for e < entries(l): entry `base + e` of 4
     // bytes (i16), or the aligned 4-byte word holding its indices and the
     // aligned words holding its codes (narrow)
@@ -62,7 +68,7 @@ pub(crate) fn features_w2<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]],
             base += g.entries(l0 + j);
         }
         for (p, o) in pos.iter().zip(out.iter_mut()) {
-            // SAFETY: this module is compiled only with AVX2 enabled; every
+            // SAFETY: the token proves the CPU has AVX2; every
             // lane's entry is below its level's count (hashed: masked;
             // dense: < (N+1)³), so each read is inside the table, and each
             // code inside the codebook (lengths asserted above).

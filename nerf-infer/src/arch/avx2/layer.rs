@@ -1,4 +1,4 @@
-//! The int8 layer kernel on AVX2 (used where AVX-512 VNNI is not built).
+//! The int8 layer kernel on AVX2 (used where the CPU lacks AVX-512 VNNI).
 //!
 //! `vpmaddwd` multiplies 16 i16 pairs and adds each pair into one of 8 i32
 //! lanes: with the weights of rows `j` and `j + 1` interleaved and
@@ -59,7 +59,12 @@ fn pair_weights_tail(weights: &[u8], od: usize, ja: usize, jb: Option<usize>, c0
 /// `out[s][c] += Σ_j x.rows[s][j] · W[x.row0 + j][c]` for `s < x.n` and
 /// every output `c` of `l`, an int8 layer.
 #[inline]
-pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>, out: &mut [[i32; MAX_WIDTH]]) {
+pub(crate) fn accumulate_i8<const N: usize>(
+    _: super::Avx2,
+    l: &Layer<'_>,
+    x: Input<'_, i16, N>,
+    out: &mut [[i32; MAX_WIDTH]],
+) {
     let Input { rows: input, row0, width: in_dim, n } = x;
     let (weights, od) = (l.weights, l.out_dim as usize);
     // every weight the tiles read is in rows row0 .. row0 + in_dim
@@ -71,11 +76,11 @@ pub(crate) fn accumulate_i8<const N: usize>(l: &Layer<'_>, x: Input<'_, i16, N>,
         let rows = &input[s0..s0 + sn];
         // the pairs of inputs (2p, 2p + 1) non-zero for some sample, 8 at a
         // time from one OR of the rows; an odd last input goes alone
-        // SAFETY: this module is compiled only with AVX2 enabled.
+        // SAFETY: the token proves the CPU has AVX2.
         let live = unsafe { live_pairs(rows, in_dim, &mut live_p) };
         let odd = in_dim % 2 == 1 && rows.iter().any(|r| r[in_dim - 1] != 0);
         let (p, out) = (&live_p[..live], &mut out[s0..s0 + sn]);
-        // SAFETY: this module is compiled only with AVX2 enabled.
+        // SAFETY: the token proves the CPU has AVX2.
         unsafe {
             match sn {
                 1 => tile::<1, N>(weights, od, row0, in_dim, p, odd, rows, out),
@@ -217,13 +222,14 @@ fn group<const S: usize, const N: usize, const TAIL: bool>(
 /// `s < n` and every output `c` of `l`: [`crate::fixed::Requant::apply`]
 /// on i32 accumulators, four channels per register in 64-bit lanes.
 pub(crate) fn requant_i32(
+    _: super::Avx2,
     l: &Layer<'_>,
     n: usize,
     acc: &[[i32; MAX_WIDTH]],
     out: &mut [[i16; MAX_WIDTH]],
     (lo, hi): (i16, i16),
 ) {
-    // SAFETY: this module is compiled only with AVX2 enabled.
+    // SAFETY: the token proves the CPU has AVX2.
     unsafe { requant_avx2(l, n, acc, out, (lo, hi)) }
 }
 

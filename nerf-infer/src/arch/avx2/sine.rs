@@ -9,10 +9,10 @@ use crate::fixed::SIN_TABLE;
 /// [`crate::fixed::sin_turns_q15`] of the phases in whole groups of 8
 /// (bit-identical: the same table, interpolation and rounding in integer
 /// lanes); returns how many it wrote (`phases.len()` rounded down to 8).
-pub(crate) fn sin_turns_q15_x8(phases: &[u32], out: &mut [i16]) -> usize {
+pub(crate) fn sin_turns_q15_x8(_: super::Avx2, phases: &[u32], out: &mut [i16]) -> usize {
     let n = phases.len().min(out.len()) / 8 * 8;
     for (p, o) in phases[..n].chunks_exact(8).zip(out[..n].chunks_exact_mut(8)) {
-        // SAFETY: this module is compiled only with AVX2 enabled.
+        // SAFETY: the token proves the CPU has AVX2.
         unsafe { sin8(p, o) };
     }
     n
