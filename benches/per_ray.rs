@@ -19,11 +19,11 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nerf_infer::format::Scene;
+use nerf_infer::Orbit;
 use nerf_infer::{render_tile, Tile};
 use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, Scheme, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, random_model, OwnedModel};
-use nerf_train::path::{orbit, orbit_camera};
 use std::hint::black_box;
 
 fn scene() -> Scene {
@@ -49,7 +49,7 @@ fn macs_per_ray(m: &Model<'_>) -> usize {
 const TILE: Tile = Tile { x0: 12, y0: 12, width: 8, height: 8 };
 
 fn bench(c: &mut Criterion) {
-    let cam = orbit_camera(&orbit(&scene(), None), 0.2, 32, 32);
+    let cam = Orbit::new(&scene(), None).camera(0.2, 32, 32).unwrap();
     let rays: Vec<_> = (0..64u32).map(|k| (cam.ray(8 + k % 16, 8 + k / 4), (k, 0))).collect();
     let presets =
         [("paper", TrainConfig::paper()), ("fast", TrainConfig::fast()), ("features", TrainConfig::features())];
@@ -61,11 +61,11 @@ fn bench(c: &mut Criterion) {
         let macs = macs_per_ray(&mf) as u64;
         println!("{name}: {macs} MACs per ray");
         let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
-        let mut sf = Box::<ScratchF32>::default();
+        let mut sf = Box::<ScratchF32<8>>::default();
         let qs: Vec<_> = [("int16", &q16), ("int8", &q8)].map(|(l, b)| (l, Model::from_bytes(b).unwrap())).into();
         let rqs: Vec<_> =
             qs.iter().map(|(l, m)| (*l, RendererFixed::new(m, RenderOptions::from_model(m)).unwrap())).collect();
-        let mut sq = Box::<ScratchFixed>::default();
+        let mut sq = Box::<ScratchFixed<8>>::default();
         let samples = if name == "paper" { 20 } else { 60 };
 
         let mut g = c.benchmark_group(format!("per_ray/{name}"));
@@ -128,7 +128,7 @@ fn bench_grid(c: &mut Criterion) {
         bytes.push((format!("{label}/grid"), m.to_bytes().unwrap()));
         bytes.push((format!("{label}/no-grid"), OwnedModel { grid: None, ..m.clone() }.to_bytes().unwrap()));
     }
-    let cam = orbit_camera(&orbit(&mf.scene, None), 0.2, 32, 32);
+    let cam = Orbit::new(&mf.scene, None).camera(0.2, 32, 32).unwrap();
     let frame = Tile { x0: 0, y0: 0, width: 32, height: 32 };
     let mut g = c.benchmark_group("frame/grid-model");
     g.sample_size(10).throughput(Throughput::Elements(frame.len() as u64));
@@ -139,7 +139,7 @@ fn bench_grid(c: &mut Criterion) {
             let name = if ert > 0.0 { format!("{label}/ert") } else { label.clone() };
             if m.scheme() == Scheme::F32 {
                 let r = RendererF32::new(&m, opts).unwrap();
-                let mut s = Box::<ScratchF32>::default();
+                let mut s = Box::<ScratchF32<8>>::default();
                 let mut out = vec![Default::default(); frame.len()];
                 render_tile(&r, &cam, frame, &mut s, &mut out).unwrap();
                 println!("{name}: {:.1} samples per ray", s.evaluations as f64 / frame.len() as f64);
@@ -148,7 +148,7 @@ fn bench_grid(c: &mut Criterion) {
                 });
             } else {
                 let r = RendererFixed::new(&m, opts).unwrap();
-                let mut s = Box::<ScratchFixed>::default();
+                let mut s = Box::<ScratchFixed<8>>::default();
                 let mut out = vec![Default::default(); frame.len()];
                 render_tile(&r, &cam, frame, &mut s, &mut out).unwrap();
                 println!("{name}: {:.1} samples per ray", s.evaluations as f64 / frame.len() as f64);

@@ -27,6 +27,7 @@ steps=(
   "scene360|5|scripts/scene360.sh 2"
   "proposal|45|BASELINE=1 scripts/proposal.sh ROOT 5"
   "layouts|10|scripts/llff_layout.sh ROOT 1500 && scripts/capture_bird.sh ROOT 1500"
+  "plain-build|12|scripts/plain_build_lego.sh ROOT 10"
   "bench|12|scripts/bench.sh"
   "step|3|scripts/train_step.sh ROOT 3000 features grid"
   "mesh|12|scripts/mesh.sh ROOT"

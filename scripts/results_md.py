@@ -286,6 +286,27 @@ is, so early termination cuts few of them: the time follows the counts,
 and the grid's pass at the stratified samples is part of every row's.""", t if rs else missing("proposal"))
 
 
+def plain_build_section():
+    rs = latest(rows("plain_build.csv"), "model", "build")
+    body = []
+    for r in rs:
+        other = [q for q in rs if q["build"] == r["build"] and q["model"] != r["model"] and q["commit"] == r["commit"]]
+        ratio = f"{float(r['us_per_ray']) / float(other[0]['us_per_ray']):.2f}" if r["model"] == "int8" and other else ""
+        same = {"yes": "yes", "NO": "**no**"}.get(r["same_picture"], "")
+        body.append([r["model"], r["build"], r["us_per_ray"], ratio, r["kernels"], same, r["minutes"],
+                     thousands(r["steps"]), run(r)])
+    t = table(["<model", "<build", "µs/ray", "int8 / f32", "<kernels", "<same picture", "minutes", "steps", "<run"],
+              body)
+    return ("In a crate built without target flags", "plain-build", """`scripts/plain_build_lego.sh
+DATA_ROOT 10`: the default trained on lego at 100×100 and its int8 export,
+rendered (the first view of the model's orbit, 100×100, one thread, early
+termination 10⁻³, the faster of two) by `examples/quickstart`, a crate
+that depends on `nerf-infer` as users' crates do, built with no target
+flags (`plain`: the SIMD kernels chosen at run time) and with `-C
+target-cpu=native` (`native`, as the workspace builds). "same picture":
+the plain build's picture is byte for byte the native build's.""", t if rs else missing("plain-build"))
+
+
 def duration(ns):
     return f"{ns / 1e6:.2f} ms" if ns >= 1e6 else f"{ns / 1e3:.2f} µs" if ns >= 1e3 else f"{ns:.1f} ns"
 
@@ -430,7 +451,7 @@ thread.""", t if rs else missing("web"))
 
 
 SECTIONS = [default_section, full_section, tradeoff_section, fast_int8_section, int8_section, table_bits_section, captures_section, proposal_section,
-            proposal_samples_section, bench_section, train_step_section,
+            proposal_samples_section, plain_build_section, bench_section, train_step_section,
             mesh_section,
             mcu_section, web_section]
 

@@ -6,6 +6,7 @@
 
 mod support;
 
+use nerf_infer::Orbit;
 use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, load_rgb, Format, Lens, LoadOptions, SceneKind, Split};
 use std::path::{Path, PathBuf};
@@ -329,8 +330,8 @@ fn videos_follow_the_capture_trajectory_and_nerfstudio_camera_paths() {
     assert_eq!(depth.color(), image::ColorType::L16);
     // a forward-facing model's orbit is a circle in front of the capture: every ray meets the scene
     let llff = load(&scene.join("llff"), Split::Train, opts(Format::Auto)).unwrap();
-    let spiral = nerf_train::path::orbit(&llff.scene, None);
-    let cam = nerf_train::path::orbit_camera(&spiral, 0.3, 8, 6);
+    let spiral = Orbit::new(&llff.scene, None);
+    let cam = spiral.camera(0.3, 8, 6).unwrap();
     for (x, y) in [(0, 0), (7, 5), (4, 3)] {
         let (o, d) = cam.ray(x, y);
         assert!(nerf_infer::Ray::new(&llff.scene, o, d).is_some(), "({x},{y})");

@@ -14,11 +14,11 @@ use nerf_infer::composite::{alpha_f32, survival_fixed, Compositor, CompositorF32
 use nerf_infer::fixed::to_fixed;
 use nerf_infer::format::{Scene, Scheme};
 use nerf_infer::sampling::hash32;
+use nerf_infer::Orbit;
 use nerf_infer::{Camera, Error, Model, Pixel, RayRenderer, RenderOptions, RendererF32, RendererFixed};
 use nerf_infer::{Ray, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, quantise_acts, random_model, OwnedModel};
-use nerf_train::path::{orbit, orbit_camera};
 use support::{small_config, unit_scene};
 
 /// What a model's weights are set to after random initialisation.
@@ -106,7 +106,7 @@ fn rays(scene: &Scene) -> Vec<(Vec3, Vec3)> {
     let c = 0.5 * (lo + hi);
     let h = 0.5 * (hi - lo);
     let back = c + Vec3::new(0.0, 0.0, h.z + 0.5 * (scene.near + scene.far));
-    let cam = orbit_camera(&orbit(scene, None), 0.1, 5, 5);
+    let cam = Orbit::new(scene, None).camera(0.1, 5, 5).unwrap();
     let mut out: Vec<_> = [(0, 0), (2, 2), (4, 1)].iter().map(|&(x, y)| cam.ray(x, y)).collect();
     out.extend([
         (c, Vec3::X),                                           // from the centre, inside the bounds

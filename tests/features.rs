@@ -4,13 +4,13 @@
 mod support;
 
 use nerf_infer::format::FORMAT_VERSION_NO_CAPTURE;
+use nerf_infer::Orbit;
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::score_view;
 use nerf_train::export::{narrow_table, quantise, random_model, trainer_model, OwnedModel, Prune};
-use nerf_train::path::{orbit, orbit_camera};
 use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Trainer};
 use support::*;
@@ -233,7 +233,7 @@ fn int16_render_of_a_random_feature_grid_model_is_within_40_db_of_f32() {
         let plain_bytes = plain.to_bytes().unwrap();
         let mp = Model::from_bytes(&plain_bytes).unwrap();
         for turn in [0.1, 0.6] {
-            let cam = orbit_camera(&orbit(&m32.scene, None), turn, 32, 32);
+            let cam = Orbit::new(&m32.scene, None).camera(turn, 32, 32).unwrap();
             let (a, b) = (render(&m32, &cam), render(&m16, &cam));
             let p = psnr(&a, &b);
             let without = psnr(&a, &render(&mp, &cam));
@@ -310,7 +310,7 @@ fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
         let as_i16_bytes = as_i16.to_bytes().unwrap();
         let me = Model::from_bytes(&as_i16_bytes).unwrap();
         for turn in [0.2, 0.7] {
-            let cam = orbit_camera(&orbit(&mn.scene, None), turn, 24, 24);
+            let cam = Orbit::new(&mn.scene, None).camera(turn, 24, 24).unwrap();
             assert_eq!(render(&mn, &cam), render(&me, &cam), "{bits}-bit table, view {turn}");
         }
         // a narrow table is not narrowed again
@@ -359,7 +359,7 @@ fn a_corrupted_narrow_table_model_is_refused_or_renders_in_range() {
         match Model::from_bytes(&b) {
             Ok(m) => {
                 decoded += 1;
-                let cam = orbit_camera(&orbit(&m.scene, None), 0.3, 6, 6);
+                let cam = Orbit::new(&m.scene, None).camera(0.3, 6, 6).unwrap();
                 if let Ok(img) = nerf_train::eval::render_view(&m, RenderOptions::from_model(&m), &cam) {
                     assert!(img.rgb.iter().flatten().all(|c| (0.0..=1.0).contains(c)), "flip {k} at {pos}");
                 }

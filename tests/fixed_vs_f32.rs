@@ -2,9 +2,9 @@
 
 mod support;
 
+use nerf_infer::Orbit;
 use nerf_infer::{Model, Scheme};
 use nerf_train::export::{quantise, random_model};
-use nerf_train::path::{orbit, orbit_camera};
 use support::*;
 
 #[test]
@@ -15,7 +15,7 @@ fn int16_render_of_a_random_model_is_within_40_db_of_f32() {
         let q_bytes = quantise(&m32, Scheme::I16).unwrap().to_bytes().unwrap();
         let m16 = Model::from_bytes(&q_bytes).unwrap();
         for turn in [0.1, 0.6] {
-            let cam = orbit_camera(&orbit(&m32.scene, None), turn, 32, 32);
+            let cam = Orbit::new(&m32.scene, None).camera(turn, 32, 32).unwrap();
             let a = render(&m32, &cam);
             let b = render(&m16, &cam);
             let mean: f64 = a.iter().map(|c| c[0] as f64).sum::<f64>() / a.len() as f64;
@@ -48,7 +48,7 @@ fn int16_render_of_an_unbounded_random_model_is_within_40_db_of_f32() {
         let b_bytes = random_model(&small_config(), bounded, seed, 8.0).to_bytes().unwrap();
         let mb = Model::from_bytes(&b_bytes).unwrap();
         for turn in [0.2, 0.7] {
-            let cam = orbit_camera(&orbit(&m32.scene, None), turn, 32, 32);
+            let cam = Orbit::new(&m32.scene, None).camera(turn, 32, 32).unwrap();
             let (a, b) = (render(&m32, &cam), render(&m16, &cam));
             let p = psnr(&a, &b);
             println!("seed {seed} view {turn}: PSNR(int16 fixed vs f32) = {p:.2} dB");

@@ -9,10 +9,12 @@ use nerf_infer::composite::{Compositor, CompositorF32, CompositorFixed, DELTA_IN
 use nerf_infer::encoding::NPOS_FRAC;
 use nerf_infer::format::Scheme;
 use nerf_infer::network::{BlockF32, BlockFixed, F32, W16, W8};
-use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed};
+use nerf_infer::Orbit;
+use nerf_infer::{
+    AnyRenderer, Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed,
+};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, quantise_acts, random_model};
-use nerf_train::path::{orbit, orbit_camera};
 use proptest::prelude::*;
 use support::*;
 
@@ -219,7 +221,7 @@ fn full_rays_fixed_against_f32_and_degenerate_rays() {
     let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
     let rq = RendererFixed::new(&mq, RenderOptions::from_model(&mq)).unwrap();
     let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
-    let cam = orbit_camera(&orbit(&mf.scene, None), 0.3, 24, 24);
+    let cam = Orbit::new(&mf.scene, None).camera(0.3, 24, 24).unwrap();
     let mut worst = 0.0f32;
     for y in 0..24 {
         for x in 0..24 {
@@ -251,11 +253,16 @@ fn full_rays_fixed_against_f32_and_degenerate_rays() {
 fn wrong_path_and_bad_options_are_typed_errors() {
     let (f, q16, _) = models(&small_config(), 4);
     let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
-    assert_eq!(
-        RendererFixed::new(&mf, RenderOptions::from_model(&mf)).unwrap_err(),
-        nerf_infer::Error::WrongNumericPath
-    );
-    assert_eq!(RendererF32::new(&mq, RenderOptions::from_model(&mq)).unwrap_err(), nerf_infer::Error::WrongNumericPath);
+    let e = RendererFixed::new(&mf, RenderOptions::from_model(&mf)).unwrap_err();
+    assert_eq!(e, nerf_infer::Error::WrongNumericPath(Scheme::F32));
+    // the error names the renderer the model needs
+    assert!(e.to_string().contains("needs RendererF32"), "{e}");
+    let e = RendererF32::new(&mq, RenderOptions::from_model(&mq)).unwrap_err();
+    assert_eq!(e, nerf_infer::Error::WrongNumericPath(Scheme::I16));
+    assert!(e.to_string().contains("needs RendererFixed"), "{e}");
+    // and AnyRenderer takes both
+    assert!(AnyRenderer::new(&mf, RenderOptions::from_model(&mf)).is_ok());
+    assert!(AnyRenderer::new(&mq, RenderOptions::from_model(&mq)).is_ok());
     let mut o = RenderOptions::from_model(&mf);
     o.coarse = 1;
     assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
@@ -276,7 +283,7 @@ fn one_pass_models_march_up_to_1024_samples_and_two_pass_models_256() {
     let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
     let rq = RendererFixed::new(&mq, RenderOptions::from_model(&mq)).unwrap();
     let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
-    let cam = orbit_camera(&orbit(&mf.scene, None), 0.3, 8, 8);
+    let cam = Orbit::new(&mf.scene, None).camera(0.3, 8, 8).unwrap();
     let (mut worst, mut marched) = (0.0f32, 0);
     for (x, y) in (0..8).flat_map(|y| (0..8).map(move |x| (x, y))) {
         let (o, d) = cam.ray(x, y);

@@ -5,12 +5,12 @@
 mod support;
 
 use nerf_infer::format::Scheme;
+use nerf_infer::Orbit;
 use nerf_infer::{Model, RenderOptions};
 use nerf_train::eval::render_view;
 use nerf_train::export::{quantise, random_model, OwnedModel};
 use nerf_train::mesh::silhouette::{iou, silhouette};
 use nerf_train::mesh::{extract, sample_density, write, Mesh, MeshOptions};
-use nerf_train::path::{orbit, orbit_camera};
 use support::cli::{fails, ok, s, tmp};
 use support::{small_config, unit_scene};
 
@@ -107,7 +107,7 @@ fn the_silhouette_matches_the_rendered_opacity() {
     let density = sample_density(&m, 64, &|_| {});
     let mesh = extract(&m, &density, MeshOptions { resolution: 64, threshold: LEVEL, colours: false }).unwrap();
     for turn in [0.0, 0.3] {
-        let cam = orbit_camera(&orbit(&m.scene, None), turn, 48, 48);
+        let cam = Orbit::new(&m.scene, None).camera(turn, 48, 48).unwrap();
         let opts = RenderOptions { coarse: 256, fine: 0, early_stop: 0.0, seed: None };
         let r = render_view(&m, opts, &cam).unwrap();
         let rendered: Vec<bool> = r.opacity.iter().map(|&a| a > 0.5).collect();

@@ -4,13 +4,13 @@
 
 mod support;
 
+use nerf_infer::Orbit;
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::render_view;
 use nerf_train::export::{quantise, random_model, OwnedModel};
-use nerf_train::path::{orbit, orbit_camera};
 use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Trainer};
 use support::cli::tmp;
@@ -48,7 +48,7 @@ fn a_proposal_model_renders_alike_in_both_numeric_paths() {
         let m16 = Model::from_bytes(&q).unwrap();
         assert!(m16.proposal.is_some(), "quantisation keeps the grid");
         for turn in [0.15, 0.65] {
-            let cam = orbit_camera(&orbit(&m32.scene, None), turn, 32, 32);
+            let cam = Orbit::new(&m32.scene, None).camera(turn, 32, 32).unwrap();
             let a = render_view(&m32, RenderOptions::from_model(&m32), &cam).unwrap();
             let b = render_view(&m16, RenderOptions::from_model(&m16), &cam).unwrap();
             let p = psnr(&a.rgb, &b.rgb);

@@ -6,9 +6,10 @@ mod support;
 
 use nerf_infer::format::{prunable, Scheme};
 use nerf_infer::Model;
+use nerf_infer::Orbit;
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, trainer_model, OwnedModel, Prune};
-use nerf_train::path::{orbit, orbit_camera, orbit_rays};
+use nerf_train::path::orbit_rays;
 use nerf_train::train::Trainer;
 use support::{psnr, render, small_config, unit_scene};
 
@@ -48,7 +49,7 @@ fn bytes(m: &OwnedModel) -> Vec<u8> {
 /// Renders of two orbit views (not the calibration rays' turns).
 fn renders(m: &Model<'_>) -> Vec<Vec<[f32; 3]>> {
     let s = m.scene;
-    [0.13f32, 0.61].iter().map(|&turn| render(m, &orbit_camera(&orbit(&s, None), turn, 20, 20))).collect()
+    [0.13f32, 0.61].iter().map(|&turn| render(m, &Orbit::new(&s, None).camera(turn, 20, 20).unwrap())).collect()
 }
 
 #[test]

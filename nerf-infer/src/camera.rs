@@ -59,6 +59,16 @@ impl Camera {
         Self::new(width, height, f, f, 0.5 * width as f32, 0.5 * height as f32, c2w)
     }
 
+    /// A camera at `eye` looking at `target` with `up`'s direction up in
+    /// its image ([`look_at_pose`]), square pixels, principal point at the
+    /// centre, horizontal field of view `fov_x` radians. World units and
+    /// axes are the model's (see [`crate::orbit`] for which way is up).
+    /// Fails with [`Error::InvalidCamera`] if `eye` is `target`, `up` is
+    /// along the line of sight or zero, or a value is not finite.
+    pub fn look_at(width: u32, height: u32, fov_x: f32, eye: Vec3, target: Vec3, up: Vec3) -> Result<Self> {
+        Self::from_fov(width, height, fov_x, look_at_pose(eye, target, up))
+    }
+
     /// Angular size of a pixel, radians: `1/√(fx·fy)` (the footprint of
     /// its rays, [`Ray::with_footprint`]).
     pub fn pixel_angle(&self) -> f32 {
@@ -78,6 +88,19 @@ impl Camera {
         let y = -(v - self.cy) / self.fy;
         (self.position, self.rotation * Vec3::new(x, y, -1.0))
     }
+}
+
+/// The camera-to-world matrix `[R | t]` (row-major 3×4, as
+/// [`Camera::new`] takes it) of a camera at `eye` looking at `target`, with
+/// `up` (any vector not along the line of sight) up in its image: camera
+/// +x is `forward × up` normalised, +y `right × forward`, +z `−forward`.
+/// Degenerate input (`eye = target`, `up` along the line of sight) gives
+/// non-finite entries, which [`Camera::new`] refuses.
+pub fn look_at_pose(eye: Vec3, target: Vec3, up: Vec3) -> [[f32; 4]; 3] {
+    let f = (target - eye).normalize();
+    let right = f.cross(up).normalize();
+    let (up, back) = (right.cross(f), -f);
+    [[right.x, up.x, back.x, eye.x], [right.y, up.y, back.y, eye.y], [right.z, up.z, back.z, eye.z]]
 }
 
 /// True if `m` is orthonormal within 10⁻³ with determinant +1.

@@ -11,47 +11,7 @@
 //! weights ½, ¼; opacity ¾.
 
 use crate::fixed::{exp_neg_q26_q30, COLOR_ONE, T_FRAC, T_ONE};
-
-/// A rendered pixel from the f32 path.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Pixel {
-    /// Linear RGB in `[0, 1]`, composited on the scene's background.
-    pub rgb: [f32; 3],
-    /// Accumulated opacity `Σ wᵢ` in `[0, 1]`.
-    pub opacity: f32,
-    /// Expected ray parameter `t` in `[near, far]` (empty rays: `far`).
-    pub depth: f32,
-}
-
-/// A colour value in `[0, 1]` as an 8-bit value: clamped, then rounded
-/// half up (`⌊255·v + ½⌋`); NaN gives 0. What image files and the browser
-/// viewer store.
-#[inline]
-pub fn to_u8(v: f32) -> u8 {
-    (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
-}
-
-/// A rendered pixel from the fixed-point path.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PixelFixed {
-    /// RGB in Q15, `[0, 32768]` (32768 = 1.0).
-    pub rgb: [u16; 3],
-    /// Accumulated opacity in Q15, `[0, 32768]`.
-    pub opacity: u16,
-    /// Expected ray parameter `t` in Q16, in `[near, far]`.
-    pub depth: i32,
-}
-
-impl PixelFixed {
-    /// Converts to the f32 representation (exact: every field fits f32).
-    pub fn to_pixel(&self) -> Pixel {
-        Pixel {
-            rgb: self.rgb.map(|c| c as f32 / 32768.0),
-            opacity: self.opacity as f32 / 32768.0,
-            depth: self.depth as f32 / 65536.0,
-        }
-    }
-}
+pub use crate::pixel::{to_u8, Pixel, PixelFixed};
 
 /// Front-to-back accumulator of the f32 path.
 #[derive(Clone, Copy, Debug)]

@@ -37,8 +37,10 @@ pub enum Error {
     Capacity(&'static str),
     /// Sample counts are zero or above the kernel's capacity.
     InvalidSamples,
-    /// The renderer asked for does not match the model's numeric scheme.
-    WrongNumericPath,
+    /// The renderer asked for does not render the model's numeric scheme
+    /// (the model's scheme): `RendererF32` renders f32 models,
+    /// `RendererFixed` int16 and int8 ones, [`crate::AnyRenderer`] any.
+    WrongNumericPath(crate::Scheme),
     /// A camera parameter is not finite, or the pose is not a rigid transform.
     InvalidCamera,
     /// The tile lies outside the image, or the output buffer is too small.
@@ -82,8 +84,9 @@ impl fmt::Display for Error {
                      2..=256 coarse and 0..=256 fine in two)"
                 )
             }
-            Error::WrongNumericPath => {
-                write!(f, "the model's numeric scheme does not match this renderer")
+            Error::WrongNumericPath(s) => {
+                let needs = if *s == crate::Scheme::F32 { "RendererF32" } else { "RendererFixed" };
+                write!(f, "a {s:?} model needs {needs} (or AnyRenderer, which takes any model)")
             }
             Error::InvalidCamera => write!(f, "camera parameters are not finite or the pose is not rigid"),
             Error::InvalidTile => write!(f, "tile outside the image or output buffer too small"),
@@ -97,8 +100,8 @@ impl fmt::Display for Error {
     }
 }
 
-#[cfg(feature = "std")]
-impl std::error::Error for Error {}
+/// With or without `std`: `?` turns it into a `Box<dyn std::error::Error>`.
+impl core::error::Error for Error {}
 
 /// Result alias for this crate.
 pub type Result<T> = core::result::Result<T, Error>;

@@ -1,4 +1,5 @@
-//! Camera paths for videos: an orbit fitted to the capture ([`orbit()`]), the capture's
+//! Camera paths for videos: an orbit fitted to the capture ([`fit_orbit`], followed by
+//! [`nerf_infer::Orbit`]), the capture's
 //! own trajectory smoothed, and nerfstudio's `camera_path.json` (its
 //! rendered camera list, read and written, so a path made here can be
 //! edited elsewhere and rendered again; or its keyframes, interpolated).
@@ -13,7 +14,7 @@ use std::path::Path;
 pub mod keyframes;
 mod orbit;
 use keyframes::Keyframe;
-pub use orbit::{fit_orbit, orbit, orbit_camera, orbit_rays, Orbit};
+pub use orbit::{fit_orbit, orbit_rays};
 
 /// `n ≥ 1` cameras along the trajectory of `cams` (in capture order),
 /// smoothed: positions and orientations are Gaussian-weighted means over

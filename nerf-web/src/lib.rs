@@ -5,7 +5,7 @@
 //!
 //! Every pixel goes through [`RayRenderer::render_ray`] with the pixel's
 //! own coordinates as its jitter key and is rounded to 8 bits by
-//! [`to_u8`], as `nerf render` does on the host, so a frame in the
+//! [`nerf_infer::to_u8`] ([`nerf_infer::Pixel::to_rgb888`]), as `nerf render` does on the host, so a frame in the
 //! browser is bit for bit the host's PNG.
 //!
 //! Calls, in order: [`nerf_alloc`] a buffer for the model file and write
@@ -15,15 +15,12 @@
 //! returns 0 (or a null pointer) and leaves a message at
 //! [`nerf_error_ptr`] / [`nerf_error_len`].
 
-use nerf_infer::composite::to_u8;
-use nerf_infer::{Camera, Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed};
+use nerf_infer::{AnyRenderer, AnyScratch, Camera, Model, RayRenderer, RenderOptions};
 use std::cell::RefCell;
 
-/// The loaded model's renderer.
-enum Active {
-    F32(RendererF32<'static, 'static>, Box<ScratchF32>),
-    Fixed(RendererFixed<'static, 'static>, Box<ScratchFixed>),
-}
+/// The loaded model's renderer and its working memory (blocks of 8
+/// samples).
+struct Active(AnyRenderer<'static, 'static>, Box<AnyScratch<8>>);
 
 /// Everything the module holds between calls.
 #[derive(Default)]
@@ -89,15 +86,10 @@ pub extern "C" fn nerf_set_early_stop(early_stop: f32) -> u32 {
 fn renderer(s: &mut State, early_stop: f32) -> u32 {
     let Some(model) = s.model else { return fail(s, "no model") };
     let opts = RenderOptions { early_stop, ..RenderOptions::from_model(model) };
-    let active = if model.scheme().is_fixed() {
-        RendererFixed::new(model, opts).map(|r| Active::Fixed(r, Box::default()))
-    } else {
-        RendererF32::new(model, opts).map(|r| Active::F32(r, Box::default()))
-    };
-    match active {
-        Ok(a) => {
-            let kind = if matches!(a, Active::F32(..)) { 1 } else { 2 };
-            s.active = Some(a);
+    match AnyRenderer::new(model, opts) {
+        Ok(r) => {
+            let kind = if r.is_fixed() { 2 } else { 1 };
+            s.active = Some(Active(r, Box::new(r.scratch())));
             kind
         }
         Err(e) => fail(s, format!("renderer: {e}")),
@@ -149,16 +141,9 @@ pub extern "C" fn nerf_render(x0: u32, y0: u32, w: u32, h: u32) -> *const u8 {
         rgba.clear();
         // a model with a pixel footprint renders the camera's pixels
         let (pixel, rect) = (cam.pixel_angle(), (x0, y0, w, h));
-        match active {
-            Active::F32(r, scratch) => {
-                let r = r.with_pixel(pixel);
-                render_rgba(cam, rect, rgba, |o, d, xy| r.render_ray(o, d, xy, scratch));
-            }
-            Active::Fixed(r, scratch) => {
-                let r = r.with_pixel(pixel);
-                render_rgba(cam, rect, rgba, |o, d, xy| r.render_ray(o, d, xy, scratch).to_pixel());
-            }
-        }
+        let Active(r, scratch) = active;
+        let r = r.with_pixel(pixel);
+        render_rgba(cam, rect, rgba, |o, d, xy| r.render_ray(o, d, xy, scratch));
         rgba.as_ptr()
     })
 }
@@ -175,7 +160,7 @@ fn render_rgba(
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             let (o, d) = cam.ray(x, y);
-            rgba.extend(render(o, d, (x, y)).rgb.map(to_u8));
+            rgba.extend(render(o, d, (x, y)).to_rgb888());
             rgba.push(255);
         }
     }

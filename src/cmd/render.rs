@@ -5,11 +5,11 @@
 
 use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
 use nerf_infer::format::Scene;
+use nerf_infer::Orbit;
 use nerf_infer::{Camera, RenderOptions};
 use nerf_train::dataset::save_png_rgb;
 use nerf_train::dataset::Split;
 use nerf_train::eval::{render_view, PixelRays, Rendered};
-use nerf_train::path::{orbit, orbit_camera};
 use nerf_train::path::{read_camera_path, smooth_trajectory, to_camera_path};
 use std::path::{Path, PathBuf};
 
@@ -123,8 +123,9 @@ pub fn run(a: Args) -> CmdResult {
     let ds = a.capture.downscale_for(&model);
     let path: Option<Vec<Camera>> = match (&a.data, a.orbit, a.trajectory, &a.camera_path) {
         (_, Some(n), _, _) => {
-            let o = orbit(&model.scene, model.orbit.as_ref());
-            Some((0..n).map(|k| orbit_camera(&o, k as f32 / n as f32, a.size, a.size)).collect())
+            let o = Orbit::of(&model);
+            let cams = (0..n).map(|k| o.camera(k as f32 / n as f32, a.size, a.size));
+            Some(cams.collect::<Result<_, _>>().map_err(|e| format!("{}: the model's orbit: {e}", a.model.display()))?)
         }
         (Some(dir), _, Some(n), _) => {
             // every view: holdout 1 makes the whole capture the test split

@@ -7,7 +7,7 @@
 //! `nerf render MODEL --orbit 1 --size 64` writes as PNG.
 
 use super::{create_dir, decode, read_model, write_atomic, CmdResult};
-use nerf_train::path::{orbit, orbit_camera};
+use nerf_infer::Orbit;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nerf web`.
@@ -57,8 +57,9 @@ pub fn run(a: Args) -> CmdResult {
     new_or_empty(&a.out)?;
     let bytes = read_model(&a.model)?;
     let m = decode(&a.model, &bytes)?;
-    let o = orbit(&m.scene, m.orbit.as_ref());
-    let cam = orbit_camera(&o, 0.0, CHECK_SIZE, CHECK_SIZE);
+    let o = Orbit::of(&m);
+    let cam =
+        o.camera(0.0, CHECK_SIZE, CHECK_SIZE).map_err(|e| format!("{}: the model's orbit: {e}", a.model.display()))?;
     // fx fy cx cy, then [R | t] row by row
     let r = cam.rotation.transpose();
     let mut values = vec![cam.fx, cam.fy, cam.cx, cam.cy];

@@ -5,6 +5,7 @@
 //!
 //! | contract | portable reference | x86-64 AVX2 | x86-64 AVX-512 VNNI | wasm32 SIMD128 |
 //! |---|---|---|---|---|
+//! | f32 dense layer (`acc += x·W`) | [`crate::layer::accumulate`] | `avx2::accumulate_f32` (the same loop for AVX2) | (AVX2) | (portable) |
 //! | int8 dense layer (`acc += x·W`) | [`crate::layer::accumulate`] | `avx2::accumulate_i8` | `vnni::accumulate_i8` (32-wide tiles) | `wasm::accumulate_i8` |
 //! | requantisation of i32 accumulators | [`crate::layer::requant_rows`] | `avx2::requant_i32` | `vnni::requant_i32` | (portable) |
 //! | sine of phases, Q15 | [`crate::fixed::sin_turns_q15`] | `avx2::sin_turns_q15_x8` | (AVX2) | (portable) |
@@ -52,7 +53,7 @@ use crate::camera::FOOTPRINT_POINTS;
 use crate::features::FeatureGrid;
 use crate::fixed::sin_turns_q15;
 use crate::format::{Layer, MAX_WIDTH};
-use crate::layer::{accumulate, requant_rows, Input, IntWeight, W16, W8};
+use crate::layer::{accumulate, requant_rows, Input, IntWeight, MacF32, W16, W8};
 
 /// A set of SIMD kernels for the contracts of this module.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -265,6 +266,18 @@ fn avx2_in_use() -> Option<avx2::Avx2> {
         Active::Vnni(k) => Some(k.avx2()),
         _ => None,
     }
+}
+
+/// [`accumulate`] of an f32 layer from its first output: `out[s][c] +=
+/// Σ_j x.rows[s][j] · W[x.row0 + j][c]`, bit for bit; with AVX2, the same
+/// loop on 8-lane registers.
+#[inline]
+pub fn accumulate_f32<const N: usize>(l: &Layer<'_>, x: Input<'_, f32, N>, out: &mut [[f32; MAX_WIDTH]]) {
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    if let Some(k) = avx2_in_use() {
+        return avx2::accumulate_f32(k, l, x, out);
+    }
+    accumulate::<MacF32, N>(l, 0, x, out);
 }
 
 /// [`sin_turns_q15`] of every phase in `phases` into `out` (same length),

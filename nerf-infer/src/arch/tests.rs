@@ -10,7 +10,7 @@ use std::vec::Vec;
 use super::*;
 use crate::features::{geometric_resolutions, NarrowTable};
 use crate::fixed::{Requant, NPOS_FRAC};
-use crate::layer::{accumulate, requant_rows, Input};
+use crate::layer::{accumulate, requant_rows, Input, MacF32};
 
 /// `$test`: for every case of `$cases`, `$kernel(&case)` equals
 /// `$reference(&case)`.
@@ -157,6 +157,65 @@ fn layer_vnni(k: vnni::Vnni, c: &LayerCase) -> Vec<[i32; MAX_WIDTH]> {
         vnni::accumulate_i8(k, l, x, acc);
         accumulate::<W8, MAX_WIDTH>(l, c.od - c.od % crate::layer::TILE_C, x, acc)
     })
+}
+
+// ---- the f32 dense layer
+
+/// The int8 cases' shapes with f32 weights and inputs (half the inputs
+/// zero), as bit patterns so that equality is exact.
+fn f32_layer_cases() -> Vec<F32Case> {
+    let mut next = rng(0x85eb_ca6b);
+    let mut f = move || (next() % 20001) as f32 / 1e4 - 1.0;
+    let mut cases = Vec::new();
+    for in_dim in [1usize, 2, 51, 64, 79, 256] {
+        for od in [1usize, 3, 7, 32, 45, 64, 256] {
+            for n in [1usize, 3, 8] {
+                let row0 = 1;
+                let weights = (0..(row0 + in_dim) * od).flat_map(|_| f().to_le_bytes()).collect();
+                let mut input = [[0f32; MAX_WIDTH]; 8];
+                for x in input.iter_mut().flatten() {
+                    let v = f();
+                    *x = if v < 0.0 { 0.0 } else { v * 3.0 };
+                }
+                cases.push((weights, od, row0, in_dim, n, input));
+            }
+        }
+    }
+    cases
+}
+
+type F32Case = (Vec<u8>, usize, usize, usize, usize, [[f32; MAX_WIDTH]; 8]);
+
+fn f32_layer_with(
+    c: &F32Case,
+    kernel: impl Fn(&Layer<'_>, Input<'_, f32, MAX_WIDTH>, &mut [[f32; MAX_WIDTH]]),
+) -> Vec<[u32; MAX_WIDTH]> {
+    let (weights, od, row0, in_dim, n, input) = c;
+    let l = Layer {
+        in_dim: (row0 + in_dim) as u16,
+        out_dim: *od as u16,
+        act_max: 0.0,
+        weights,
+        bias: &[],
+        scales: &[],
+        requant: &[],
+    };
+    let mut acc = [[0.25f32; MAX_WIDTH]; 8];
+    kernel(&l, Input { rows: &input[..], row0: *row0, width: *in_dim, n: *n }, &mut acc);
+    acc.iter().map(|r| r.map(f32::to_bits)).collect()
+}
+
+fn f32_layer_reference(c: &F32Case) -> Vec<[u32; MAX_WIDTH]> {
+    f32_layer_with(c, |l, x, acc| accumulate::<MacF32, MAX_WIDTH>(l, 0, x, acc))
+}
+
+fn f32_layer_selected(_: (), c: &F32Case) -> Vec<[u32; MAX_WIDTH]> {
+    f32_layer_with(c, accumulate_f32)
+}
+
+#[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+fn f32_layer_avx2(k: avx2::Avx2, c: &F32Case) -> Vec<[u32; MAX_WIDTH]> {
+    f32_layer_with(c, |l, x, acc| avx2::accumulate_f32(k, l, x, acc))
 }
 
 // ---- requantisation of i32 accumulators
@@ -361,6 +420,10 @@ same_as_reference! {
     any(feature = "std", all(target_feature = "avx512bw", target_feature = "avx512vnni"))
 ))]
     vnni_int8_layer(vnni::Vnni::new()): layer_cases(), layer_vnni, layer_reference;
+
+    selected_f32_layer(Some(())): f32_layer_cases(), f32_layer_selected, f32_layer_reference;
+    #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]
+    avx2_f32_layer(avx2::Avx2::new()): f32_layer_cases(), f32_layer_avx2, f32_layer_reference;
 
     selected_int8_requantisation(Some(())): requant_cases(), requant_selected, requant_reference;
     #[cfg(all(target_arch = "x86_64", any(feature = "std", target_feature = "avx2")))]

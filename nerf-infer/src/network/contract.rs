@@ -4,6 +4,7 @@
 use crate::camera::FOOTPRINT_POINTS;
 use crate::format::{Layer, Model, Network};
 use crate::limits::{MAX_FEATURES, MAX_FREQS, MAX_WIDTH};
+use crate::tensor::Zero;
 
 /// Longest encoded position or direction: `3 + 6·16` plus the feature
 /// grid's values.
@@ -22,17 +23,17 @@ pub struct Fixed;
 /// The number formats of a network evaluation.
 pub trait Numbers: Sized + Copy {
     /// Activation (f32; i16).
-    type X: Copy + Default;
+    type X: Copy + Default + Zero;
     /// Normalised position or unit direction (`[f32; 3]`; `[i32; 3]` Q24).
-    type Pos: Copy + Default;
+    type Pos: Copy + Default + Zero;
     /// Raw density head output (f32; i32 Q10).
-    type Sigma: Copy + Default;
+    type Sigma: Copy + Default + Zero;
     /// Colour; its default is black (`[f32; 3]` in `[0, 1]`; `[u16; 3]` Q15).
-    type Rgb: Copy + Default;
+    type Rgb: Copy + Default + Zero;
     /// Accumulators kept beside the activations for `B` samples (none for
     /// f32, which accumulates in place), and the per-ray start of the view
     /// layer's sums.
-    type Acc<const B: usize>: Clone + Default;
+    type Acc<const B: usize>: Clone + Default + Zero;
     /// Encodes each position (γ, then the feature grid's values, or with
     /// `foot` their mean over the position's footprint points) into
     /// the same row of `enc`; returns the encoded width.

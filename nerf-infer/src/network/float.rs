@@ -1,12 +1,15 @@
 //! The network in f32: activations accumulate in place, in the portable
-//! register-tiled kernel ([`crate::layer::accumulate`]).
+//! register-tiled kernel ([`crate::layer::accumulate`], compiled for the
+//! CPU's widest registers by [`crate::arch::accumulate_f32`]).
 
 use super::contract::{Act, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
+use crate::arch::accumulate_f32;
 use crate::camera::FOOTPRINT_POINTS;
 use crate::encoding::encode_f32;
 use crate::format::{read_f32, Layer, Model, Network};
-use crate::layer::{accumulate, Input, MacF32};
+use crate::layer::Input;
 use crate::limits::MAX_WIDTH;
+use crate::tensor::Zero;
 
 /// The f32 path's per-ray start of the view layer's sums (it accumulates
 /// in the activations themselves).
@@ -15,8 +18,12 @@ pub struct ViewBias([f32; MAX_WIDTH]);
 
 impl Default for ViewBias {
     fn default() -> Self {
-        Self([0.0; MAX_WIDTH])
+        Self::ZERO
     }
+}
+
+impl Zero for ViewBias {
+    const ZERO: Self = Self([0.0; MAX_WIDTH]);
 }
 
 impl Numbers for F32 {
@@ -103,11 +110,11 @@ impl LayerKernel<F32> for F32 {
         }
         let mut row0 = 0;
         if let Some((enc, pd)) = inputs.enc {
-            accumulate::<MacF32, ENC_MAX>(l, 0, Input { rows: enc, row0, width: pd, n }, out);
+            accumulate_f32::<ENC_MAX>(l, Input { rows: enc, row0, width: pd, n }, out);
             row0 = pd;
         }
         if let Some((prev, w)) = inputs.prev {
-            accumulate::<MacF32, MAX_WIDTH>(l, 0, Input { rows: prev, row0, width: w, n }, out);
+            accumulate_f32::<MAX_WIDTH>(l, Input { rows: prev, row0, width: w, n }, out);
         }
         if act == Act::Relu {
             relu(od, n, out);

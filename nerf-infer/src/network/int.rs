@@ -12,6 +12,7 @@ use crate::fixed::{sat_i32, sigmoid_q12_q15};
 use crate::format::{read_i16, read_i32, sigma_layer, Layer, Model, Network, PreciseNet, Scheme};
 use crate::layer::{Input, TILE_C};
 use crate::limits::MAX_WIDTH;
+use crate::tensor::Zero;
 
 /// The accumulators of a fixed-point block: i64 rows for int16 weights,
 /// i32 rows for int8 weights ([`IntWeight::pick`](crate::layer::IntWeight::pick) chooses), and the
@@ -25,8 +26,12 @@ pub struct FixedAcc<const B: usize> {
 
 impl<const B: usize> Default for FixedAcc<B> {
     fn default() -> Self {
-        Self { a64: [[0; MAX_WIDTH]; B], a32: [[0; MAX_WIDTH]; B], view: [0; MAX_WIDTH] }
+        Self::ZERO
     }
+}
+
+impl<const B: usize> Zero for FixedAcc<B> {
+    const ZERO: Self = Self { a64: [[0; MAX_WIDTH]; B], a32: [[0; MAX_WIDTH]; B], view: [0; MAX_WIDTH] };
 }
 
 impl Numbers for Fixed {

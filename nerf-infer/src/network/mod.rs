@@ -31,6 +31,7 @@ pub use int::{check_i8_headroom, FixedAcc};
 use crate::camera::FOOTPRINT_POINTS;
 use crate::format::{sigma_layer, Model, Network};
 use crate::limits::MAX_WIDTH;
+use crate::tensor::Zero;
 
 /// Per-block buffers of a network evaluation on `B` samples (f32: about
 /// `B` · 2.4 KiB + 1 KiB; fixed point: `B` · 4.7 KiB + 2 KiB).
@@ -56,14 +57,21 @@ pub type BlockFixed<const B: usize> = Block<Fixed, B>;
 
 impl<N: Numbers, const B: usize> Default for Block<N, B> {
     fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<N: Numbers, const B: usize> Block<N, B> {
+    /// A block of zeros (a `const fn`: a block can be a `static`'s part).
+    pub const fn new() -> Self {
         Self {
-            enc: [[N::X::default(); ENC_MAX]; B],
-            h: [[N::X::default(); MAX_WIDTH]; B],
-            g: [[N::X::default(); MAX_WIDTH]; B],
-            acc: N::Acc::default(),
-            sigma: [N::Sigma::default(); B],
-            rgb: [N::Rgb::default(); B],
-            foot: [[N::Pos::default(); FOOTPRINT_POINTS]; B],
+            enc: Zero::ZERO,
+            h: Zero::ZERO,
+            g: Zero::ZERO,
+            acc: <N::Acc<B> as Zero>::ZERO,
+            sigma: Zero::ZERO,
+            rgb: Zero::ZERO,
+            foot: Zero::ZERO,
         }
     }
 }

@@ -25,7 +25,7 @@ impl NumericPath for F32 {
 
     fn check(model: &Model<'_>) -> Result<()> {
         if model.scheme() != Scheme::F32 {
-            return Err(Error::WrongNumericPath);
+            return Err(Error::WrongNumericPath(model.scheme()));
         }
         Ok(())
     }

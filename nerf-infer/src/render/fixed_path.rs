@@ -98,7 +98,7 @@ impl NumericPath for Fixed {
 
     fn check(model: &Model<'_>) -> Result<()> {
         if !model.scheme().is_fixed() {
-            return Err(Error::WrongNumericPath);
+            return Err(Error::WrongNumericPath(model.scheme()));
         }
         check_i8_headroom(model, &model.coarse)?;
         if let Some(f) = &model.fine {

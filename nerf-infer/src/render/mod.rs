@@ -11,6 +11,7 @@
 //!
 //! [`Scheme::F32`]: crate::format::Scheme::F32
 
+mod any;
 mod api;
 mod f32_path;
 mod fixed_path;
@@ -21,6 +22,7 @@ mod scratch;
 pub mod tile;
 
 pub use crate::network::{Fixed, F32};
+pub use any::{AnyRenderer, AnyScratch};
 pub use api::{RayRenderer, RenderOptions};
 pub use fixed_path::RayFixed;
 pub use path::NumericPath;
@@ -28,9 +30,9 @@ pub use renderer::{Dispatch, Renderer};
 pub use scratch::Scratch;
 
 /// Working memory of [`RendererF32`].
-pub type ScratchF32<const B: usize = 8> = Scratch<F32, B>;
+pub type ScratchF32<const B: usize = 1> = Scratch<F32, B>;
 /// Working memory of [`RendererFixed`].
-pub type ScratchFixed<const B: usize = 8> = Scratch<Fixed, B>;
+pub type ScratchFixed<const B: usize = 1> = Scratch<Fixed, B>;
 
 /// The f32 reference path.
 pub type RendererF32<'m, 'a> = Renderer<'m, 'a, F32>;

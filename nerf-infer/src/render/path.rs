@@ -15,6 +15,7 @@ use crate::format::Model;
 use crate::network::Numbers;
 use crate::occupancy::{CoarseOccupancy, Occupancy};
 use crate::proposal::Proposal;
+use crate::tensor::Zero;
 use core::fmt::Debug;
 
 /// A numeric path: the formats the march works in and its per-sample
@@ -22,11 +23,11 @@ use core::fmt::Debug;
 /// [`super::Fixed`] (integers only after a per-ray setup).
 pub trait NumericPath: Numbers + Debug {
     /// Ray parameter `t` and interval length `δ` (f32 world units; Q16).
-    type T: Copy + Default + PartialOrd + Debug;
+    type T: Copy + Default + PartialOrd + Debug + Zero;
     /// Compositing weight and transmittance (f32 in `[0, 1]`; Q30).
-    type W: Copy + Default + PartialOrd + Debug;
+    type W: Copy + Default + PartialOrd + Debug + Zero;
     /// Cumulative-distribution entry of importance sampling.
-    type Cdf: Copy + Default;
+    type Cdf: Copy + Default + Zero;
     /// A ray in this path's formats.
     type Ray;
     /// Front-to-back accumulator of the quadrature.

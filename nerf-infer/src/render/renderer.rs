@@ -64,7 +64,8 @@ pub struct Renderer<'m, 'a, P: NumericPath> {
 
 impl<'m, 'a, P: NumericPath> Renderer<'m, 'a, P> {
     /// A renderer for `model`; fails with [`Error::WrongNumericPath`](crate::Error::WrongNumericPath) if
-    /// the path does not render the model's scheme, [`Error::InvalidScale`](crate::Error::InvalidScale)
+    /// the path does not render the model's scheme ([`crate::AnyRenderer`]
+    /// picks the path from the model), [`Error::InvalidScale`](crate::Error::InvalidScale)
     /// if an int8 layer could overflow its i32 accumulator and
     /// [`Error::InvalidSamples`](crate::Error::InvalidSamples) for bad options.
     pub fn new(model: &'m Model<'a>, opts: RenderOptions) -> Result<Self> {

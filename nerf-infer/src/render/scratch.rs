@@ -3,13 +3,14 @@
 use super::path::NumericPath;
 use crate::format::{MAX_COARSE, MAX_FINE, MAX_MARCH};
 use crate::network::Block;
+use crate::tensor::Zero;
 
 /// Working memory of a renderer on path `P` for blocks of `B` samples:
 /// f32 about 5 KiB + `B` · 2.4 KiB (≈ 25 KiB for the default `B = 8`);
 /// fixed point about 7 KiB + `B` · 4.7 KiB + 2 KiB (≈ 47 KiB for `B = 8`,
 /// ≈ 14 KiB for `B = 1`).
 #[derive(Clone)]
-pub struct Scratch<P: NumericPath, const B: usize = 8> {
+pub struct Scratch<P: NumericPath, const B: usize = 1> {
     /// Sample positions `t`: up to [`MAX_MARCH`] in a one-pass render; a
     /// two-pass render splits it into the coarse, the fine and the merged
     /// samples ([`two_pass`]).
@@ -41,14 +42,25 @@ pub(super) fn two_pass<T>(t: &mut [T; MAX_MARCH]) -> TwoPass<'_, T> {
     TwoPass { coarse, fine, all }
 }
 
+impl<P: NumericPath, const B: usize> Scratch<P, B> {
+    /// Zeroed working memory. A `const fn`, so a scratch can be a
+    /// `static` (in a `Mutex`, or a `static mut` the program hands out
+    /// once) instead of a stack value:
+    ///
+    /// ```
+    /// use core::cell::RefCell;
+    /// use nerf_infer::ScratchFixed;
+    /// use std::sync::Mutex;
+    /// static SCRATCH: Mutex<RefCell<ScratchFixed<1>>> = Mutex::new(RefCell::new(ScratchFixed::new()));
+    /// # let _ = &SCRATCH;
+    /// ```
+    pub const fn new() -> Self {
+        Self { t: Zero::ZERO, w_coarse: Zero::ZERO, cdf: Zero::ZERO, block: Block::new(), evaluations: 0 }
+    }
+}
+
 impl<P: NumericPath, const B: usize> Default for Scratch<P, B> {
     fn default() -> Self {
-        Self {
-            t: [P::T::default(); MAX_MARCH],
-            w_coarse: [P::W::default(); MAX_COARSE],
-            cdf: [P::Cdf::default(); MAX_COARSE],
-            block: Block::default(),
-            evaluations: 0,
-        }
+        Self::new()
     }
 }

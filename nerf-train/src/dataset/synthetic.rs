@@ -116,11 +116,7 @@ fn shade(o: Vec3, d: Vec3) -> Option<(Vec3, f32)> {
 
 /// A camera-to-world matrix at `eye` looking at the origin, z up.
 pub fn look_at(eye: Vec3) -> [[f32; 4]; 3] {
-    let f = (-eye).normalize();
-    let right = f.cross(Vec3::Z).normalize();
-    let up = right.cross(f);
-    let back = -f;
-    [[right.x, up.x, back.x, eye.x], [right.y, up.y, back.y, eye.y], [right.z, up.z, back.z, eye.z]]
+    nerf_infer::camera::look_at_pose(eye, Vec3::ZERO, Vec3::Z)
 }
 
 /// Renders the scene: RGBA (straight alpha) and camera-space depth (0 = none).

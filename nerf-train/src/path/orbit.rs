@@ -1,105 +1,22 @@
 //! The orbit a video follows around the scene: fitted to the training
-//! cameras when the model was trained ([`fit_orbit`], stored in the model
-//! as a [`FittedOrbit`]), or, for a model without one, chosen from its
-//! scene ([`orbit`]).
+//! cameras when the model is trained ([`fit_orbit`], stored in the model
+//! as a [`FittedOrbit`]); `nerf-infer`'s [`Orbit`] follows it, or for a
+//! model without one, a circle chosen from its scene.
 
 use crate::dataset::fit::{focus_point, Pose};
 use glam::{DMat3, DVec3, Vec3};
 use nerf_infer::format::{FittedOrbit, Scene};
-use nerf_infer::Camera;
+use nerf_infer::orbit::azimuth_axes;
+use nerf_infer::{Camera, Orbit};
 
-/// The path [`orbit_camera`] follows around a scene.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct Orbit {
-    /// `circle`: around `centre` at `elevation` above the plane
-    /// perpendicular to `up`, looking at it; `spiral` (forward-facing
-    /// scenes): the camera at `(radius·cos a, ½·radius·sin a, 0)` looking
-    /// down −z.
-    pub kind: &'static str,
-    /// The point looked at, world units.
-    pub centre: [f32; 3],
-    /// The circle's axis and the cameras' up, a unit vector.
-    pub up: [f32; 3],
-    /// Distance from the centre (circle) or the spiral's radius, world units.
-    pub radius: f32,
-    /// Elevation above the plane through `centre` perpendicular to `up`, radians.
-    pub elevation: f32,
-    /// Azimuth of the first camera, radians (see [`FittedOrbit::azimuth`]).
-    pub azimuth: f32,
-    /// Horizontal field of view, radians.
-    pub fov_x: f32,
-}
-
-/// The orbit of a model with scene `scene` and fitted orbit `fitted`.
-///
-/// - With a fitted orbit: that circle (its centre, up, radius and height,
-///   the training cameras' field of view).
-/// - Forward-facing (NDC) scenes: a small circle in the image plane of the
-///   capture's average pose, looking down −z with the capture's field of
-///   view (LLFF's spiral without the depth motion).
-/// - Otherwise up is +z (Blender's), and the circle at 30° elevation
-///   around the bounds' centre at the middle of the near..far range
-///   (unbounded scenes, whose bounds hold the cameras: at 0.45 of the
-///   bounds' smaller horizontal extent), field of view 0.69 rad as lego's.
-pub fn orbit(scene: &Scene, fitted: Option<&FittedOrbit>) -> Orbit {
-    if let Some(n) = scene.ndc {
-        // the capture is normalised so its nearest depth is 1/0.75: move by a tenth of it
-        let fov_x = 2.0 * (0.5 * n.width / n.focal).atan();
-        let (centre, up) = ([0.0; 3], [0.0, 1.0, 0.0]);
-        return Orbit { kind: "spiral", centre, up, radius: 0.1, elevation: 0.0, azimuth: 0.0, fov_x };
-    }
-    if let Some(f) = fitted {
-        let (radius, elevation) = (f.radius.hypot(f.height), f.height.atan2(f.radius));
-        let up = Vec3::from(f.up).normalize().to_array();
-        return Orbit { kind: "circle", centre: f.centre, up, radius, elevation, azimuth: f.azimuth, fov_x: f.fov_x };
-    }
-    let lo = Vec3::from(scene.bounds_min);
-    let hi = Vec3::from(scene.bounds_max);
-    let radius = match scene.unbounded {
-        Some(_) => 0.45 * (hi - lo).x.min((hi - lo).y),
-        None => 0.5 * (scene.near + scene.far),
-    };
-    let centre = (0.5 * (lo + hi)).to_array();
-    let (up, elevation) = ([0.0, 0.0, 1.0], 30f32.to_radians());
-    Orbit { kind: "circle", centre, up, radius, elevation, azimuth: 0.0, fov_x: 0.691_111_2 }
-}
-
-/// The directions of azimuth 0 and 90° in the plane perpendicular to the
-/// unit vector `up`: `u₁` is +x made perpendicular to it (+y when
-/// |up·x| > 0.9), `u₂ = up × u₁` (for up = +z, +x and +y).
-fn azimuth_axes(up: Vec3) -> (Vec3, Vec3) {
-    let v = if up.x.abs() > 0.9 { Vec3::Y } else { Vec3::X };
-    let u1 = (v - v.dot(up) * up).normalize();
-    (u1, up.cross(u1))
-}
-
-/// A camera on orbit `o`, `turn` (fraction of the path) along it,
-/// `width × height` pixels.
-pub fn orbit_camera(o: &Orbit, turn: f32, width: u32, height: u32) -> Camera {
-    let az = o.azimuth + turn * std::f32::consts::TAU;
-    if o.kind == "spiral" {
-        let r = o.radius;
-        let m = [[1.0, 0.0, 0.0, r * az.cos()], [0.0, 1.0, 0.0, 0.5 * r * az.sin()], [0.0, 0.0, 1.0, 0.0]];
-        return Camera::from_fov(width, height, o.fov_x, m).expect("spiral camera is rigid");
-    }
-    let (centre, up, el) = (Vec3::from(o.centre), Vec3::from(o.up), o.elevation);
-    let (u1, u2) = azimuth_axes(up);
-    let eye = centre + o.radius * (el.cos() * az.cos() * u1 + el.cos() * az.sin() * u2 + el.sin() * up);
-    let f = (centre - eye).normalize();
-    let right = f.cross(up).normalize();
-    let (up, back) = (right.cross(f), -f);
-    let m = [[right.x, up.x, back.x, eye.x], [right.y, up.y, back.y, eye.y], [right.z, up.z, back.z, eye.z]];
-    Camera::from_fov(width, height, o.fov_x, m).expect("orbit camera is rigid")
-}
-
-/// Rays of `views` cameras on the scene's own orbit ([`orbit`] without a
+/// Rays of `views` cameras on the scene's own orbit ([`Orbit::new`] without a
 /// fitted one), `size`² pixels each, with zero ground truth (for
 /// calibration).
 pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::Sample> {
-    let o = orbit(scene, None);
+    let o = Orbit::new(scene, None);
     let mut out = Vec::new();
     for k in 0..views {
-        let cam = orbit_camera(&o, k as f32 / views as f32, size, size);
+        let cam = o.camera(k as f32 / views as f32, size, size).expect("a scene's own orbit has cameras");
         for y in 0..size {
             for x in 0..size {
                 let (o, d) = cam.ray(x, y);
@@ -200,7 +117,7 @@ fn level_up(cams: &[Camera], mean_up: Vec3) -> Vec3 {
 ///   directions around the axis (the middle of a capture that covers an
 ///   arc; for one all around, wherever the sum points).
 ///
-/// `None` (the model then orbits as [`orbit`] chooses without one) for
+/// `None` (the model then orbits as [`Orbit::new`] chooses without one) for
 /// forward-facing (NDC) scenes, whose spiral follows the capture already,
 /// for no cameras, and when the cameras' ups cancel, they sit on the axis
 /// (radius 0) or nearly so (|height| > 100·radius).
@@ -233,6 +150,7 @@ pub fn fit_orbit(scene: &Scene, cams: &[Camera]) -> Option<FittedOrbit> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nerf_infer::orbit::OrbitKind;
 
     fn scene(half: f32) -> Scene {
         Scene::blender(half, 0.1, 10.0)
@@ -242,7 +160,7 @@ mod tests {
     /// and `h` above it, looking at `centre`, 60° across.
     fn ring(n: usize, centre: Vec3, up: Vec3, r: f32, h: f32) -> Vec<Camera> {
         let o = Orbit {
-            kind: "circle",
+            kind: OrbitKind::Circle,
             centre: centre.to_array(),
             up: up.to_array(),
             radius: r.hypot(h),
@@ -250,19 +168,7 @@ mod tests {
             azimuth: 0.0,
             fov_x: 60f32.to_radians(),
         };
-        (0..n).map(|k| orbit_camera(&o, k as f32 / n as f32, 40, 30)).collect()
-    }
-
-    #[test]
-    fn the_default_orbit_circles_plus_z_at_30_degrees() {
-        let s = scene(1.5);
-        let o = orbit(&s, None);
-        assert_eq!((o.up, o.centre), ([0.0, 0.0, 1.0], [0.0; 3]));
-        let c = orbit_camera(&o, 0.25, 8, 8);
-        // a quarter turn from +x is +y, at 30° elevation, 0.5·(near + far) from the centre
-        let want = 5.05 * Vec3::new(0.0, 30f32.to_radians().cos(), 30f32.to_radians().sin());
-        assert!((c.position - want).length() < 1e-4, "{}", c.position);
-        assert!(c.rotation.y_axis.z > 0.0 && c.rotation.x_axis.z.abs() < 1e-6, "level, upright");
+        (0..n).map(|k| o.camera(k as f32 / n as f32, 40, 30).unwrap()).collect()
     }
 
     #[test]
@@ -279,9 +185,9 @@ mod tests {
         assert!((f.radius - 2.0).abs() < 0.05 && (f.height - 0.7).abs() < 0.05, "{f:?}");
         assert!((f.fov_x - 60f32.to_radians()).abs() < 1e-4);
         // its cameras look at the centre from the ring, upright
-        let o = orbit(&scene(3.0), Some(&f));
+        let o = Orbit::new(&scene(3.0), Some(&f));
         for t in [0.0, 0.3, 0.7] {
-            let c = orbit_camera(&o, t, 16, 16);
+            let c = o.camera(t, 16, 16).unwrap();
             let rel = c.position - Vec3::from(f.centre);
             assert!((rel.dot(Vec3::from(f.up)) - f.height).abs() < 1e-4, "height at {t}");
             assert!((-c.rotation.z_axis).dot(-rel.normalize()) > 0.9999, "looks at the centre");
@@ -293,14 +199,14 @@ mod tests {
     /// plane (its cameras look down 0.3 rad), from `azimuth`.
     fn looking_down(azimuth: f32) -> Orbit {
         let (centre, up) = ([0.0; 3], [0.0, 0.0, 1.0]);
-        Orbit { kind: "circle", centre, up, radius: 2.0, elevation: 0.3, azimuth, fov_x: 0.8 }
+        Orbit { kind: OrbitKind::Circle, centre, up, radius: 2.0, elevation: 0.3, azimuth, fov_x: 0.8 }
     }
 
     #[test]
     fn a_capture_over_an_arc_starts_the_orbit_in_its_middle() {
         // 9 cameras over a quarter turn centred at azimuth 1 rad, up +z
         let o = looking_down(1.0 - std::f32::consts::FRAC_PI_4);
-        let cams: Vec<Camera> = (0..9).map(|k| orbit_camera(&o, k as f32 / 32.0, 20, 20)).collect();
+        let cams: Vec<Camera> = (0..9).map(|k| o.camera(k as f32 / 32.0, 20, 20).unwrap()).collect();
         let f = fit_orbit(&scene(3.0), &cams).unwrap();
         // level cameras looking down: up from their right axes is +z, where their mean up leans
         // towards the arc's middle by about the 0.3 rad they look down
@@ -309,7 +215,7 @@ mod tests {
         assert!(mean_up.dot(Vec3::Z) < 0.99, "{mean_up}");
         assert!((f.azimuth - 1.0).abs() < 1e-3, "{}", f.azimuth);
         // the first frame of the fitted orbit is the middle camera's view
-        let first = orbit_camera(&orbit(&scene(3.0), Some(&f)), 0.0, 20, 20);
+        let first = Orbit::new(&scene(3.0), Some(&f)).camera(0.0, 20, 20).unwrap();
         assert!((first.position - cams[4].position).length() < 1e-3, "{} against {}", first.position, cams[4].position);
     }
 
@@ -330,22 +236,10 @@ mod tests {
         // 40° of arc looking down 0.3 rad: the right axes spread little, their mean up leans 17°
         let o = looking_down(-0.35);
         let cams: Vec<Camera> =
-            (0..8).map(|k| orbit_camera(&o, k as f32 * 0.7 / 7.0 / std::f32::consts::TAU, 20, 20)).collect();
+            (0..8).map(|k| o.camera(k as f32 * 0.7 / 7.0 / std::f32::consts::TAU, 20, 20).unwrap()).collect();
         let f = fit_orbit(&scene(3.0), &cams).unwrap();
         assert!(Vec3::from(f.up).dot(Vec3::Z) > 1.0 - 1e-7, "{:?}", f.up);
         assert!(f.azimuth.abs() < 1e-3, "{}", f.azimuth);
-    }
-
-    #[test]
-    fn the_azimuth_axes_are_orthonormal_for_every_up() {
-        for up in [Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::X, Vec3::Y, Vec3::new(0.95, 0.1, 0.3).normalize()] {
-            let (u1, u2) = azimuth_axes(up);
-            for (a, b) in [(u1, u2), (u1, up), (u2, up)] {
-                assert!(a.dot(b).abs() < 1e-6 && (a.length() - 1.0).abs() < 1e-6, "{up}");
-            }
-            assert!(u1.cross(u2).dot(up) > 0.999, "{up}: right-handed");
-        }
-        assert_eq!(azimuth_axes(Vec3::Z), (Vec3::X, Vec3::Y));
     }
 
     #[test]
