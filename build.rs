@@ -1,7 +1,8 @@
 //! Builds the browser viewer's WebAssembly module (`nerf-web` for
 //! `wasm32-unknown-unknown`, release, stripped) so that `nerf web` can
 //! write it next to the page. Without that target installed, the `nerf`
-//! binary is built without the viewer and `nerf web` says how to add it.
+//! binary is built without the viewer and `nerf web` says how to add it;
+//! adding the target reruns this script at the next build.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -15,13 +16,20 @@ fn main() {
     let cargo = std::env::var_os("CARGO").expect("cargo sets CARGO");
     let rustc = std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
     let sysroot = Command::new(&rustc).args(["--print", "sysroot"]).output().ok();
-    let installed = sysroot
-        .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()))
-        .is_some_and(|s| s.join("lib/rustlib/wasm32-unknown-unknown").is_dir());
+    let rustlib = sysroot.map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()).join("lib/rustlib"));
+    if let Some(lib) = &rustlib {
+        // a target added later (rustup's list of installed components, or
+        // the folder of targets without rustup) reruns this script: the
+        // next build has the viewer
+        let components = lib.join("components");
+        let watched = if components.is_file() { components } else { lib.clone() };
+        println!("cargo::rerun-if-changed={}", watched.display());
+    }
+    let installed = rustlib.is_some_and(|lib| lib.join("wasm32-unknown-unknown").is_dir());
     if !installed {
         println!(
             "cargo::warning=the wasm32-unknown-unknown target is not installed: `nerf web` is left out \
-             (rustup target add wasm32-unknown-unknown, then rebuild)"
+             (`rustup target add wasm32-unknown-unknown`, then `cargo build --release` again adds it)"
         );
         return;
     }

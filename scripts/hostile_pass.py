@@ -272,6 +272,22 @@ def build_cases(work):
         cases.append(("runs into a folder that holds a run", args, [run, blender]))
     cases.append(("runs into a folder that holds a run", ["fit", "--data", blender, "--target-psnr", "20",
                                                           "--minutes", "0.01", "--out", run], [run, blender]))
+    # every command that claims an output folder, with and without --force,
+    # into a folder holding a user's file and into a training run: refused,
+    # the folder untouched
+    mine = os.path.join(work, "mine")
+    os.makedirs(mine, exist_ok=True)
+    open(os.path.join(mine, "frame_000.png"), "wb").write(b"my photo")
+    for folder in (mine, run):
+        claims = [["render", MODEL, "--orbit", "2", "--size", "8", "--out", folder],
+                  ["scene", "--out", folder, "--size", "8", "--train", "2"],
+                  ["eval", MODEL, "--data", blender, "--split", "val", "--save", folder],
+                  ["tradeoff", MODEL, "--data", blender, "--out", folder],
+                  ["web", MODEL, "--out", folder],
+                  ["fit", "--data", blender, "--target-psnr", "20", "--minutes", "0.01", "--out", folder]]
+        for args in claims:
+            for force in ([], ["--force"]):
+                cases.append(("output folders holding others' files", args + force, [folder, blender]))
     cases += capture_cases(work, scene, run)
     return cases
 

@@ -241,9 +241,18 @@ fn output_folders_hold_one_commands_outputs_and_nothing_stale() {
     assert_eq!(std::fs::read(mine.join("frame_000.png")).unwrap(), b"my photo");
     let e = fails(&["scene", "--out", s(&mine)]);
     assert!(e.contains("did not write"), "{e}");
-    // another command's outputs: refused, named
+    // another command's outputs: refused, named, and left; --force replaces them
     let e = fails(&["scene", "--out", s(&out), "--size", "8"]);
-    assert!(e.contains("nerf render"), "{e}");
+    assert!(e.contains("nerf render") && e.contains("--force"), "{e}");
+    assert_eq!(pngs(&out).len(), 2);
+    let other = d.join("other");
+    ok(&["render", &m, "--orbit", "2", "--size", "8", "--out", s(&other)]);
+    ok(&["scene", "--out", s(&other), "--size", "8", "--train", "2", "--force"]);
+    assert!(pngs(&other).is_empty() && other.join("room").is_dir());
+    // --force never removes a user's file
+    let e = fails(&["render", &m, "--orbit", "2", "--size", "8", "--out", s(&mine), "--force"]);
+    assert!(e.contains("frame_000.png") && e.contains("even --force"), "{e}");
+    assert_eq!(std::fs::read(mine.join("frame_000.png")).unwrap(), b"my photo");
     // a file the user adds beside a render's outputs is not the render's to remove
     std::fs::write(out.join("notes.txt"), b"keep").unwrap();
     let e = fails(&["render", &m, "--orbit", "2", "--size", "8", "--out", s(&out)]);
@@ -283,4 +292,41 @@ fn an_output_record_never_reaches_outside_its_folder_or_into_a_users_files() {
     // without it, the scene is written again in place
     std::fs::remove_file(sc.join("room").join("notes.txt")).unwrap();
     ok(&["scene", "--out", s(&sc), "--size", "8", "--train", "2"]);
+}
+
+/// `fit` claims its folder as the other commands do: an earlier fit's
+/// results (minutes of training) are replaced only with --force, a
+/// training run's files never.
+#[test]
+fn fit_replaces_an_earlier_fit_only_with_force_and_a_run_never() {
+    let d = tmp("fit-outdir");
+    let scene = d.join("scene");
+    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
+    let data = scene.join("blender");
+    // (whether a candidate reaches 5 dB in 0.1 s or not, fit writes its table)
+    let fit = |out: &Path, force: bool| {
+        let mut args = vec!["fit", "--data", s(&data), "--target-psnr", "5", "--minutes", "0.002", "--out", s(out)];
+        if force {
+            args.push("--force");
+        }
+        let o = support::cli::nerf(&args);
+        (o.status.success(), String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let out = d.join("fit");
+    fit(&out, false);
+    let table = std::fs::read(out.join("fit.csv")).unwrap();
+    let (done, e) = fit(&out, false);
+    assert!(!done && e.contains("earlier run of nerf fit") && e.contains("--force"), "{e}");
+    assert_eq!(std::fs::read(out.join("fit.csv")).unwrap(), table, "left as it was");
+    fit(&out, true);
+    assert!(out.join("fit.csv").is_file() && out.join(".nerf-outputs").is_file());
+    // a training run's folder: refused with or without --force, its model kept
+    let train = d.join("run");
+    ok(&["train", "--data", s(&data), "--iters", "2", "--val-views", "0", "--out", s(&train)]);
+    let model = std::fs::read(train.join("model.nerf")).unwrap();
+    for force in [false, true] {
+        let (done, e) = fit(&train, force);
+        assert!(!done && e.contains("a training run's") && e.contains("even --force"), "{e}");
+    }
+    assert_eq!(std::fs::read(train.join("model.nerf")).unwrap(), model);
 }

@@ -103,9 +103,12 @@ fn the_module_renders_the_hosts_pixels_and_the_folder_holds_the_page() {
         let view: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("view.json")).unwrap()).unwrap();
         let (host, _) = host_frame(&m, &dir);
         assert_eq!(module_frame(&m, &view), host, "{name}: the module's frame is the host's PNG");
-        // a folder that holds anything is refused, and left as it was
+        // an earlier page is replaced; a folder that holds a user's file is refused, and left as it was
+        ok(&["web", s(&m), "--out", s(&out)]);
+        std::fs::write(out.join("notes.txt"), b"mine").unwrap();
         let e = fails(&["web", s(&m), "--out", s(&out)]);
-        assert!(e.contains("--out") && e.contains("not empty"), "{e}");
+        assert!(e.contains("--out") && e.contains("notes.txt") && e.contains("did not write"), "{e}");
+        assert_eq!(std::fs::read(out.join("notes.txt")).unwrap(), b"mine");
     }
 }
 

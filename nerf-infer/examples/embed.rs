@@ -10,7 +10,7 @@
 //! microcontroller), the same calls render into a caller-owned buffer:
 //! see `examples/cortex-m` in the workspace.
 
-use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, ScratchFixed, Tile};
+use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, ScratchFixed, Tile, Vec3};
 use std::io::Write;
 
 /// The model, in the binary's read-only data (flash on a microcontroller).
@@ -21,28 +21,15 @@ const SIZE: u32 = 64;
 /// Tile side, pixels: the unit of work (and of working memory for the pixels).
 const TILE: u32 = 16;
 
-/// Camera-to-world rows (OpenGL axes: right, up, back; the camera looks
-/// along −back) of a camera at `eye` looking at the origin, +z up.
-fn look_at(eye: [f32; 3]) -> [[f32; 4]; 3] {
-    let len = |v: [f32; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let back = eye.map(|c| c / len(eye));
-    let right = [-back[1], back[0], 0.0].map(|c| c / back[0].hypot(back[1]));
-    let up = [
-        back[1] * right[2] - back[2] * right[1],
-        back[2] * right[0] - back[0] * right[2],
-        back[0] * right[1] - back[1] * right[0],
-    ];
-    core::array::from_fn(|r| [right[r], up[r], back[r], eye[r]])
-}
-
 /// Renders the view into 8-bit RGB, row-major from the top row.
 fn render(model: &Model<'_>) -> nerf_infer::Result<Vec<u8>> {
     let renderer = RendererFixed::new(model, RenderOptions::from_model(model))?;
-    // a camera 4 units from the origin, 30° above the xy plane, looking at the origin
-    let pose = look_at([0.0, -4.0 * 0.866, 4.0 * 0.5]);
-    let camera = Camera::from_fov(SIZE, SIZE, 0.69, pose)?;
-    // working memory: one sample per block, about 14 KiB
-    let mut scratch: ScratchFixed<1> = ScratchFixed::default();
+    // a camera 4 units from the origin, 30° above the xy plane, looking at
+    // the origin; the built-in scene's up is +z
+    let eye = Vec3::new(0.0, -4.0 * 0.866, 4.0 * 0.5);
+    let camera = Camera::look_at(SIZE, SIZE, 0.69, eye, Vec3::ZERO, Vec3::Z)?;
+    // working memory: one sample per block, 13.3 KiB
+    let mut scratch: ScratchFixed<1> = ScratchFixed::new();
     let mut tile_px = [PixelFixed::default(); (TILE * TILE) as usize];
     let mut image = vec![0u8; (3 * SIZE * SIZE) as usize];
     for y0 in (0..SIZE).step_by(TILE as usize) {
@@ -52,10 +39,8 @@ fn render(model: &Model<'_>) -> nerf_infer::Result<Vec<u8>> {
             for (k, p) in tile_px.iter().enumerate() {
                 let (x, y) = (x0 + k as u32 % TILE, y0 + k as u32 / TILE);
                 let at = 3 * (y * SIZE + x) as usize;
-                // colours are Q15 in [0, 32768]
-                for c in 0..3 {
-                    image[at + c] = ((p.rgb[c] as u32 * 255 + 16384) >> 15) as u8;
-                }
+                // colours are Q15 in [0, 32768]: 8 bits each, integers only
+                image[at..at + 3].copy_from_slice(&p.to_rgb888());
             }
         }
     }

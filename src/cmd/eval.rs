@@ -28,6 +28,10 @@ pub struct Args {
     /// Write each render and its ground truth as PNG into this directory.
     #[arg(long)]
     pub(crate) save: Option<PathBuf>,
+    /// Replace what nerf wrote in the --save folder before (another command's outputs, as its
+    /// `.nerf-outputs` record lists them); files nerf did not write are never removed.
+    #[arg(long, requires = "save")]
+    pub(crate) force: bool,
     /// Coarse samples per ray (default: the model's; at most 256 with a
     /// fine pass).
     #[arg(long, value_name = "2..=1024", value_parser = num_in(2usize, nerf_infer::format::MAX_MARCH))]
@@ -62,6 +66,7 @@ impl Args {
             capture: CaptureArgs::default(),
             threads: 0,
             save: None,
+            force: false,
             coarse: None,
             fine: None,
             early_stop: 0.0,
@@ -121,7 +126,7 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
     let _out = match &a.save {
         Some(dir) => {
             super::refuse_inside(dir, "--save", &a.data)?;
-            Some(super::outdir::OutDir::claim(dir, "--save", "eval")?)
+            Some(super::outdir::OutDir::claim(dir, "--save", "eval", super::outdir::Earlier::Replace, a.force)?)
         }
         None => None,
     };

@@ -54,6 +54,10 @@ pub struct Args {
     /// the chosen model.nerf (f32) and model_fixed.nerf.
     #[arg(long)]
     out: PathBuf,
+    /// Replace an earlier fit's results in --out (or another command's outputs, as its `.nerf-outputs` record
+    /// lists them); files nerf did not record writing (a training run, a user's) are never removed.
+    #[arg(long)]
+    force: bool,
     /// Seed of every candidate's training.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -391,16 +395,6 @@ fn fit_budget(
 pub fn run(a: Args) -> CmdResult {
     // everything checked before the first candidate trains
     super::refuse_inside(&a.out, "--out", &a.data)?;
-    if a.out.join("fit.csv").exists() {
-        return Err(format!("{}: holds the results of a fit (fit.csv); choose another --out", a.out.display()));
-    }
-    // the kept model is written as OUT/model.nerf: never over a training run's
-    if let Some(f) = ["model.nerf", "checkpoint.bin", "train.jsonl"].iter().find(|f| a.out.join(f).exists()) {
-        return Err(format!(
-            "{}: holds a training run ({f}); nerf fit writes its own model.nerf there: choose another --out",
-            a.out.display()
-        ));
-    }
     let (downscale, capture) = (a.capture.downscale.unwrap_or(1), a.capture);
     let data = super::load_split(&a.data, Split::Train, downscale, capture)?;
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
@@ -408,9 +402,9 @@ pub fn run(a: Args) -> CmdResult {
     drop(data);
     super::load_split(&a.data, Split::Val, downscale, capture)
         .map_err(|e| format!("{e} (nerf fit scores candidates on the validation views)"))?;
-    create_dir(&a.out)?;
-    // one process per output folder: a train or another fit started into it is refused
-    let _lock = super::lock_run_dir(&a.out)?;
+    // one process per output folder (a train or another fit started into it
+    // is refused); an earlier fit's results replaced only with --force
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "fit", super::outdir::Earlier::NeedForce, a.force)?;
     let mut rows = Vec::new();
     // per candidate that reached the target: name, samples, µs/ray, cost per ray
     let mut reached: Vec<(&'static str, u16, f64, usize)> = Vec::new();

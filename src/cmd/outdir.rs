@@ -1,15 +1,24 @@
-//! The output folders of `render`, `scene`, `eval --save` and `tradeoff`:
-//! one policy. A command claims its folder before it writes anything: the
-//! folder is created if missing and locked for the command's lifetime (a
-//! second process writing it is refused), and it must be empty or hold
-//! nothing but this same command's outputs of an earlier run, which its
-//! record (`.nerf-outputs`: the command, then each file it wrote, relative
-//! to the folder) names; those files are removed first (and the folders
-//! they leave empty), so a shorter render leaves none of a longer one's
-//! frames. A folder holding anything else (a user's files, another
-//! command's results, a training run, a file added among the outputs) is
-//! refused, and nothing in it is touched. When the command ends, well or
-//! not, the record lists the files the folder then holds.
+//! The output folders of `render`, `scene`, `eval --save`, `tradeoff`,
+//! `web` and `fit`: one policy. A command claims its folder before it
+//! writes anything: the folder is created if missing and locked for the
+//! command's lifetime (a second process writing it is refused). The
+//! folder's record (`.nerf-outputs`: the command, then each file it wrote,
+//! relative to the folder) names what a nerf command wrote there.
+//!
+//! - A file the record does not name (a user's file, a training run, a
+//!   file added among the outputs) is never removed: the folder is
+//!   refused, naming it, with or without `--force`.
+//! - The same command's outputs of an earlier run are removed first (and
+//!   the folders they leave empty), so a shorter render leaves none of a
+//!   longer one's frames; for a command whose outputs cost long to make
+//!   ([`Earlier::NeedForce`]: `fit`) only with `--force`.
+//! - Another command's recorded outputs are removed only with `--force`.
+//!
+//! So `--force` means the same for every command that takes it: replace
+//! what nerf wrote in the folder, never anything else (`train --force`
+//! replaces a run's checkpoint, model and log the same way). When the
+//! command ends, well or not, the record lists the files the folder then
+//! holds.
 
 use super::{create_dir, lock_run_dir};
 use std::collections::BTreeSet;
@@ -17,6 +26,15 @@ use std::path::{Component, Path, PathBuf};
 
 /// The record of a folder's outputs.
 pub const RECORD: &str = ".nerf-outputs";
+
+/// How a command treats its own outputs of an earlier run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Earlier {
+    /// Removed first: they are quick to make again.
+    Replace,
+    /// Removed only with `--force`, refused without: they took long to make.
+    NeedForce,
+}
 
 /// An output folder claimed by one command ([`OutDir::claim`]).
 #[derive(Debug)]
@@ -59,8 +77,10 @@ fn record(dir: &Path) -> Option<(String, BTreeSet<PathBuf>)> {
 }
 
 impl OutDir {
-    /// Claims `dir` (the value of `flag`) for `command` (see the module doc).
-    pub fn claim(dir: &Path, flag: &str, command: &'static str) -> Result<Self, String> {
+    /// Claims `dir` (the value of `flag`) for `command`, which treats its
+    /// earlier outputs as `earlier` says; `force` is the command's
+    /// `--force` (see the module doc).
+    pub fn claim(dir: &Path, flag: &str, command: &'static str, earlier: Earlier, force: bool) -> Result<Self, String> {
         if dir.exists() && !dir.is_dir() {
             return Err(format!("{flag} {}: not a folder", dir.display()));
         }
@@ -68,12 +88,26 @@ impl OutDir {
         let lock = lock_run_dir(dir)?;
         let present = files(dir)?;
         let (owner, ours) = record(dir).unwrap_or_default();
-        if let Some(other) = present.iter().find(|p| owner != command || !ours.contains(*p)) {
-            let whose = if owner.is_empty() || owner == command { String::new() } else { format!(" (nerf {owner})") };
+        if let Some(other) = present.iter().find(|p| !ours.contains(*p)) {
+            let run = ["model.nerf", "checkpoint.bin", "train.jsonl"].iter().any(|f| other.as_os_str() == *f);
             return Err(format!(
-                "{flag} {}: holds {}, which nerf {command} did not write{whose}; give a new or empty folder",
+                "{flag} {}: holds {}{}, which nerf {command} did not write (no nerf command recorded it, so even \
+                 --force leaves it); give a new or empty folder",
                 dir.display(),
-                other.display()
+                other.display(),
+                if run { ", a training run's" } else { "" }
+            ));
+        }
+        let needs_force = owner != command || earlier == Earlier::NeedForce;
+        if let (Some(first), true, false) = (present.first(), needs_force, force) {
+            let whose =
+                if owner == command { format!("an earlier run of nerf {command}") } else { format!("nerf {owner}") };
+            return Err(format!(
+                "{flag} {}: holds the outputs of {whose} ({} and {} more); give a new or empty folder, or --force to \
+                 replace them",
+                dir.display(),
+                first.display(),
+                present.len() - 1
             ));
         }
         // the earlier run's outputs, all of them recorded: gone before the new ones are written

@@ -47,6 +47,10 @@ pub struct Args {
     /// Output directory.
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// Replace what nerf wrote in the output folder before (another command's outputs, as its
+    /// `.nerf-outputs` record lists them); files nerf did not write are never removed.
+    #[arg(long)]
+    pub(crate) force: bool,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
     pub(crate) threads: usize,
@@ -65,6 +69,7 @@ impl Args {
             camera_path: None,
             size: 100,
             out,
+            force: false,
             threads: 0,
         }
     }
@@ -176,7 +181,7 @@ pub fn run(a: Args) -> CmdResult {
             MAX_GIF_BYTES / 1_000_000_000
         ));
     }
-    let _out = super::outdir::OutDir::claim(&a.out, "--out", "render")?;
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "render", super::outdir::Earlier::Replace, a.force)?;
     super::write_atomic(&a.out.join("depth.json"), meta.to_string().as_bytes())?;
     if let Some(path) = &path {
         // the path as nerfstudio's camera_path.json, to edit and render again with --camera-path

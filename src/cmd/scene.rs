@@ -12,6 +12,10 @@ pub struct Args {
     /// room: a 360° capture with a background) and `room_llff/` (a room capture in LLFF's layout).
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// Replace what nerf wrote in the output folder before (another command's outputs, as its
+    /// `.nerf-outputs` record lists them); files nerf did not write are never removed.
+    #[arg(long)]
+    pub(crate) force: bool,
     /// Image side in pixels.
     #[arg(long, default_value_t = 64, value_name = "8..=2048", value_parser = num_in(8u32, 2048))]
     pub(crate) size: u32,
@@ -23,13 +27,13 @@ pub struct Args {
 impl Args {
     /// `nerf scene --out OUT` with every other flag at its default.
     pub fn new(out: PathBuf) -> Self {
-        Self { out, size: 64, train: 48 }
+        Self { out, force: false, size: 64, train: 48 }
     }
 }
 
 /// Runs `nerf scene`.
 pub fn run(a: Args) -> CmdResult {
-    let _out = super::outdir::OutDir::claim(&a.out, "--out", "scene")?;
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "scene", super::outdir::Earlier::Replace, a.force)?;
     let spec = SceneSpec { size: a.size, train: a.train, ..SceneSpec::default() };
     write_blender(&a.out.join("blender"), spec).map_err(|e| e.to_string())?;
     write_llff(&a.out.join("llff"), spec).map_err(|e| e.to_string())?;

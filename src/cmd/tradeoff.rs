@@ -37,6 +37,10 @@ pub struct Args {
     /// Output directory for tradeoff.csv and tradeoff.png.
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// Replace what nerf wrote in the output folder before (another command's outputs, as its
+    /// `.nerf-outputs` record lists them); files nerf did not write are never removed.
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 #[derive(Clone, Copy)]
@@ -96,7 +100,16 @@ fn sweep(m: &Model<'_>) -> Vec<Knobs> {
 impl Args {
     /// `nerf tradeoff MODEL --data DATA --out OUT` with every other flag at its default.
     pub fn new(model: PathBuf, data: PathBuf, out: PathBuf) -> Self {
-        Self { model, data, split: SplitArg::Val, capture: CaptureArgs::default(), views: 2, repeats: 3, out }
+        Self {
+            model,
+            data,
+            split: SplitArg::Val,
+            capture: CaptureArgs::default(),
+            views: 2,
+            repeats: 3,
+            out,
+            force: false,
+        }
     }
 }
 
@@ -118,7 +131,7 @@ pub fn run(a: Args) -> CmdResult {
     let data = load_split(&a.data, a.split.into(), downscale, capture)?;
     super::same_frame(&data, &mf, &a.model)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
-    let _out = super::outdir::OutDir::claim(&a.out, "--out", "tradeoff")?;
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "tradeoff", super::outdir::Earlier::Replace, a.force)?;
     let knobs = sweep(&mf);
     // Repetitions are interleaved (every point once, then again), so drift
     // in the machine's speed reaches all points alike.

@@ -8,17 +8,21 @@
 
 use super::{create_dir, decode, read_model, write_atomic, CmdResult};
 use nerf_infer::Orbit;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `nerf web`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Model file (.nerf); int8 renders fastest.
     pub(crate) model: PathBuf,
-    /// Output folder (new or empty): index.html, nerf_web.wasm, model.nerf, view.json; serve it with any static
-    /// file server (e.g. `python3 -m http.server -d DIR`) and open index.html.
+    /// Output folder (new, empty, or an earlier page's): index.html, nerf_web.wasm, model.nerf, view.json; serve
+    /// it with any static file server (e.g. `python3 -m http.server -d DIR`) and open index.html.
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// Replace what nerf wrote in the output folder before (another command's outputs, as its
+    /// `.nerf-outputs` record lists them); files nerf did not write are never removed.
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 /// The page.
@@ -35,26 +39,15 @@ fn module() -> Result<&'static [u8], String> {
 #[cfg(not(web_viewer))]
 fn module() -> Result<&'static [u8], String> {
     Err("this nerf binary was built without the browser viewer (the wasm32-unknown-unknown target was not \
-         installed): run `rustup target add wasm32-unknown-unknown` and build it again"
+         installed): run `rustup target add wasm32-unknown-unknown`, then `cargo build --release` (or `cargo install \
+         --path .`) again; the build notices the new target"
         .into())
-}
-
-/// Refuses an output folder that exists and holds anything.
-fn new_or_empty(dir: &Path) -> CmdResult {
-    match std::fs::read_dir(dir) {
-        Ok(mut entries) => match entries.next() {
-            None => Ok(()),
-            Some(_) => Err(format!("--out {}: the folder is not empty; give a new or empty folder", dir.display())),
-        },
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(format!("--out {}: {e}", dir.display())),
-    }
 }
 
 /// Runs `nerf web`.
 pub fn run(a: Args) -> CmdResult {
     let wasm = module()?;
-    new_or_empty(&a.out)?;
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "web", super::outdir::Earlier::Replace, a.force)?;
     let bytes = read_model(&a.model)?;
     let m = decode(&a.model, &bytes)?;
     let o = Orbit::of(&m);
