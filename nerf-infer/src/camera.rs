@@ -116,9 +116,7 @@ pub fn is_rotation(m: &Mat3) -> bool {
 /// ([`crate::format::Footprint`]).
 pub const FOOTPRINT_RADIUS: f32 = 0.408_248_3;
 
-/// Points of a pixel footprint, evenly spread on its circle
-/// ([`crate::format::Footprint`]).
-pub const FOOTPRINT_POINTS: usize = 3;
+pub use crate::limits::FOOTPRINT_POINTS;
 
 /// A ray prepared for sampling: what both numeric paths need, per ray.
 #[derive(Clone, Copy, Debug, PartialEq)]

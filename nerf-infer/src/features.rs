@@ -18,9 +18,9 @@
 //! position with integers only, and its features come out as i16 with
 //! `frac_bits` fractional bits.
 
-use crate::camera::FOOTPRINT_POINTS;
 use crate::fixed::NPOS_FRAC;
 use crate::fixed::{sat_i16, shr_round_i64};
+use crate::limits::FOOTPRINT_POINTS;
 use crate::tensor::read_f32;
 use serde::{Deserialize, Serialize};
 

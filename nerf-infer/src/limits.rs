@@ -66,3 +66,7 @@ pub const MAX_FEATURES: usize = 32;
 pub const MAX_LOG2_TABLE: u8 = 22;
 /// Finest lattice, cells per axis.
 pub const MAX_RES: u16 = 4096;
+
+/// Points of a pixel footprint, evenly spread on its circle
+/// ([`crate::format::Footprint`], [`crate::camera::Ray::with_footprint`]).
+pub const FOOTPRINT_POINTS: usize = 3;

@@ -49,11 +49,11 @@ mod wasm;
 
 use core::sync::atomic::{AtomicU8, Ordering};
 
-use crate::camera::FOOTPRINT_POINTS;
 use crate::features::FeatureGrid;
 use crate::fixed::sin_turns_q15;
 use crate::format::{Layer, MAX_WIDTH};
 use crate::layer::{accumulate, requant_rows, Input, IntWeight, MacF32, W16, W8};
+use crate::limits::FOOTPRINT_POINTS;
 
 /// A set of SIMD kernels for the contracts of this module.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

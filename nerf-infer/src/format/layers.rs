@@ -1,6 +1,6 @@
 //! A network's dense layers as stored, and the shapes a topology implies.
 
-use super::records::{Encoding, PreciseNet, Scheme, Topology};
+use super::records::{Encoding, Scheme, Topology};
 use crate::fixed::Requant;
 use crate::limits::MAX_LAYERS;
 use crate::tensor::{read_f32, read_i32};
@@ -135,4 +135,71 @@ pub fn pruned_shape(t: &Topology, e: &Encoding, layers: &[Layer<'_>], i: usize) 
         _ => 0,
     };
     (din, dout)
+}
+
+/// The parts of an integer model's networks kept at 16 bits (format
+/// version 6): the two where 8-bit weights cost the most PSNR and the
+/// least time at 16 bits; the density head joins them from version 8
+/// ([`PreciseDensity`]).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct Precise<'a> {
+    /// The coarse network's.
+    #[serde(borrow)]
+    pub coarse: PreciseNet<'a>,
+    /// The fine network's, present iff the model has a fine network.
+    #[serde(borrow)]
+    pub fine: Option<PreciseNet<'a>>,
+}
+
+/// One network's 16-bit parts ([`Precise`]).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct PreciseNet<'a> {
+    /// The view layer's direction rows, `dir_dim × out_dim` i16 LE,
+    /// input-major, or empty (the layer's own rows then). The direction is
+    /// the same for every sample of a ray, so these rows are summed once
+    /// per ray: row `j` of channel `c` holds `w[j][c]` in steps of
+    /// 2^−[`PreciseNet::SHIFT`] of the layer's weight step, and the per-ray
+    /// start of channel `c`'s sum is `bias[c] + round(Σ_j γ(d)[j] · w[j][c]
+    /// / 2^SHIFT)` (ties up). The layer's own tensor still holds the rows at
+    /// its precision; renderers of version 6 read these instead.
+    #[serde(borrow)]
+    pub view_dirs: &'a [u8],
+    /// The colour head with i16 weights (its own bias, scales and
+    /// requantisation, quantised as in an int16 model), used instead of the
+    /// network's last layer; `None`: that layer.
+    #[serde(borrow)]
+    pub colour: Option<Layer<'a>>,
+    /// The density head with i16 weights (format version 8, quantised as
+    /// in an int16 model), used instead of the network's density head;
+    /// `None`: that layer. Not stored here: set from
+    /// [`Model::precise_density`](super::Model::precise_density) when a
+    /// model is decoded.
+    #[serde(skip)]
+    pub density: Option<Layer<'a>>,
+}
+
+/// The density heads of an integer model kept at 16 bits (format version
+/// 8): in an int8 model, 8-bit density weights cost the most PSNR of any
+/// layer once training has sharpened the density (lego at 800×800: 3.5
+/// dB; docs/EXPERIMENTS.md), and the head is one output wide.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
+pub struct PreciseDensity<'a> {
+    /// The coarse network's.
+    #[serde(borrow)]
+    pub coarse: Layer<'a>,
+    /// The fine network's, present iff the model has a fine network.
+    #[serde(borrow)]
+    pub fine: Option<Layer<'a>>,
+}
+
+impl PreciseNet<'_> {
+    /// Fraction bits of the stored direction rows below the layer's weight
+    /// step: 8, so int8 rows (±127 steps) become ±32512.
+    pub const SHIFT: u32 = 8;
+
+    /// Tensor bytes held.
+    pub fn bytes(&self) -> usize {
+        let layer = |l: Layer<'_>| l.weights.len() + l.bias.len() + l.scales.len() + l.requant.len();
+        self.view_dirs.len() + self.colour.map_or(0, layer) + self.density.map_or(0, layer)
+    }
 }

@@ -38,10 +38,12 @@ mod validate;
 
 pub use header::crc32;
 use header::{check_header, Padded};
-pub use layers::{expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network};
+pub use layers::{
+    expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network, Precise, PreciseDensity, PreciseNet,
+};
 pub use records::{
-    CameraConvention, Capture, Encoding, FittedOrbit, Footprint, Framing, Meta, Ndc, Precise, PreciseDensity,
-    PreciseNet, Samples, Scene, Scheme, Topology, Unbounded,
+    CameraConvention, Capture, Encoding, FittedOrbit, Footprint, Framing, Meta, Ndc, Samples, Scene, Scheme, Topology,
+    Unbounded,
 };
 
 use crate::error::{Error, Result};

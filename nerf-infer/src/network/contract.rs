@@ -1,8 +1,8 @@
 //! What the network walk needs from a numeric path: its number formats
 //! ([`Numbers`]) and a dense layer's arithmetic in them ([`LayerKernel`]).
 
-use crate::camera::FOOTPRINT_POINTS;
 use crate::format::{Layer, Model, Network};
+use crate::limits::FOOTPRINT_POINTS;
 use crate::limits::{MAX_FEATURES, MAX_FREQS, MAX_WIDTH};
 use crate::tensor::Zero;
 

@@ -4,10 +4,10 @@
 
 use super::contract::{Act, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
 use crate::arch::accumulate_f32;
-use crate::camera::FOOTPRINT_POINTS;
 use crate::encoding::encode_f32;
 use crate::format::{read_f32, Layer, Model, Network};
 use crate::layer::Input;
+use crate::limits::FOOTPRINT_POINTS;
 use crate::limits::MAX_WIDTH;
 use crate::tensor::Zero;
 

@@ -5,12 +5,12 @@
 
 use super::contract::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX};
 use crate::arch::IntKernel;
-use crate::camera::FOOTPRINT_POINTS;
 use crate::encoding::encode_fixed;
 use crate::error::{Error, Result};
 use crate::fixed::{sat_i32, sigmoid_q12_q15};
 use crate::format::{read_i16, read_i32, sigma_layer, Layer, Model, Network, PreciseNet, Scheme};
 use crate::layer::{Input, TILE_C};
+use crate::limits::FOOTPRINT_POINTS;
 use crate::limits::MAX_WIDTH;
 use crate::tensor::Zero;
 

@@ -28,8 +28,8 @@ pub use contract::{Act, Fixed, Inputs, LayerKernel, Numbers, ENC_MAX, F32};
 pub use float::ViewBias;
 pub use int::{check_i8_headroom, FixedAcc};
 
-use crate::camera::FOOTPRINT_POINTS;
 use crate::format::{sigma_layer, Model, Network};
+use crate::limits::FOOTPRINT_POINTS;
 use crate::limits::MAX_WIDTH;
 use crate::tensor::Zero;
 

@@ -4,9 +4,9 @@
 //! the loaded size. Used by the COLMAP and instant-ngp loaders.
 
 use super::fit::{fit_scene, pose_rows, Pose, SceneKind};
+use super::forward::{ndc_scene, ForwardFrame};
 use super::image_io::{image_size, load_rgb, load_rgb_stored};
 use super::lens::Lens;
-use super::llff::{ndc_scene, ForwardFrame};
 use super::types::{capture_record, stem, DataError, Dataset, Split, View};
 use glam::DVec3;
 use nerf_infer::camera::Camera;

@@ -8,6 +8,7 @@ pub mod capture;
 pub mod colmap;
 pub mod colmap_io;
 pub mod fit;
+mod forward;
 mod image_io;
 pub mod lens;
 mod llff;
