@@ -1,0 +1,105 @@
+//! Training rays: a batch drawn across every training image, each ray with
+//! its ground truth and the background both are composited on.
+
+use super::*;
+
+/// A training ray, its ground-truth colour and the background both are
+/// composited on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// The ray through the pixel.
+    pub ray: Ray,
+    /// The pixel's colour on `bg`, stored (sRGB-encoded) values in `[0, 1]`.
+    pub rgb: [f32; 3],
+    /// Background colour of this ray in `[0, 1]`: the scene's
+    /// (white or black), or a random colour for a pixel with an alpha channel
+    /// ([`TrainConfig::random_background`]).
+    pub bg: [f32; 3],
+}
+
+/// Where [`Trainer::draw_batch`] sends its rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Draw {
+    /// Share of the pixels with an alpha channel, in `[0, 1]`, recomposited
+    /// on a random background colour ([`TrainConfig::random_background`]).
+    pub random_background: f32,
+    /// Each ray through a uniformly random point of its pixel instead of
+    /// its centre ([`TrainConfig::pixel_jitter`]).
+    pub jitter: bool,
+    /// Each ray with its pixel's footprint ([`TrainConfig::footprint`]),
+    /// turned about the ray by a random angle.
+    pub footprint: bool,
+}
+
+impl Draw {
+    /// Rays through pixel centres, on the scene's background.
+    pub const CENTRES: Self = Self { random_background: 0.0, jitter: false, footprint: false };
+
+    /// The rays a training step of `cfg` draws at `progress` (the share of
+    /// the run done, in `[0, 1]`).
+    pub fn of(cfg: &TrainConfig, progress: f64) -> Self {
+        Self {
+            random_background: cfg.random_background,
+            jitter: cfg.pixel_jitter,
+            footprint: cfg.footprint && cfg.feature_levels > 0 && progress >= cfg.footprint_from as f64,
+        }
+    }
+}
+
+impl Sample {
+    /// A ray on the scene's background with ground truth `rgb`.
+    pub fn on_scene(scene: &Scene, ray: Ray, rgb: [f32; 3]) -> Self {
+        Self { ray, rgb, bg: [scene.background(); 3] }
+    }
+}
+
+impl Trainer {
+    /// Draws `n` training rays uniformly over all pixels of `data` (views
+    /// may differ in size), through each view's lens: through the pixel's
+    /// centre, or with `how.jitter` through a uniformly random point of it.
+    /// Pixels whose ray
+    /// misses the scene are drawn again, at most `64 n` draws in all:
+    /// [`crate::dataset::Dataset::check_rays`] makes sure at load time that
+    /// enough rays meet the scene, so a short batch is rare.
+    ///
+    /// A share `how.random_background` (in `[0, 1]`) of the pixels of views
+    /// with an alpha channel gets a uniformly random background colour,
+    /// its ground truth recomposited on it (`rgb + (1 − alpha)·(bg − scene
+    /// background)`); other pixels keep the scene's background.
+    pub fn draw_batch(data: &Dataset, n: usize, how: Draw, rng: &mut Rng) -> Vec<Sample> {
+        let mut ends = Vec::with_capacity(data.views.len());
+        let mut total = 0usize;
+        for v in &data.views {
+            total += v.rgb.len();
+            ends.push(total);
+        }
+        let scene_bg = data.scene.background();
+        let mut out = Vec::with_capacity(n);
+        for _ in 0..n.saturating_mul(64) {
+            if out.len() == n || total == 0 {
+                break;
+            }
+            let k = rng.below(total);
+            let vi = ends.partition_point(|&e| e <= k);
+            let v = &data.views[vi];
+            let px = k - (ends[vi] - v.rgb.len());
+            let (x, y) = ((px % v.camera.width as usize) as u32, (px / v.camera.width as usize) as u32);
+            let (o, d) = match how.jitter {
+                true => v.ray_at(x as f32 + rng.f32(), y as f32 + rng.f32()),
+                false => v.ray(x, y),
+            };
+            let Some(mut ray) = Ray::new(&data.scene, o, d) else { continue };
+            if how.footprint {
+                ray = ray.with_footprint(&data.scene, v.camera.pixel_angle(), rng.f32() * std::f32::consts::TAU);
+            }
+            let mut s = Sample::on_scene(&data.scene, ray, v.rgb[px]);
+            let alpha = if how.random_background > 0.0 { v.alpha.get(px) } else { None };
+            if let Some(&a) = alpha.filter(|_| rng.f32() < how.random_background) {
+                s.bg = [rng.f32(), rng.f32(), rng.f32()];
+                s.rgb = std::array::from_fn(|c| s.rgb[c] + (1.0 - a) * (s.bg[c] - scene_bg));
+            }
+            out.push(s);
+        }
+        out
+    }
+}

@@ -1,0 +1,345 @@
+//! The training loop: random ray batches across all training images,
+//! stratified coarse samples, hierarchical fine samples, loss = coarse MSE
+//! + fine MSE, hand-written backward, Adam with exponential decay.
+//!
+//! With an occupancy grid (`grid_res > 0`) the run has one network: each
+//! ray's stratified samples are kept only where the grid is occupied (the
+//! others weigh nothing), and the grid is refreshed from the network's
+//! density every `grid_every` steps.
+//!
+//! Work is split into chunks of `chunk_rays` rays processed in parallel by
+//! rayon; each chunk draws its jitter from a hash of (seed, step, chunk), so
+//! a run is reproducible whatever the thread count.
+//!
+//! Files: this one holds the run's state ([`Trainer`]) and its working
+//! memory; `batch.rs` draws rays, `step.rs` takes a step,
+//! `proposal_pass.rs` trains the proposal grid, `calibrate.rs` measures
+//! activation ranges for export, `checkpoint.rs` writes and reads the
+//! state.
+
+use crate::adam::Adam;
+use crate::config::TrainConfig;
+use crate::dataset::Dataset;
+use crate::grid::DensityGrid;
+use crate::mlp::{Acts, GridGrad, Mlp};
+use crate::proposal::{ProposalGrid, RayProposal};
+use crate::rng::Rng;
+use crate::timing::{timed, StepTimes};
+use crate::volume::{
+    composite, composite_back, distortion, optical_depth_back, push_deltas, push_interval, LAST_DELTA,
+};
+use nerf_infer::camera::Ray;
+use nerf_infer::format::{Footprint, Scene};
+use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+mod batch;
+mod calibrate;
+mod checkpoint;
+mod proposal_pass;
+mod step;
+pub use batch::*;
+pub use calibrate::*;
+pub use checkpoint::*;
+
+/// Statistics of one optimisation step.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepStats {
+    /// Mean of coarse MSE + fine MSE over the batch.
+    pub loss: f32,
+    /// PSNR (dB) of the final (fine, or coarse) colours against the batch.
+    pub psnr: f32,
+    /// Rays in the batch.
+    pub rays: usize,
+    /// Network evaluations (samples) in the step, both networks.
+    pub samples: usize,
+    /// The step was skipped because the loss or a gradient was not finite.
+    pub skipped: bool,
+    /// Where the step's time went.
+    pub times: StepTimes,
+}
+
+/// The density (1/world units, the fitted scene's) an unbounded scene's network starts with,
+/// the same at every point ([`Mlp::init_uniform_density`]). A ray there
+/// crosses the bounds and then the contracted shell out to `far`: starting
+/// from the bounded scenes' σ ≈ 1 ([`Mlp::SIGMA_BIAS_INIT`], with a random
+/// density head), the bounds alone would absorb most of the light (optical
+/// depth about 4 across the built-in room's 2.2-unit box) and the first
+/// steps would fit a fog between the cameras and the walls. At 0.1 the
+/// bounds' diagonal holds an optical depth well under 1 and the light
+/// reaches the shell. Measured on the built-in room (docs/EXPERIMENTS.md).
+pub const UNBOUNDED_SIGMA_INIT: f32 = 0.1;
+
+/// The initialisation seed of network `k` (0 coarse, 1 fine) of a run seeded `seed`.
+pub fn network_seed(seed: u64, k: usize) -> u64 {
+    if k == 0 {
+        seed
+    } else {
+        seed ^ 0x5EED_F1E0
+    }
+}
+
+/// Folds `params` into their moving average `ema` with decay `b`:
+/// `ema ← b·ema + (1 − b)·params`, or a copy of `params` when `ema` does
+/// not hold as many (the first step).
+fn average_into(ema: &mut Vec<f32>, params: &[f32], b: f32) {
+    if ema.len() != params.len() {
+        ema.clear();
+        ema.extend_from_slice(params);
+        return;
+    }
+    ema.iter_mut().zip(params).for_each(|(a, &p)| *a += (1.0 - b) * (p - *a));
+}
+
+/// A training run's state: everything a checkpoint holds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Trainer {
+    /// The configuration.
+    pub cfg: TrainConfig,
+    /// The scene (bounds, near/far, background).
+    pub scene: Scene,
+    /// Dataset downscale the run trains at.
+    pub downscale: u32,
+    /// Coarse then fine parameters, concatenated.
+    pub params: Vec<f32>,
+    /// Optimiser state.
+    pub adam: Adam,
+    /// Steps taken.
+    pub step: u64,
+    /// Seconds of training so far (across resumes).
+    pub elapsed: f64,
+    /// Run seed.
+    pub seed: u64,
+    /// Steps skipped for non-finite loss or gradients.
+    pub skipped: u64,
+    /// Occupancy grid (runs with `grid_res > 0`).
+    pub grid: Option<DensityGrid>,
+    /// What the run trains on, as the command names it (the dataset's
+    /// absolute path and the loading flags), so `--resume` can refuse other
+    /// data; empty when the caller does not say.
+    pub data: String,
+    /// Mean angular size of the training views' pixels, radians, once a
+    /// step has trained with pixel footprints ([`TrainConfig::footprint`]);
+    /// 0 before (the exported model records it,
+    /// `nerf_infer::format::Footprint`).
+    pub pixel: f32,
+    /// With [`TrainConfig::ema_decay`]: the moving average of `params`
+    /// (as long as they, from the first step that updates them), which the model takes
+    /// ([`Trainer::averaged`]); empty otherwise.
+    pub ema: Vec<f32>,
+    /// The proposal grid placing the network's samples (runs with
+    /// `proposal_res > 0`).
+    pub proposal: Option<ProposalGrid>,
+    /// Zeroed gradient buffers kept between steps (not checkpointed).
+    #[serde(skip)]
+    pool: GradPool,
+}
+
+/// Zeroed gradient buffers and chunks' grid-value gradients reused from
+/// step to step: a feature grid's table makes each gradient megabytes, a
+/// chunk's corners hundreds of kilobytes, and fresh ones cost page faults.
+#[derive(Default)]
+struct GradPool(std::sync::Mutex<Vec<Vec<f32>>>, std::sync::Mutex<Vec<GridGrad>>, std::sync::Mutex<PropGrads>);
+
+/// Each chunk's proposal-grid gradient, (cell, value) pairs, under the
+/// chunk's key (summed in key order: the same sum whatever the threads).
+type PropGrads = Vec<(u32, Vec<(u32, f32)>)>;
+
+impl Clone for GradPool {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for GradPool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("GradPool")
+    }
+}
+
+impl GradPool {
+    /// A zeroed buffer of `n` values.
+    fn take(&self, n: usize) -> Vec<f32> {
+        let found = |p: &mut Vec<Vec<f32>>| p.iter().position(|v| v.len() == n).map(|i| p.swap_remove(i));
+        self.0.lock().map(|mut p| found(&mut p)).unwrap_or(None).unwrap_or_else(|| vec![0.0; n])
+    }
+    /// Returns a buffer (zeroed here) for later steps.
+    fn give(&self, mut v: Vec<f32>) {
+        v.fill(0.0);
+        if let Ok(mut p) = self.0.lock() {
+            p.push(v);
+        }
+    }
+    /// A chunk's grid-value gradient whose buffers a forward pass may reuse.
+    fn take_grid(&self) -> GridGrad {
+        self.1.lock().map(|mut p| p.pop()).unwrap_or(None).unwrap_or_default()
+    }
+    /// Returns grid-value gradients for later chunks.
+    fn give_grids(&self, g: Vec<GridGrad>) {
+        if let Ok(mut p) = self.1.lock() {
+            p.extend(g);
+        }
+    }
+}
+
+/// Per-chunk working memory.
+#[derive(Default)]
+struct Workspace {
+    pos: Vec<[f32; 3]>,
+    /// The footprint points of each sample of `pos` (rays with a
+    /// footprint), else empty.
+    foot: Vec<[f32; 3]>,
+    dirs: Vec<[f32; 3]>,
+    /// Ray `i`'s samples are `offs[i]..offs[i + 1]` of `pos` and `delta`.
+    offs: Vec<usize>,
+    delta: Vec<f32>,
+    /// Per sample (as `delta`) when the distortion loss is on: its interval
+    /// in the ray's normalised coordinate, midpoint and length.
+    s_mid: Vec<f32>,
+    s_width: Vec<f32>,
+    /// ∂L/∂w of the distortion loss for one ray.
+    dw: Vec<f32>,
+    t_c: Vec<f32>,
+    w_c: Vec<f32>,
+    t_f: Vec<f32>,
+    t_all: Vec<f32>,
+    w_f: Vec<f32>,
+    cdf: Vec<f32>,
+    acts_c: Acts,
+    acts_f: Acts,
+    /// Each kept sample's index among its ray's samples (as `delta`).
+    kept: Vec<u32>,
+    /// Each ray's proposal (runs with a proposal grid).
+    props: Vec<RayProposal>,
+    dsig: Vec<f32>,
+    drgb: Vec<f32>,
+}
+
+/// The losses beside the colour's: the distortion loss's weight and each
+/// sample's interval (see [`crate::volume::distortion`]), and the weight
+/// of the optical depth's L1 penalty ([`TrainConfig::density_l1`]); a
+/// weight 0 turns its loss off.
+struct Priors<'a> {
+    distortion: f32,
+    mid: &'a [f32],
+    width: &'a [f32],
+    density_l1: f32,
+}
+
+impl Trainer {
+    /// A new run with freshly initialised networks.
+    pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
+        let net = cfg.mlp();
+        let init = |seed| match scene.unbounded {
+            Some(_) => net.init_uniform_density(seed, UNBOUNDED_SIGMA_INIT),
+            None => net.init(seed),
+        };
+        let mut params = init(network_seed(seed, 0));
+        if cfg.n_fine > 0 {
+            params.extend(init(network_seed(seed, 1)));
+        }
+        let adam = Adam::new(params.len(), table_values(&net, params.len()));
+        let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
+        let proposal = (cfg.proposal_res > 0).then(|| ProposalGrid::new(cfg.proposal_res, UNBOUNDED_SIGMA_INIT));
+        Self {
+            cfg,
+            scene,
+            downscale,
+            params,
+            adam,
+            step: 0,
+            elapsed: 0.0,
+            seed,
+            skipped: 0,
+            grid,
+            data: String::new(),
+            pixel: 0.0,
+            ema: Vec::new(),
+            proposal,
+            pool: GradPool::default(),
+        }
+    }
+
+    /// The network's samples per ray before the occupancy grid's skipping:
+    /// `n_main` drawn from the proposal grid and its last stratified one,
+    /// else `n_coarse` stratified.
+    fn main_samples(&self) -> usize {
+        match self.proposal {
+            Some(_) => self.cfg.n_main as usize + 1,
+            None => self.cfg.n_coarse as usize,
+        }
+    }
+
+    /// The network shape (both networks share it).
+    pub fn mlp(&self) -> Mlp {
+        self.cfg.mlp()
+    }
+
+    /// Coarse parameters.
+    pub fn coarse_params(&self) -> &[f32] {
+        &self.params[..self.mlp().n_params]
+    }
+
+    /// Fine parameters, if the run has a fine network.
+    pub fn fine_params(&self) -> Option<&[f32]> {
+        let n = self.mlp().n_params;
+        (self.cfg.n_fine > 0).then(|| &self.params[n..])
+    }
+
+    /// Learning rate at training progress `p ∈ [0, 1]` of the decay horizon.
+    pub fn learning_rate(&self, progress: f64) -> f32 {
+        let p = if self.cfg.lr_decay_steps > 0 { self.step as f64 / self.cfg.lr_decay_steps as f64 } else { progress };
+        self.cfg.lr * (self.cfg.lr_final_ratio as f64).powf(p.clamp(0.0, 1.0)) as f32
+    }
+
+    /// Density σ threshold of the grid: the density at which a sample of
+    /// the default step (bounds diagonal / `n_coarse`, world units) has
+    /// opacity `grid_alpha`.
+    pub fn grid_threshold(&self) -> f32 {
+        let s = &self.scene;
+        let diag = (0..3).map(|k| (s.bounds_max[k] - s.bounds_min[k]).powi(2)).sum::<f32>().sqrt();
+        let step = diag / self.cfg.n_coarse as f32;
+        -(1.0 - self.cfg.grid_alpha).ln() / step
+    }
+
+    /// The pixel footprint the run trains with and its model records: the
+    /// training views' pixel once a step has used it, if a model can hold
+    /// it ([`Footprint::is_valid`]) and has a feature grid to read across
+    /// it (forward-facing scenes' rays stay lines: their models record none).
+    pub fn footprint(&self) -> Option<Footprint> {
+        Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.feature_levels > 0)
+    }
+
+    /// The run as its model takes it: with a parameters' average
+    /// ([`TrainConfig::ema_decay`]), a copy holding the average as its
+    /// parameters and its occupancy grid (once the run has refreshed it)
+    /// refreshed once more, from the average's density; otherwise the run
+    /// itself.
+    pub fn averaged(&self) -> std::borrow::Cow<'_, Trainer> {
+        if self.cfg.ema_decay <= 0.0 || self.ema.len() != self.params.len() {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let mut t = self.clone();
+        t.params.clone_from(&self.ema);
+        if t.grid.as_ref().is_some_and(|g| g.updates > 0) {
+            t.update_grid();
+        }
+        std::borrow::Cow::Owned(t)
+    }
+
+    /// Refreshes the occupancy grid from the network's current density.
+    pub fn update_grid(&mut self) {
+        let Some(mut grid) = self.grid.take() else { return };
+        let net = self.mlp();
+        let thr = self.grid_threshold();
+        let params = &self.params[..net.n_params];
+        let key = hash32(self.seed as u32 ^ 0x6121_D000);
+        grid.update(key, thr, self.scene.unbounded.is_some(), |pts| {
+            let mut acts = Acts::default();
+            net.forward(params, pts, &[[0.0, 0.0, 1.0]], false, &mut acts);
+            acts.sigma[..pts.len()].to_vec()
+        });
+        self.grid = Some(grid);
+    }
+}

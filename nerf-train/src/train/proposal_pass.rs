@@ -1,0 +1,81 @@
+//! The proposal grid's part of a step: its interlevel gradient and update,
+//! and how well it bounds the network's weights.
+
+use super::*;
+
+impl Trainer {
+    /// One Adam step of the proposal grid (if the run has one) on the
+    /// chunks' gradients of the step, at learning rate `lr`.
+    pub(super) fn step_proposal(&mut self, lr: f32) {
+        let Some(pg) = self.proposal.as_mut() else { return };
+        let mut chunks = self.pool.2.lock().map(|mut g| std::mem::take(&mut *g)).unwrap_or_default();
+        chunks.sort_unstable_by_key(|(key, _)| *key);
+        let mut grad = vec![0.0f32; pg.log_sigma.len()];
+        for (c, g) in chunks.iter().flat_map(|(_, list)| list) {
+            grad[*c as usize] += g;
+        }
+        if grad.iter().all(|g| g.is_finite()) {
+            let c = &self.cfg;
+            pg.step(&grad, lr, c.beta1, c.beta2, c.eps);
+        }
+    }
+
+    /// The interlevel loss's gradient of a chunk's rays, whose network
+    /// samples (`ws.t_c`, `main_samples` per ray, those kept in
+    /// `ws.kept`) got the weights `ws.w_c`: kept under the chunk's `key`
+    /// for [`Trainer::step_proposal`].
+    pub(super) fn proposal_backward(&self, pg: &ProposalGrid, n_rays: usize, key: u32, scale: f32, ws: &Workspace) {
+        let nm = self.main_samples();
+        let mut list = Vec::new();
+        let mut w = vec![0.0f32; nm];
+        for i in 0..n_rays {
+            w.fill(0.0);
+            for s in ws.offs[i]..ws.offs[i + 1] {
+                w[ws.kept[s] as usize] = ws.w_c[s];
+            }
+            pg.backward(&ws.props[i], &ws.t_c[i * nm..(i + 1) * nm], &w, scale, &mut list);
+        }
+        if let Ok(mut g) = self.pool.2.lock() {
+            g.push((key, list));
+        }
+    }
+
+    /// With a proposal grid: the mean over `batch` of the network's weight
+    /// along each ray that the grid's weights leave unbounded
+    /// ([`crate::interlevel::unbounded_weight`]; 0 when they bound it
+    /// everywhere, at most the ray's opacity), and the rays' mean opacity.
+    pub fn proposal_bound(&self, batch: &[Sample]) -> Option<(f32, f32)> {
+        self.proposal.as_ref()?;
+        let net = self.mlp();
+        let pc = &self.params[..net.n_params];
+        let nm = self.main_samples();
+        let mut ws = Workspace::default();
+        let (mut unbounded, mut opacity) = (0.0f64, 0.0f64);
+        for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
+            self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
+            let mut acts = Acts::default();
+            if !ws.pos.is_empty() {
+                net.encode_footprint(pc, &ws.pos, &ws.foot, &mut acts);
+                net.forward_layers(pc, &ws.dirs, true, &mut acts);
+            }
+            for (i, Sample { bg, .. }) in rays.iter().enumerate() {
+                let s = ws.offs[i]..ws.offs[i + 1];
+                let mut kept_w = vec![0.0; s.len()];
+                if !s.is_empty() {
+                    let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end]);
+                    composite(sig, rgb, &ws.delta[s.clone()], *bg, &mut kept_w);
+                }
+                let mut w = vec![0.0f32; nm];
+                for (k, j) in s.clone().enumerate() {
+                    w[ws.kept[j] as usize] = kept_w[k];
+                }
+                let prop = &ws.props[i];
+                let t = &ws.t_c[i * nm..(i + 1) * nm];
+                unbounded += crate::interlevel::unbounded_weight(t, &w, &prop.edges(), &prop.w) as f64;
+                opacity += w.iter().sum::<f32>() as f64;
+            }
+        }
+        let n = batch.len().max(1) as f64;
+        Some(((unbounded / n) as f32, (opacity / n) as f32))
+    }
+}

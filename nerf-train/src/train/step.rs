@@ -1,0 +1,352 @@
+//! One optimisation step: each chunk of rays sampled, evaluated, composited
+//! and differentiated in parallel, the gradients summed, Adam applied.
+
+use super::*;
+
+/// Composites each ray's samples (`offs[i]..offs[i + 1]`, weights into
+/// `w`) on the ray's background and writes the gradients of `scale · Σ (C − C_gt)²`
+/// (plus `scale · 3/2 · λ · L_dist` per ray for the distortion weight λ, and
+/// `scale · 3/2 · μ ·` [`optical_depth`](crate::volume::optical_depth) for the density weight μ) with respect to
+/// the raw densities and colours into `dsig` and `drgb`; returns the summed
+/// squared error over rays and channels.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn loss_gradients(
+    rays: &[Sample],
+    offs: &[usize],
+    scale: f32,
+    acts: &Acts,
+    delta: &[f32],
+    priors: Priors<'_>,
+    w: &mut [f32],
+    dw: &mut Vec<f32>,
+    dsig: &mut Vec<f32>,
+    drgb: &mut Vec<f32>,
+) -> f64 {
+    let n = offs[rays.len()];
+    dsig.resize(n, 0.0);
+    drgb.resize(n * 3, 0.0);
+    let mut sq = 0.0f64;
+    for (i, r) in rays.iter().enumerate() {
+        let (s, gt, bg) = (offs[i]..offs[i + 1], r.rgb, r.bg);
+        let c = 3 * s.start..3 * s.end;
+        let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[c.clone()]);
+        let col = composite(sig, rgb, &delta[s.clone()], bg, &mut w[s.clone()]);
+        let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
+        sq += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
+        dw.clear();
+        // the colour loss is a mean over rays and channels, the priors means over rays
+        if priors.distortion > 0.0 {
+            dw.resize(s.len(), 0.0);
+            let (mid, width) = (&priors.mid[s.clone()], &priors.width[s.clone()]);
+            distortion(mid, width, &w[s.clone()], 1.5 * scale * priors.distortion, dw);
+        }
+        composite_back(sig, rgb, &delta[s.clone()], bg, &w[s.clone()], dc, dw, &mut dsig[s.clone()], &mut drgb[c]);
+        if priors.density_l1 > 0.0 {
+            optical_depth_back(sig, &delta[s.clone()], 1.5 * scale * priors.density_l1, &mut dsig[s]);
+        }
+    }
+    sq
+}
+
+impl Trainer {
+    /// One optimisation step on a batch drawn from `data`; `progress` is
+    /// the fraction of the run done (for the learning-rate decay).
+    pub fn train_step(&mut self, data: &Dataset, progress: f64) -> StepStats {
+        let c = &self.cfg;
+        let mut times = StepTimes::default();
+        if self.grid.is_some()
+            && self.step as usize >= c.grid_warmup
+            && (self.step as usize).is_multiple_of(c.grid_every)
+        {
+            timed(&mut times.grid, || self.update_grid());
+        }
+        let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
+        let (n, mut how) = (self.cfg.batch_rays, Draw::of(&self.cfg, progress));
+        if how.footprint && self.pixel == 0.0 {
+            self.pixel = data.pixel_angle();
+        }
+        // pixels a model cannot record (wider than 0.1 rad) train as lines
+        how.footprint &= self.footprint().is_some();
+        let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
+        let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
+        let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
+        let n = batch.len() as f64 * 3.0;
+        let mse_f = if self.cfg.n_fine > 0 { sq_f / n } else { sq_c / n };
+        let loss = (sq_c + sq_f) / n;
+        let mut stats = StepStats {
+            loss: loss as f32,
+            psnr: (-10.0 * mse_f.max(1e-12).log10()) as f32,
+            rays: batch.len(),
+            samples,
+            skipped: false,
+            times,
+        };
+        if !loss.is_finite() || grad.iter().any(|g| !g.is_finite()) {
+            self.skipped += 1;
+            stats.skipped = true;
+        } else {
+            let lr = self.learning_rate(progress);
+            let c = &self.cfg;
+            let (p, adam) = (&mut self.params, &mut self.adam);
+            timed(&mut stats.times.adam, || adam.update(p, &grad, lr, c.beta1, c.beta2, c.eps, c.feature_decay));
+            if c.ema_decay > 0.0 {
+                let b = c.ema_decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
+                timed(&mut stats.times.adam, || average_into(&mut self.ema, p, b));
+            }
+            let lr_p = c.proposal_lr * lr / c.lr;
+            timed(&mut stats.times.adam, || self.step_proposal(lr_p));
+        }
+        if let Ok(mut g) = self.pool.2.lock() {
+            g.clear();
+        }
+        self.pool.give(grad);
+        self.step += 1;
+        stats
+    }
+
+    /// Gradient of (coarse MSE + fine MSE) over `batch`, with the summed
+    /// squared errors and the number of network evaluations.
+    ///
+    /// Chunks run in parallel, each thread accumulating the layers'
+    /// gradient; a feature grid's table (megabytes) is not copied per
+    /// thread: each chunk keeps its grid-value gradient, and the table's
+    /// gradient is scattered afterwards, one level per task, chunk after
+    /// chunk ([`Mlp::scatter_table`]).
+    pub fn gradients(&self, batch: &[Sample], step_key: u32) -> (Vec<f32>, f64, f64, usize) {
+        self.gradients_timed(batch, step_key, &mut StepTimes::default())
+    }
+
+    /// [`Trainer::gradients`], adding the time of its stages to `times`
+    /// (`chunks` and its split, `scatter`).
+    pub(super) fn gradients_timed(
+        &self,
+        batch: &[Sample],
+        step_key: u32,
+        times: &mut StepTimes,
+    ) -> (Vec<f32>, f64, f64, usize) {
+        let start = std::time::Instant::now();
+        // the proposal grid's gradient is this batch's alone
+        if let Ok(mut g) = self.pool.2.lock() {
+            g.clear();
+        }
+        let net = self.mlp();
+        let np = self.params.len();
+        // the parameters each thread accumulates: all but a feature grid's table
+        let dense = if net.features.is_some() { net.table } else { np };
+        let scale = 2.0 / (3.0 * batch.len() as f32);
+        let chunk = self.cfg.chunk_rays;
+        // a few accumulators per thread, for balance
+        let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
+        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes);
+        let (dense_grad, sq_c, sq_f, samples, mut grids, split): Acc = batch
+            .par_chunks(chunk)
+            .with_min_len(min_len.max(1))
+            .enumerate()
+            .fold(
+                || {
+                    let g = self.pool.take(dense);
+                    (g, 0.0f64, 0.0f64, 0usize, Vec::new(), StepTimes::default(), Workspace::default())
+                },
+                |(mut g, c, f, n, mut grids, mut t, mut ws), (ci, rays)| {
+                    let key = hash32(step_key ^ hash32(ci as u32));
+                    let (a, b, k, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g, &mut t);
+                    grids.extend(grid.map(|gg| (ci, gg)));
+                    (g, c + a, f + b, n + k, grids, t, ws)
+                },
+            )
+            .map(|(g, c, f, n, grids, t, _)| (g, c, f, n, grids, t))
+            .reduce(
+                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new(), StepTimes::default()),
+                |(mut g1, c1, f1, n1, mut r1, mut t1), (g2, c2, f2, n2, r2, t2)| {
+                    g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
+                    self.pool.give(g2);
+                    r1.extend(r2);
+                    t1.add(&t2);
+                    (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1)
+                },
+            );
+        times.add(&split);
+        times.chunks += start.elapsed().as_secs_f64();
+        if dense == np {
+            return (dense_grad, sq_c, sq_f, samples);
+        }
+        let start = std::time::Instant::now();
+        let mut grad = self.pool.take(np);
+        grad[..dense].copy_from_slice(&dense_grad);
+        self.pool.give(dense_grad);
+        grids.sort_unstable_by_key(|(ci, _)| *ci);
+        let grids: Vec<GridGrad> = grids.into_iter().map(|(_, g)| g).collect();
+        net.scatter_table(&grids, &mut grad[dense..]);
+        self.pool.give_grids(grids);
+        times.scatter += start.elapsed().as_secs_f64();
+        (grad, sq_c, sq_f, samples)
+    }
+
+    /// Stratified samples of every ray of a chunk (jitter key per ray from
+    /// `key`), kept where the grid is occupied: fills `t_c` (all `n_coarse`
+    /// per ray) and `pos`, `delta`, `offs`, `dirs` (per kept sample with a
+    /// grid, per ray without).
+    pub(super) fn coarse_samples(&self, rays: &[Sample], key: impl Fn(usize) -> u32, ws: &mut Workspace) {
+        let nc = self.main_samples();
+        let intervals = self.cfg.distortion > 0.0;
+        let grid = self.grid.as_ref().map(|g| g.view());
+        ws.t_c.resize(rays.len() * nc, 0.0);
+        ws.pos.clear();
+        ws.foot.clear();
+        ws.dirs.clear();
+        ws.delta.clear();
+        ws.s_mid.clear();
+        ws.s_width.clear();
+        ws.offs.clear();
+        ws.offs.push(0);
+        ws.kept.clear();
+        if self.proposal.is_some() {
+            ws.props.resize_with(rays.len(), Default::default);
+        }
+        // with footprints, every sample has its K points (a ray without one: its sample K times)
+        const K: usize = nerf_infer::camera::FOOTPRINT_POINTS;
+        let any_foot = rays.iter().any(|s| s.ray.foot.is_some());
+        for (i, Sample { ray, .. }) in rays.iter().enumerate() {
+            let t = &mut ws.t_c[i * nc..(i + 1) * nc];
+            match &self.proposal {
+                Some(pg) => pg.place(ray, key(i), self.cfg.n_coarse as usize, t, &mut ws.props[i]),
+                None => ray.stratified(Some(key(i)), t),
+            }
+            match grid {
+                None => {
+                    ws.kept.extend(0..nc as u32);
+                    for &ti in t.iter() {
+                        let p = ray.at(ti).to_array();
+                        ws.pos.push(p);
+                        if any_foot {
+                            ws.foot.extend(ray.foot_at(ti).unwrap_or([p; K]));
+                        }
+                    }
+                    push_deltas(t, ray.dir_len, &mut ws.delta);
+                    if intervals {
+                        (0..nc).for_each(|j| push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width));
+                    }
+                    ws.dirs.push(ray.viewdir.to_array());
+                }
+                Some(g) => {
+                    for j in 0..nc {
+                        let p = ray.at(t[j]).to_array();
+                        if g.at_f32(p) {
+                            ws.kept.push(j as u32);
+                            ws.pos.push(p);
+                            if any_foot {
+                                ws.foot.extend(ray.foot_at(t[j]).unwrap_or([p; K]));
+                            }
+                            ws.delta.push(if j + 1 < nc { (t[j + 1] - t[j]) * ray.dir_len } else { LAST_DELTA });
+                            if intervals {
+                                push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width);
+                            }
+                            ws.dirs.push(ray.viewdir.to_array());
+                        }
+                    }
+                }
+            }
+            ws.offs.push(ws.pos.len());
+        }
+    }
+
+    /// Forward and backward of one chunk; accumulates into `g` and returns
+    /// the squared errors (coarse, fine) summed over rays and channels, the
+    /// number of network evaluations and, with a feature grid, the grid
+    /// values' gradient (`g` then holds the layers only: the table's
+    /// gradient is left to [`Mlp::scatter_table`]). Adds the time of its
+    /// parts to `t`'s thread stages.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn chunk_gradient(
+        &self,
+        net: &Mlp,
+        rays: &[Sample],
+        key: u32,
+        scale: f32,
+        ws: &mut Workspace,
+        g: &mut [f32],
+        t: &mut StepTimes,
+    ) -> (f64, f64, usize, Option<GridGrad>) {
+        let r = rays.len();
+        let nc = self.cfg.n_coarse as usize;
+        let nf = self.cfg.n_fine as usize;
+        let np = net.n_params;
+        let (pc, pf) = self.params.split_at(np);
+        let (gc, gf) = g.split_at_mut(np.min(g.len()));
+        timed(&mut t.sample, || self.coarse_samples(rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), ws));
+        let n_c = ws.pos.len();
+        ws.w_c.resize(n_c, 0.0);
+        if n_c > 0 {
+            timed(&mut t.encode, || net.encode_footprint(pc, &ws.pos, &ws.foot, &mut ws.acts_c));
+            timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
+        }
+        let sq_c = timed(&mut t.composite, || {
+            let priors = self.priors(&ws.s_mid, &ws.s_width);
+            let (w, dw) = (&mut ws.w_c, &mut ws.dw);
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, priors, w, dw, &mut ws.dsig, &mut ws.drgb)
+        });
+        if let Some(pg) = &self.proposal {
+            // the interlevel loss, a mean over the batch's rays as the colour loss is
+            timed(&mut t.composite, || self.proposal_backward(pg, r, key, 1.5 * scale, ws));
+        }
+        let mut grid = None;
+        if n_c > 0 && net.features.is_some() {
+            timed(&mut t.backward, || net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
+            let mut gg = self.pool.take_grid();
+            net.swap_grid_grad(&mut ws.acts_c, &mut gg);
+            grid = Some(gg);
+        } else if n_c > 0 {
+            timed(&mut t.backward, || net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
+        }
+        if nf == 0 {
+            return (sq_c, 0.0, n_c, grid);
+        }
+        // no grid (validated): every ray has its nc coarse samples
+        let start = std::time::Instant::now();
+        let na = nc + nf;
+        ws.t_f.resize(nf, 0.0);
+        ws.cdf.resize(nc, 0.0);
+        ws.t_all.resize(r * na, 0.0);
+        ws.w_f.resize(r * na, 0.0);
+        ws.pos.clear();
+        ws.delta.clear();
+        ws.s_mid.clear();
+        ws.s_width.clear();
+        ws.offs.clear();
+        ws.offs.push(0);
+        for (i, Sample { ray, .. }) in rays.iter().enumerate() {
+            let s = i * nc..(i + 1) * nc;
+            let rk = hash32(key ^ 0xF1AE ^ (i as u32).wrapping_mul(0x27D4_EB2F));
+            sample_pdf_f32(
+                &ws.t_c[s.clone()],
+                &ws.w_c[s.clone()],
+                |j| (j as f32 + jitter_q16(rk, j) as f32 / 65536.0) / nf as f32,
+                &mut ws.cdf,
+                &mut ws.t_f,
+            );
+            let all = &mut ws.t_all[i * na..(i + 1) * na];
+            merge_sorted(&ws.t_c[s], &ws.t_f, all);
+            ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
+            push_deltas(all, ray.dir_len, &mut ws.delta);
+            if self.cfg.distortion > 0.0 {
+                (0..na).for_each(|j| push_interval(ray, all, j, &mut ws.s_mid, &mut ws.s_width));
+            }
+            ws.offs.push(ws.pos.len());
+        }
+        t.sample += start.elapsed().as_secs_f64();
+        timed(&mut t.encode, || net.encode(pf, &ws.pos, &mut ws.acts_f));
+        timed(&mut t.forward, || net.forward_layers(pf, &ws.dirs, true, &mut ws.acts_f));
+        let sq_f = timed(&mut t.composite, || {
+            let priors = self.priors(&ws.s_mid, &ws.s_width);
+            let (w, dw) = (&mut ws.w_f, &mut ws.dw);
+            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, priors, w, dw, &mut ws.dsig, &mut ws.drgb)
+        });
+        timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
+        (sq_c, sq_f, n_c + r * na, grid)
+    }
+
+    /// The run's losses beside the colour's, over the samples' intervals.
+    pub(super) fn priors<'a>(&self, mid: &'a [f32], width: &'a [f32]) -> Priors<'a> {
+        Priors { distortion: self.cfg.distortion, mid, width, density_l1: self.cfg.density_l1 }
+    }
+}
