@@ -1,0 +1,193 @@
+//! The named configurations (`--preset`), and a configuration refined to
+//! the photos it trains on (the feature grid's finest level, the samples
+//! per ray).
+
+use super::*;
+
+impl TrainConfig {
+    /// The paper's model: 8×256, skip at layer 5, L = 10/4, 64 + 128
+    /// samples, 4096 rays per batch, lr 5e-4 decaying 10× over 250k steps.
+    pub fn paper() -> Self {
+        Self {
+            pos_freqs: 10,
+            dir_freqs: 4,
+            include_input: true,
+            depth: 8,
+            width: 256,
+            skips: vec![5],
+            view_dependent: true,
+            view_width: 128,
+            n_coarse: 64,
+            n_fine: 128,
+            batch_rays: 4096,
+            chunk_rays: 32,
+            lr: 5e-4,
+            lr_final_ratio: 0.1,
+            lr_decay_steps: 250_000,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-7,
+            grid_res: 0,
+            grid_warmup: 256,
+            grid_every: 16,
+            grid_alpha: 0.01,
+            feature_levels: 0,
+            feature_width: 2,
+            feature_log2_table: 15,
+            feature_min_res: 16,
+            feature_max_res: 256,
+            random_background: 0.0,
+            pixel_jitter: false,
+            distortion: 0.0,
+            feature_decay: 0.0,
+            density_l1: 0.0,
+            footprint: false,
+            footprint_from: 0.0,
+            ema_decay: 0.0,
+            proposal_res: 0,
+            n_main: 48,
+            proposal_lr: 0.05,
+        }
+    }
+
+    /// The CPU preset without grids: 4×64, L = 8/2, 48 + 48 samples,
+    /// 1024-ray batches, lr 5e-3 decaying 10× over the run. On lego at
+    /// 100×100 it reaches 27.35 dB in 10 minutes on a 2-core workstation
+    /// (README); the paper preset manages about 60 steps in that time
+    /// (6 steps took 62.7 s).
+    pub fn fast() -> Self {
+        Self {
+            pos_freqs: 8,
+            dir_freqs: 2,
+            depth: 4,
+            width: 64,
+            skips: vec![],
+            view_width: 32,
+            n_coarse: 48,
+            n_fine: 48,
+            batch_rays: 1024,
+            lr: 5e-3,
+            lr_decay_steps: 0,
+            ..Self::paper()
+        }
+    }
+
+    /// The fast preset with an occupancy grid (64³) in place of the coarse
+    /// network: one 4×64 network, 192 stratified samples per ray of which
+    /// only those in occupied cells are evaluated.
+    pub fn grid() -> Self {
+        Self { n_coarse: 192, n_fine: 0, grid_res: 64, ..Self::fast() }
+    }
+
+    /// The grid preset with a learned feature grid (instant-ngp's
+    /// encoding: 8 levels of 2 values, 16..256 cells per axis, 2¹⁵ entries
+    /// per level) in place of the frequency encoding (raw xyz beside it)
+    /// and a 2×64 network; instant-ngp's optimiser settings (lr 1e-2,
+    /// β₂ 0.99, ε 1e-15); the occupancy grid first updated at step 64 and
+    /// every 64 steps, a cell kept while a default step through it would be
+    /// at least 3 % opaque (`grid_alpha` 0.03: on lego the same int8 PSNR
+    /// at half the samples per ray of 0.01, on fox 1.9–2.3 dB more in 5
+    /// minutes; docs/EXPERIMENTS.md), and a tenth of the rays through photos
+    /// with alpha on a random background (`random_background` 0.1: on
+    /// lego no haze left in empty space, 5.5 samples per ray in int8 where
+    /// runs without it ended at 6.4 to 25.4; docs/EXPERIMENTS.md). The
+    /// learning rate decays 10× over the run: 100× gains 0.1–0.4 dB on lego
+    /// in 10 minutes but loses 3 dB in one (docs/EXPERIMENTS.md). The
+    /// second half of the run reads the grid across each pixel's footprint
+    /// (`footprint`, `footprint_from` 0.5: on lego 0.35 dB more in 10
+    /// minutes than without, over two seeds, and 0.57 dB less in one;
+    /// docs/EXPERIMENTS.md). The model takes the average of the parameters
+    /// over about the last thousand steps (`ema_decay` 0.999: on lego 0.16
+    /// dB more at 20 000 steps, over two seeds; docs/EXPERIMENTS.md).
+    pub fn features() -> Self {
+        Self {
+            depth: 2,
+            width: 64,
+            view_width: 64,
+            pos_freqs: 0,
+            dir_freqs: 4,
+            lr: 1e-2,
+            beta2: 0.99,
+            eps: 1e-15,
+            grid_warmup: 64,
+            grid_every: 64,
+            grid_alpha: 0.03,
+            random_background: 0.1,
+            feature_levels: 8,
+            feature_width: 2,
+            feature_log2_table: 15,
+            feature_min_res: 16,
+            feature_max_res: 256,
+            footprint: true,
+            footprint_from: 0.5,
+            ema_decay: 0.999,
+            ..Self::grid()
+        }
+    }
+
+    /// The configuration `nerf train` uses without `--preset` (its feature
+    /// grid then sized to the photos, [`Self::fit_features_to`]): [`Self::features`],
+    /// the highest held-out PSNR per minute measured on lego and on the real
+    /// captures (`scripts/captures.sh`: bird 30.42 dB against `fast`'s 28.98
+    /// after 5 minutes at 1/8 size).
+    pub fn default_preset() -> Self {
+        Self::features()
+    }
+
+    /// A preset by name (`paper`, `fast`, `grid`, `features`).
+    pub fn preset(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Self::paper()),
+            "fast" => Some(Self::fast()),
+            "grid" => Some(Self::grid()),
+            "features" => Some(Self::features()),
+            _ => None,
+        }
+    }
+
+    /// Sizes the feature grid to photos that resolve `cells` per axis
+    /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
+    /// when `cells` is above `feature_max_res`, the finest level becomes
+    /// `cells` (at most 4096) and the table gains a power of two of
+    /// entries per doubling of it (at most 2^[`Self::FITTED_LOG2_TABLE`]).
+    /// A grid already as fine, a grid of one level (whose only level is
+    /// `feature_min_res`) or no grid is left alone; returns whether
+    /// anything changed. The finest levels share each entry among more
+    /// cells than before (8× the cells, 2× the entries per doubling); on
+    /// lego at 800×800 the fitted grid (2048 cells, 2¹⁸ entries) gains
+    /// 0.2 dB in 4 minutes where 2048 cells in 2¹⁵ entries lose 0.7
+    /// (docs/EXPERIMENTS.md).
+    pub fn fit_features_to(&mut self, cells: u32) -> bool {
+        let cells = cells.min(MAX_RES as u32);
+        let max = self.feature_max_res as u32;
+        if self.feature_levels < 2 || cells <= max {
+            return false;
+        }
+        let doublings = cells.div_ceil(max.max(1)).next_power_of_two().trailing_zeros() as u8;
+        self.feature_max_res = cells as u16;
+        self.feature_log2_table =
+            self.feature_log2_table.max((self.feature_log2_table + doublings).min(Self::FITTED_LOG2_TABLE));
+        true
+    }
+
+    /// Sets the samples per ray for photos that resolve `cells` per axis
+    /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
+    /// one per [`Self::FITTED_CELLS_PER_SAMPLE`] of those cells (two pixel
+    /// footprints) along the bounds' longest side, at most
+    /// [`MAX_MARCH`](nerf_infer::format::MAX_MARCH), whether or not a
+    /// feature grid is sized to them. Only a one-pass configuration with
+    /// an occupancy grid is changed, and only upwards; returns whether
+    /// anything changed. The occupancy grid's density threshold follows
+    /// the step ([`Trainer::grid_threshold`](crate::train::Trainer::grid_threshold)):
+    /// at 512 samples it is 512/192 times the preset's. On lego at 800×800
+    /// (2048 cells) this is 512 samples per ray where the preset has 192
+    /// (docs/EXPERIMENTS.md).
+    pub fn fit_samples_to(&mut self, cells: u32) -> bool {
+        let fitted = (cells / Self::FITTED_CELLS_PER_SAMPLE).min(nerf_infer::format::MAX_MARCH as u32) as u16;
+        if self.grid_res == 0 || self.n_fine > 0 || fitted <= self.n_coarse {
+            return false;
+        }
+        self.n_coarse = fitted;
+        true
+    }
+}

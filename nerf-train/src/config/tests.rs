@@ -1,0 +1,90 @@
+//! Presets refined to the photos, and configurations refused by field.
+
+use super::*;
+
+#[test]
+fn fitted_samples_only_ever_grow_and_only_in_one_pass_marches_over_a_grid() {
+    let mut c = TrainConfig::features();
+    // lego at 100×100 resolves 256 cells: the preset's 192 samples stay
+    assert!(!c.fit_samples_to(256));
+    assert_eq!(c.n_coarse, 192);
+    // at 800×800, 2048 cells: one sample per four cells
+    assert!(c.fit_samples_to(2048));
+    assert_eq!(c.n_coarse, 512);
+    assert!(c.validate().is_ok());
+    assert!(!c.fit_samples_to(1024));
+    assert_eq!(c.n_coarse, 512);
+    // at most the march's capacity
+    assert!(c.fit_samples_to(1 << 20));
+    assert_eq!(c.n_coarse as usize, nerf_infer::format::MAX_MARCH);
+    assert!(c.validate().is_ok());
+    // no occupancy grid, or a fine pass: left alone
+    for c in [TrainConfig::fast(), TrainConfig { grid_res: 0, ..TrainConfig::features() }] {
+        let mut fitted = c.clone();
+        assert!(!fitted.fit_samples_to(4096));
+        assert_eq!(fitted, c);
+    }
+}
+
+#[test]
+fn the_regularisers_weights_must_be_finite_and_not_negative() {
+    let c = TrainConfig::features();
+    let with = |feature_decay: f32, density_l1: f32| TrainConfig { feature_decay, density_l1, ..c.clone() };
+    assert!(with(0.0, 0.0).validate().is_ok());
+    assert!(with(0.1, 1e-5).validate().is_ok());
+    // lr 1e-2: a decay of 100 scales the table by 0 each step, above it by less than 0
+    assert!(with(100.0, 0.0).validate().is_ok());
+    for (d, l1) in [(-0.1, 0.0), (f32::NAN, 0.0), (f32::INFINITY, 0.0), (101.0, 0.0), (0.0, -1e-5), (0.0, f32::NAN)] {
+        let e = with(d, l1).validate().unwrap_err();
+        assert!(e.contains(if l1 != 0.0 { "density_l1" } else { "feature_decay" }), "{e}");
+    }
+}
+
+#[test]
+fn the_footprint_starts_at_a_share_of_the_run_in_0_to_1() {
+    let with = |footprint_from: f32| TrainConfig { footprint_from, ..TrainConfig::features() };
+    assert!(with(0.0).validate().is_ok() && with(0.5).validate().is_ok());
+    for v in [-0.1, 1.0, f32::NAN] {
+        assert!(with(v).validate().unwrap_err().contains("footprint_from"), "{v}");
+    }
+    // a jittered ray across its pixel, read again across its footprint
+    let jittered = TrainConfig { pixel_jitter: true, ..TrainConfig::features() };
+    assert!(jittered.validate().unwrap_err().contains("pixel_jitter"));
+    assert!(TrainConfig { footprint: false, ..jittered }.validate().is_ok());
+}
+
+#[test]
+fn the_parameters_average_decays_in_0_to_1() {
+    let with = |ema_decay: f32| TrainConfig { ema_decay, ..TrainConfig::features() };
+    assert!(with(0.0).validate().is_ok() && with(0.999).validate().is_ok());
+    for v in [-0.1, 1.0, 2.0, f32::NAN] {
+        assert!(with(v).validate().unwrap_err().contains("ema_decay"), "{v}");
+    }
+}
+
+#[test]
+fn fitting_the_feature_grid_only_ever_refines_it() {
+    // 256 cells in 2^15 entries: 2048 cells are three doublings, three more powers of two of entries
+    let mut c = TrainConfig::features();
+    assert!(c.fit_features_to(2048));
+    assert_eq!((c.feature_max_res, c.feature_log2_table), (2048, 18));
+    assert!(c.validate().is_ok());
+    // a grid as fine as the photos, or finer, is left alone
+    for cells in [2048, 1024, 1] {
+        assert!(!c.fit_features_to(cells));
+        assert_eq!((c.feature_max_res, c.feature_log2_table), (2048, 18));
+    }
+    // at most MAX_RES cells and 2^19 entries; a table already larger keeps its size
+    let mut c = TrainConfig::features();
+    assert!(c.fit_features_to(1 << 20));
+    assert_eq!((c.feature_max_res, c.feature_log2_table), (MAX_RES, TrainConfig::FITTED_LOG2_TABLE));
+    let mut c = TrainConfig { feature_log2_table: 21, ..TrainConfig::features() };
+    assert!(c.fit_features_to(512));
+    assert_eq!((c.feature_max_res, c.feature_log2_table), (512, 21));
+    // a configuration without a feature grid, or with one level (at feature_min_res), has nothing to fit
+    for c in [TrainConfig::grid(), TrainConfig { feature_levels: 1, ..TrainConfig::features() }] {
+        let mut fitted = c.clone();
+        assert!(!fitted.fit_features_to(4096));
+        assert_eq!(fitted, c);
+    }
+}
