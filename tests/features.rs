@@ -314,7 +314,7 @@ fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
             assert_eq!(render(&mn, &cam), render(&me, &cam), "{bits}-bit table, view {turn}");
         }
         // a narrow table is not narrowed again
-        let e = narrow_table(&mut owned.clone(), 4).unwrap_err();
+        let e = narrow_table(&mut owned.clone(), 4).unwrap_err().to_string();
         assert!(e.contains("already narrow"), "{e}");
         // each value is its level's nearest code
         let (f, original) = (mn.features.as_ref().unwrap(), table_values(&mw));

@@ -5,8 +5,9 @@
 //!
 //! | quantity                         | type | format | range                  |
 //! |----------------------------------|------|--------|------------------------|
-//! | positions, ray origins, `t`      | i32  | Q16    | ±32768 world units     |
-//! | ray directions, `δ`              | i32  | Q16    | ±32768                 |
+//! | ray origins, `t`, `δ`            | i32  | Q16    | ±32768 world units     |
+//! | ray directions                   | i32  | Q16    | ±32768                 |
+//! | normalised positions, view dirs  | i32  | Q24    | ±128 (scene box ±1)    |
 //! | encoding sin/cos                 | i16  | Q15    | [−1, 1] (saturated)    |
 //! | hidden activations               | i16  | per layer scale, set at export |
 //! | density head output σ            | i32  | Q10    | [0, 2²¹) after ReLU    |

@@ -90,8 +90,9 @@
 //! # Numeric formats
 //!
 //! [`RendererF32`] renders f32 models in f32. [`RendererFixed`] renders int16
-//! and int8 models with integers only after a per-ray setup: positions and
-//! `t` in Q16 (±32768 world units), encoding features in Q15, colours and
+//! and int8 models with integers only after a per-ray setup: ray origins
+//! and `t` in Q16 (±32768 world units), normalised positions and view
+//! directions in Q24, encoding features in Q15, colours and
 //! opacity in Q15 (`[0, 32768]`, [`PixelFixed`]), transmittance and weights
 //! in Q30, layer activations at per-layer scales fixed at export; the
 //! feature table i16 in the grid's Q format, or 8- or 4-bit indices into a

@@ -14,6 +14,7 @@ pub mod adam;
 pub mod atomic;
 pub mod config;
 pub mod dataset;
+pub mod error;
 pub mod eval;
 pub mod export;
 pub mod gemm;
@@ -30,3 +31,5 @@ pub mod timing;
 pub mod train;
 pub mod userfile;
 pub mod volume;
+
+pub use error::{Error, Result};

@@ -7,6 +7,7 @@
 //! Poses are camera-to-world in the model's frame (OpenGL axes, as
 //! nerfstudio's), fields of view in degrees.
 
+use crate::error::Error;
 use glam::{Mat3, Quat, Vec3};
 use nerf_infer::Camera;
 use std::path::Path;
@@ -90,8 +91,8 @@ pub fn to_camera_path(cams: &[Camera], fps: f32) -> serde_json::Value {
 /// row-major, or column-major as nerfstudio's first viewer wrote them;
 /// `fov`; `aspect`), interpolated over `fps · seconds` frames as nerfstudio
 /// does ([`keyframes::interpolate`]). Errors name the file and the camera.
-pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> {
-    let bad = |m: String| format!("{}: {m}", path.display());
+pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
+    let bad = |m: String| Error::File(format!("{}: {m}", path.display()));
     let text = crate::userfile::read_user_text(path, crate::userfile::MAX_JSON, "camera path")?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("malformed JSON: {e}")))?;
     if let Some(t) = v.get("camera_type").and_then(|t| t.as_str()).filter(|t| *t != "perspective") {
@@ -101,7 +102,7 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
         return Err(bad("expected a JSON object with a camera_path list or keyframes".into()));
     }
     // a field present with a value of the wrong type is an error, not a default
-    let number = |k: &str| -> Result<Option<f64>, String> {
+    let number = |k: &str| -> Result<Option<f64>, Error> {
         match v.get(k) {
             None | Some(serde_json::Value::Null) => Ok(None),
             Some(x) => x.as_f64().map(Some).ok_or_else(|| bad(format!("{k} is not a number: {x}"))),
@@ -112,7 +113,7 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
         (Some(w), Some(h)) => return Err(bad(format!("render_width {w} and render_height {h} must be positive"))),
         _ => None,
     };
-    let list = |key: &str| -> Result<Option<&Vec<serde_json::Value>>, String> {
+    let list = |key: &str| -> Result<Option<&Vec<serde_json::Value>>, Error> {
         match v.get(key) {
             None | Some(serde_json::Value::Null) => Ok(None),
             Some(serde_json::Value::Array(l)) => Ok(Some(l)),
@@ -165,7 +166,7 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, String> 
                 .ok_or_else(|| bad("not finite, or the rotation is not rigid".into()))?;
             Ok((cam, fov as f32, aspect as f32))
         })
-        .collect::<Result<Vec<_>, String>>()?;
+        .collect::<Result<Vec<_>, Error>>()?;
     if !keyed {
         return Ok(parsed.into_iter().map(|p| p.0).collect());
     }
@@ -271,7 +272,7 @@ mod tests {
             assert!((a.rotation.x_axis - b.rotation.x_axis).length() < 1e-6);
         }
         std::fs::write(&p, r#"{"camera_path": [{"camera_to_world": [1, 0, 0]}]}"#).unwrap();
-        let e = read_camera_path(&p, 40).unwrap_err();
+        let e = read_camera_path(&p, 40).unwrap_err().to_string();
         assert!(e.contains("camera_path.json") && e.contains("camera 0") && e.contains("3 numbers"), "{e}");
     }
 
@@ -323,7 +324,7 @@ mod tests {
             );
         }
         std::fs::write(&p, r#"{"keyframes": [{"matrix": [1, 0]}]}"#).unwrap();
-        let e = read_camera_path(&p, 40).unwrap_err();
+        let e = read_camera_path(&p, 40).unwrap_err().to_string();
         assert!(e.contains("keyframe 0") && e.contains("2 numbers"), "{e}");
     }
 }

@@ -3,6 +3,7 @@
 //! bundled DejaVu Sans (`assets/`, Bitstream Vera licence), so a plot needs
 //! no system fonts and shows µ and ×.
 
+use crate::error::Error;
 use image::RgbImage;
 use plotters::prelude::*;
 
@@ -26,22 +27,16 @@ const H: u32 = 640;
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 
 /// Registers the bundled font as plotters' `sans-serif` (once per process).
-fn register_font() -> Result<(), String> {
+fn register_font() -> Result<(), Error> {
     static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let ok = *ONCE.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok());
-    ok.then_some(()).ok_or_else(|| "the bundled font cannot be read".to_string())
+    ok.then_some(()).ok_or_else(|| Error::Plot("the bundled font cannot be read".into()))
 }
 
 /// Writes a scatter plot of `points` to `path` (PNG), with the front
 /// points joined in order of x. Labels sit right of their point (left near
 /// the right edge), moved down past labels already drawn.
-pub fn scatter(
-    path: &std::path::Path,
-    title: &str,
-    xlabel: &str,
-    ylabel: &str,
-    points: &[Point],
-) -> Result<(), String> {
+pub fn scatter(path: &std::path::Path, title: &str, xlabel: &str, ylabel: &str, points: &[Point]) -> Result<(), Error> {
     register_font()?;
     let fin: Vec<&Point> = points.iter().filter(|p| p.x.is_finite() && p.y.is_finite()).collect();
     let (mut x0, mut x1) = fin.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.x), b.max(p.x)));
@@ -92,9 +87,9 @@ pub fn scatter(
         root.present()?;
         Ok(())
     };
-    draw(&mut buf).map_err(|e| format!("{}: cannot draw the plot: {e}", path.display()))?;
-    let img = RgbImage::from_raw(W, H, buf).ok_or("plot buffer size")?;
-    crate::atomic::write_png(path, &img).map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+    draw(&mut buf).map_err(|e| Error::Plot(format!("{}: cannot draw the plot: {e}", path.display())))?;
+    let img = RgbImage::from_raw(W, H, buf).ok_or_else(|| Error::Plot("plot buffer size".into()))?;
+    crate::atomic::write_png(path, &img).map_err(|e| Error::Plot(format!("{}: cannot write PNG: {e}", path.display())))
 }
 
 /// Marks the points no other point beats on both axes (higher y at lower

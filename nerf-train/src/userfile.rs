@@ -2,6 +2,7 @@
 //! device or socket, which could block or never end) of at most a stated
 //! size, read whole; the error names the file and the cause.
 
+use crate::error::Error;
 use std::io::Read;
 use std::path::Path;
 
@@ -12,14 +13,14 @@ pub const MAX_JSON: u64 = 64 << 20;
 /// Reads `path` whole if it is a regular file (symbolic links followed) of
 /// at most `max` bytes; else an error naming the file, what it was
 /// expected to be (`what`, e.g. "camera path") and why it is refused.
-pub fn read_user_file(path: &Path, max: u64, what: &str) -> Result<Vec<u8>, String> {
-    read_checked(path, max).map_err(|m| format!("{}: {what}: {m}", path.display()))
+pub fn read_user_file(path: &Path, max: u64, what: &str) -> Result<Vec<u8>, Error> {
+    read_checked(path, max).map_err(|m| Error::File(format!("{}: {what}: {m}", path.display())))
 }
 
 /// [`read_user_file`] whose error is the cause alone (for errors that
 /// name the file themselves).
-pub fn read_checked(path: &Path, max: u64) -> Result<Vec<u8>, String> {
-    let bad = |m: String| m;
+pub fn read_checked(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
+    let bad = Error::File;
     let meta = std::fs::metadata(path).map_err(|e| bad(format!("cannot read: {e}")))?;
     if meta.is_dir() {
         return Err(bad("cannot read: is a folder, not a file".into()));
@@ -51,9 +52,10 @@ pub fn read_checked(path: &Path, max: u64) -> Result<Vec<u8>, String> {
 }
 
 /// [`read_user_file`] as UTF-8 text (a leading byte-order mark dropped).
-pub fn read_user_text(path: &Path, max: u64, what: &str) -> Result<String, String> {
+pub fn read_user_text(path: &Path, max: u64, what: &str) -> Result<String, Error> {
     let bytes = read_user_file(path, max, what)?;
-    let text = String::from_utf8(bytes).map_err(|_| format!("{}: {what}: not UTF-8 text", path.display()))?;
+    let text =
+        String::from_utf8(bytes).map_err(|_| Error::File(format!("{}: {what}: not UTF-8 text", path.display())))?;
     Ok(text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text))
 }
 
@@ -68,18 +70,18 @@ mod tests {
         let f = d.join("a.json");
         std::fs::write(&f, "\u{feff}{}").unwrap();
         assert_eq!(read_user_text(&f, 100, "camera path").unwrap(), "{}");
-        let e = read_user_file(&f, 2, "camera path").unwrap_err();
+        let e = read_user_file(&f, 2, "camera path").unwrap_err().to_string();
         assert!(e.contains("a.json") && e.contains("camera path") && e.contains("more than the 2"), "{e}");
-        assert!(read_user_file(&d, 100, "model").unwrap_err().contains("folder"));
+        assert!(read_user_file(&d, 100, "model").unwrap_err().to_string().contains("folder"));
         #[cfg(unix)]
         {
             let fifo = d.join("fifo");
             let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
             // SAFETY: mkfifo on a NUL-terminated path this test owns.
             assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
-            let e = read_user_file(&fifo, 100, "model").unwrap_err();
+            let e = read_user_file(&fifo, 100, "model").unwrap_err().to_string();
             assert!(e.contains("FIFO"), "{e}");
-            let e = read_user_file(Path::new("/dev/zero"), 100, "camera path").unwrap_err();
+            let e = read_user_file(Path::new("/dev/zero"), 100, "camera path").unwrap_err().to_string();
             assert!(e.contains("not a regular file"), "{e}");
         }
         std::fs::remove_dir_all(&d).unwrap();

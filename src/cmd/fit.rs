@@ -164,7 +164,7 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
     let bytes = super::read_model(&f32_path)?;
     let m = super::decode(&f32_path, &bytes)?;
     let scheme = WeightBits::from(a.bits).scheme();
-    let q = quantise(&m, scheme).and_then(|q| q.to_bytes().map_err(|e| e.to_string()));
+    let q = quantise(&m, scheme).and_then(|q| q.to_bytes().map_err(|e| nerf_train::Error::Export(e.to_string())));
     let q = q.map_err(|e| format!("{}: {e}", f32_path.display()))?;
     let fixed_path = dir.join("model_fixed.nerf");
     write_atomic(&fixed_path, &q)?;

@@ -380,7 +380,7 @@ pub fn same_frame(data: &Dataset, model: &nerf_infer::Model<'_>, model_path: &Pa
 pub fn read_model(path: &Path) -> Result<Vec<u8>, String> {
     // the header's payload length is a u32
     let max = nerf_infer::format::HEADER_LEN as u64 + u32::MAX as u64;
-    nerf_train::userfile::read_user_file(path, max, "model file")
+    Ok(nerf_train::userfile::read_user_file(path, max, "model file")?)
 }
 
 /// Decodes a model, naming the file on failure.

@@ -121,8 +121,10 @@ pub fn run(a: Args) -> CmdResult {
     if mf.scheme() != Scheme::F32 {
         return Err(format!("{}: give the f32 model; its int16 and int8 variants are made from it", a.model.display()));
     }
-    let quantised =
-        |scheme, act_bits| quantise_acts(&mf, scheme, act_bits).and_then(|m| m.to_bytes().map_err(|e| e.to_string()));
+    let quantised = |scheme, act_bits| {
+        quantise_acts(&mf, scheme, act_bits)
+            .and_then(|m| m.to_bytes().map_err(|e| nerf_train::Error::Export(e.to_string())))
+    };
     let (q16, q8, q8a8) = (quantised(Scheme::I16, 16)?, quantised(Scheme::I8, 16)?, quantised(Scheme::I8, 8)?);
     let decoded = |bytes| Model::from_bytes(bytes).map_err(|e| e.to_string());
     let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);

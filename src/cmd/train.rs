@@ -323,9 +323,7 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
     let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
     let (mut tr, data) = if a.resume && ckpt.is_file() {
         let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
-        let tr = Trainer::from_bytes(&b).ok_or_else(|| {
-            format!("{}: not a valid checkpoint (corrupt, or written by an older build)", ckpt.display())
-        })?;
+        let tr = Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))?;
         check_resume(&a, &tr)?;
         let data = load(tr.downscale)?;
         check_resume_config(&a, &tr, &data)?;

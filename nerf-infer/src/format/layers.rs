@@ -180,8 +180,8 @@ pub struct PreciseNet<'a> {
 
 /// The density heads of an integer model kept at 16 bits (format version
 /// 8): in an int8 model, 8-bit density weights cost the most PSNR of any
-/// layer once training has sharpened the density (lego at 800×800: 3.5
-/// dB; docs/EXPERIMENTS.md), and the head is one output wide.
+/// layer once training has sharpened the density (docs/EXPERIMENTS.md),
+/// and the head is one output wide.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
 pub struct PreciseDensity<'a> {
     /// The coarse network's.

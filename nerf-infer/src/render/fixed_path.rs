@@ -231,7 +231,9 @@ impl Dispatch for Fixed {
     ) -> PixelFixed {
         match r.model.scheme() {
             Scheme::I16 => render::<Fixed, W16, B>(r, ray, key, s),
-            _ => render::<Fixed, W8, B>(r, ray, key, s),
+            Scheme::I8 => render::<Fixed, W8, B>(r, ray, key, s),
+            // (`RendererFixed::new` refuses f32 models: never reached)
+            Scheme::F32 => r.background(),
         }
     }
 }

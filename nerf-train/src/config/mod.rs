@@ -87,9 +87,9 @@ pub struct TrainConfig {
     pub random_background: f32,
     /// Each training ray through a uniformly random point of its pixel
     /// instead of the pixel's centre (instant-ngp's practice). Off in every
-    /// preset: `eval` and `render` trace pixel centres, and on lego at
-    /// 100×100 the field fitted to jittered rays scores 1.8 dB lower on the
-    /// held-out views (docs/EXPERIMENTS.md).
+    /// preset: `eval` and `render` trace pixel centres, and on lego the
+    /// field fitted to jittered rays scores lower on the held-out views
+    /// (docs/EXPERIMENTS.md).
     pub pixel_jitter: bool,
     /// Weight λ of the distortion loss (mip-NeRF 360, eq. 15; 0: off),
     /// added to the mean squared colour error as `λ · mean over rays of

@@ -51,10 +51,9 @@ impl TrainConfig {
     }
 
     /// The CPU preset without grids: 4×64, L = 8/2, 48 + 48 samples,
-    /// 1024-ray batches, lr 5e-3 decaying 10× over the run. On lego at
-    /// 100×100 it reaches 27.35 dB in 10 minutes on a 2-core workstation
-    /// (README); the paper preset manages about 60 steps in that time
-    /// (6 steps took 62.7 s).
+    /// 1024-ray batches, lr 5e-3 decaying 10× over the run: thousands of
+    /// steps in minutes on a workstation where the paper preset manages
+    /// tens (docs/RESULTS.md).
     pub fn fast() -> Self {
         Self {
             pos_freqs: 8,
@@ -85,20 +84,17 @@ impl TrainConfig {
     /// and a 2×64 network; instant-ngp's optimiser settings (lr 1e-2,
     /// β₂ 0.99, ε 1e-15); the occupancy grid first updated at step 64 and
     /// every 64 steps, a cell kept while a default step through it would be
-    /// at least 3 % opaque (`grid_alpha` 0.03: on lego the same int8 PSNR
-    /// at half the samples per ray of 0.01, on fox 1.9–2.3 dB more in 5
-    /// minutes; docs/EXPERIMENTS.md), and a tenth of the rays through photos
-    /// with alpha on a random background (`random_background` 0.1: on
-    /// lego no haze left in empty space, 5.5 samples per ray in int8 where
-    /// runs without it ended at 6.4 to 25.4; docs/EXPERIMENTS.md). The
-    /// learning rate decays 10× over the run: 100× gains 0.1–0.4 dB on lego
-    /// in 10 minutes but loses 3 dB in one (docs/EXPERIMENTS.md). The
-    /// second half of the run reads the grid across each pixel's footprint
-    /// (`footprint`, `footprint_from` 0.5: on lego 0.35 dB more in 10
-    /// minutes than without, over two seeds, and 0.57 dB less in one;
-    /// docs/EXPERIMENTS.md). The model takes the average of the parameters
-    /// over about the last thousand steps (`ema_decay` 0.999: on lego 0.16
-    /// dB more at 20 000 steps, over two seeds; docs/EXPERIMENTS.md).
+    /// at least 3 % opaque (`grid_alpha` 0.03: the same int8 PSNR as 0.01
+    /// at half the samples per ray on lego, more PSNR on fox), and a tenth
+    /// of the rays through photos with alpha on a random background
+    /// (`random_background` 0.1: no haze left in empty space, fewer
+    /// samples per ray). The learning rate decays 10× over the run (100×
+    /// gains on long runs and loses on short ones). The second half of the
+    /// run reads the grid across each pixel's footprint (`footprint`,
+    /// `footprint_from` 0.5: better in 10 minutes, worse in one). The
+    /// model takes the average of the parameters over about the last
+    /// thousand steps (`ema_decay` 0.999). Each choice's measurement is in
+    /// docs/EXPERIMENTS.md.
     pub fn features() -> Self {
         Self {
             depth: 2,
@@ -128,8 +124,7 @@ impl TrainConfig {
     /// The configuration `nerf train` uses without `--preset` (its feature
     /// grid then sized to the photos, [`Self::fit_features_to`]): [`Self::features`],
     /// the highest held-out PSNR per minute measured on lego and on the real
-    /// captures (`scripts/captures.sh`: bird 30.42 dB against `fast`'s 28.98
-    /// after 5 minutes at 1/8 size).
+    /// captures (`scripts/captures.sh`; docs/RESULTS.md).
     pub fn default_preset() -> Self {
         Self::features()
     }
@@ -153,10 +148,9 @@ impl TrainConfig {
     /// A grid already as fine, a grid of one level (whose only level is
     /// `feature_min_res`) or no grid is left alone; returns whether
     /// anything changed. The finest levels share each entry among more
-    /// cells than before (8× the cells, 2× the entries per doubling); on
-    /// lego at 800×800 the fitted grid (2048 cells, 2¹⁸ entries) gains
-    /// 0.2 dB in 4 minutes where 2048 cells in 2¹⁵ entries lose 0.7
-    /// (docs/EXPERIMENTS.md).
+    /// cells than before (8× the cells, 2× the entries per doubling): more
+    /// cells without more entries lose PSNR on lego at 800×800, with them
+    /// gain it (docs/EXPERIMENTS.md).
     pub fn fit_features_to(&mut self, cells: u32) -> bool {
         let cells = cells.min(MAX_RES as u32);
         let max = self.feature_max_res as u32;

@@ -17,21 +17,21 @@ use super::colmap_io::{read_model, CameraModel, ColmapCamera, ColmapImage};
 use super::lens::Lens;
 use super::reconstructions::choose_model;
 use super::types::{DataError, Dataset, LoadOptions, Split};
+use crate::error::Error;
 use glam::{DMat3, DQuat, DVec3};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
-impl From<super::colmap_io::ParseError> for DataError {
-    fn from(e: super::colmap_io::ParseError) -> Self {
-        DataError::new(e.path, e.msg)
-    }
-}
-
 /// Intrinsics and lens of a COLMAP camera, or the reason it is refused.
-pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), String> {
+pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), Error> {
     let p = &c.params;
     if p.len() != c.model.num_params() {
-        return Err(format!("{} needs {} parameters, found {}", c.model.name(), c.model.num_params(), p.len()));
+        return Err(Error::Camera(format!(
+            "{} needs {} parameters, found {}",
+            c.model.name(),
+            c.model.num_params(),
+            p.len()
+        )));
     }
     let size = [c.width as f64, c.height as f64];
     let k = |focal: [f64; 2], centre: [f64; 2]| Intrinsics { size, focal, centre };
@@ -50,23 +50,23 @@ pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), String> {
             (k([p[0], p[1]], [p[2], p[3]]), Lens::Fisheye { k: [p[4], p[5], p[6], p[7]] }.simplified())
         }
         m => {
-            return Err(format!(
+            return Err(Error::Camera(format!(
                 "camera model {} is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, \
                  FULL_OPENCV, OPENCV_FISHEYE are; undistort the images with colmap image_undistorter)",
                 m.name()
-            ))
+            )))
         }
     };
     let ok = intr.focal.iter().all(|f| f.is_finite() && *f > 0.0) && intr.centre.iter().all(|c| c.is_finite());
     if !ok || !lens.is_finite() {
-        return Err("non-finite or non-positive camera parameters".into());
+        return Err(Error::Camera("non-finite or non-positive camera parameters".into()));
     }
     // a principal point outside the photo is no lens a photo was taken with (a unit or field mix-up)
     if !(0.0..=size[0]).contains(&intr.centre[0]) || !(0.0..=size[1]).contains(&intr.centre[1]) {
-        return Err(format!(
+        return Err(Error::Camera(format!(
             "principal point ({}, {}) lies outside the {}x{} image",
             intr.centre[0], intr.centre[1], c.width, c.height
-        ));
+        )));
     }
     Ok((intr, lens))
 }

@@ -19,8 +19,8 @@
 //!   walls and distant things a photo shows have a place. The bounds leave
 //!   the surroundings to the contraction rather than hold them at full
 //!   resolution: the grid's cells are spent on what the cameras look at.
-//!   (With the object box alone, everything outside it is black:
-//!   `../shared/data/bird` scores 7.3 dB that way.) The `object`
+//!   (With the object box alone, everything outside it is black, and a
+//!   walked-around capture scores far lower that way.) The `object`
 //!   box is the 2nd–98th percentile extent of the sparse points inside the
 //!   camera ring (or ±0.5 without points): for captures of an object on a
 //!   black background.

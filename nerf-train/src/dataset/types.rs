@@ -3,26 +3,11 @@
 
 use super::fit::SceneKind;
 use super::lens::Lens;
+pub use crate::error::DataError;
+use crate::error::Error;
 use nerf_infer::camera::Camera;
 use nerf_infer::format::{Capture, Framing, Scene};
 use std::path::{Path, PathBuf};
-
-/// A loading error: the file and what is wrong with it.
-#[derive(Debug, thiserror::Error)]
-#[error("{}: {msg}", path.display())]
-pub struct DataError {
-    /// The file (or directory) at fault.
-    pub path: PathBuf,
-    /// What is wrong, one line.
-    pub msg: String,
-}
-
-impl DataError {
-    /// An error about `path`.
-    pub fn new(path: impl AsRef<Path>, msg: impl Into<String>) -> Self {
-        Self { path: path.as_ref().to_path_buf(), msg: msg.into() }
-    }
-}
 
 /// Which part of a dataset to load.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -225,13 +210,13 @@ impl Dataset {
 
     /// Fails, saying why and what to try, if fewer than 1 % of the pixels'
     /// rays meet the scene: training would see almost nothing.
-    pub fn check_rays(&self) -> Result<(), String> {
+    pub fn check_rays(&self) -> Result<(), Error> {
         let f = self.ray_hit_fraction();
         if f >= 0.01 {
             return Ok(());
         }
         let s = &self.scene;
-        Err(format!(
+        Err(Error::Camera(format!(
             "only {:.2} % of the training rays meet the scene box {:?}..{:?} within near {} .. far {}: \
              the cameras look away from it or the bounds are wrong; check the poses, the aabb/near/far of the \
              transforms file, or try --scene unbounded",
@@ -240,7 +225,7 @@ impl Dataset {
             s.bounds_max,
             s.near,
             s.far
-        ))
+        )))
     }
 }
 

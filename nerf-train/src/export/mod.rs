@@ -21,8 +21,10 @@
 //! steps each); the colour head, quantised as in an int16 model (3
 //! outputs, evaluated only for samples with weight; both format version
 //! 6); and the density head, quantised as in an int16 model (one output;
-//! format version 8: 8-bit density weights cost lego at 800×800 3.5 dB).
+//! format version 8: 8-bit density weights cost the most PSNR of any
+//! layer, docs/EXPERIMENTS.md).
 
+use crate::error::Error;
 use crate::mlp::Mlp;
 use crate::train::Trainer;
 use nerf_infer::features::{FeatureGrid, NarrowTable};

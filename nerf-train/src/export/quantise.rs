@@ -64,12 +64,12 @@ pub(super) fn quantise_network(
     act_bits: u8,
     grid_frac: u8,
     eight_bit: &[usize],
-) -> Result<OwnedNetwork, String> {
+) -> Result<OwnedNetwork, Error> {
     let qmax = match (scheme, act_bits) {
         (Scheme::I16, 16) => 32767.0,
         (Scheme::I8, 16 | 8) => 127.0,
-        (Scheme::F32, _) => return Err("quantise to int16 or int8".into()),
-        _ => return Err(format!("{act_bits}-bit activations need int8 weights")),
+        (Scheme::F32, _) => return Err(Error::Export("quantise to int16 or int8".into())),
+        _ => return Err(Error::Export(format!("{act_bits}-bit activations need int8 weights"))),
     };
     let t = &m.topology;
     let (view, colour) = (t.view_dependent.then(|| sigma_layer(t) + 2), net.layers.len() - 1);
@@ -79,10 +79,10 @@ pub(super) fn quantise_network(
         let (cols, target) = layer_scales(t, &m.encoding, net, i, act_bits, grid_frac);
         debug_assert_eq!(cols.len(), l.in_dim as usize);
         if let Some(bad) = cols.iter().chain(&[target]).find(|v| !v.is_finite() || **v <= 0.0) {
-            return Err(format!(
+            return Err(Error::Export(format!(
                 "layer {i}: activation range is not finite or not positive (scale {bad}): the model's calibration \
                  saw non-finite activations; retrain or export at 32 bits"
-            ));
+            )));
         }
         // int8 precision, as in the int8 model: 8-bit steps plus the 16-bit
         // parts (the view layer's direction rows, 16-bit colour and density
@@ -192,13 +192,13 @@ pub(super) fn fine_rows(l: &Layer<'_>, cols: &[f64], q: &Quantised, nd: usize) -
 
 /// Quantises an f32 model to `scheme` (int16 or int8 weights, 16-bit
 /// activations), using the activation ranges stored in the model.
-pub fn quantise(m: &Model<'_>, scheme: Scheme) -> Result<OwnedModel, String> {
+pub fn quantise(m: &Model<'_>, scheme: Scheme) -> Result<OwnedModel, Error> {
     quantise_acts(m, scheme, 16)
 }
 
 /// [`quantise`] with `act_bits`-bit hidden activations: 16, or 8 with int8
 /// weights (ReLU outputs u8, the feature layer i8; the encoding stays Q15).
-pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<OwnedModel, String> {
+pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<OwnedModel, Error> {
     quantise_layers(m, scheme, act_bits, &[])
 }
 
@@ -208,9 +208,9 @@ pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<Owne
 /// inside an int16 model: the int8 model's values for those layers, so
 /// listing every layer renders exactly as the int8 export does. Finds the
 /// layers whose 8-bit weights cost PSNR.
-pub fn quantise_layers(m: &Model<'_>, scheme: Scheme, act_bits: u8, eight_bit: &[usize]) -> Result<OwnedModel, String> {
+pub fn quantise_layers(m: &Model<'_>, scheme: Scheme, act_bits: u8, eight_bit: &[usize]) -> Result<OwnedModel, Error> {
     if m.scheme() != Scheme::F32 {
-        return Err("the model is already quantised; export from the f32 model".into());
+        return Err(Error::Export("the model is already quantised; export from the f32 model".into()));
     }
     let mut out = OwnedModel::from_model(m);
     out.features = m.features.as_ref().map(quantise_features);

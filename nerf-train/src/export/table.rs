@@ -7,13 +7,13 @@ use super::*;
 /// of the model's resolution): a coarse cell is occupied if any of the
 /// fine cells it covers is, so nothing occupied is ever skipped; only
 /// more empty space is sampled. Bits shrink by `(old/res)³`.
-pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
+pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), Error> {
     let Some((old, bits)) = &m.grid else {
-        return Err("the model has no occupancy grid".into());
+        return Err(Error::Export("the model has no occupancy grid".into()));
     };
     let (old, new) = (*old as usize, res as usize);
     if new == 0 || new > old || old % new != 0 {
-        return Err(format!("--grid-res {res} must divide the model's grid resolution {old}"));
+        return Err(Error::Export(format!("--grid-res {res} must divide the model's grid resolution {old}")));
     }
     let f = old / new;
     let mut out = vec![0u8; nerf_infer::occupancy::grid_bytes(res)];
@@ -38,18 +38,18 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), String> {
 /// weighted squared error, so the codes go where the values that reach
 /// the pixels are. Each value stores its nearest code; the table is padded
 /// to whole 4-byte words.
-pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), String> {
+pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), Error> {
     if !m.coarse.scheme.is_fixed() {
-        return Err("a narrow feature table needs an integer model (--bits 16 or 8)".into());
+        return Err(Error::Export("a narrow feature table needs an integer model (--bits 16 or 8)".into()));
     }
     if !matches!(bits, 4 | 8) {
-        return Err(format!("{bits}-bit table indices: 8 or 4 (16 is the i16 table)"));
+        return Err(Error::Export(format!("{bits}-bit table indices: 8 or 4 (16 is the i16 table)")));
     }
     let Some((shape, table)) = &mut m.features else {
-        return Err("the model has no feature grid".into());
+        return Err(Error::Export("the model has no feature grid".into()));
     };
     if m.narrow.is_some() {
-        return Err("the feature table is already narrow".into());
+        return Err(Error::Export("the feature table is already narrow".into()));
     }
     let weights = value_weights(shape, m.grid.as_ref());
     let w = shape.width as usize;

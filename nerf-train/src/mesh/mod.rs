@@ -9,6 +9,7 @@ pub mod silhouette;
 pub mod tetra;
 pub mod write;
 
+pub use crate::error::MeshError;
 use nerf_infer::format::Model;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -54,30 +55,6 @@ pub struct MeshStats {
     /// a closed, consistently oriented surface).
     pub open_edges: usize,
 }
-
-/// Why a mesh cannot be made.
-#[derive(Debug)]
-pub enum MeshError {
-    /// The scene is forward-facing: its bounds are in NDC, not world units.
-    Ndc,
-    /// An option is out of range (the message says which).
-    Option(String),
-}
-
-impl std::fmt::Display for MeshError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            MeshError::Ndc => write!(
-                f,
-                "the model is of a forward-facing scene (NDC space), which has no bounded volume to mesh; \
-                 train with --scene object or --scene unbounded"
-            ),
-            MeshError::Option(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for MeshError {}
 
 /// The raw density ([`density::raw_density`]) on the `(r + 1)³` lattice over the bounds (`r` =
 /// `resolution`), x fastest, in normalised coordinates (`[−1, 1]³`). The

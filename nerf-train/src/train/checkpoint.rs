@@ -2,6 +2,7 @@
 //! before the run's state in postcard.
 
 use super::*;
+use crate::error::Error;
 
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
@@ -34,19 +35,29 @@ impl Trainer {
         out
     }
 
-    /// Restores a run from [`Trainer::to_bytes`]; `None` if the header,
-    /// length or checksum do not match (a damaged or foreign file) or the
-    /// state is inconsistent (parameters that its configuration does not lay out).
-    pub fn from_bytes(b: &[u8]) -> Option<Self> {
-        let (head, payload) = b.split_at_checked(22)?;
-        let version = u16::from_le_bytes([head[8], head[9]]);
-        let len = u64::from_le_bytes(head[10..18].try_into().ok()?);
-        let crc = u32::from_le_bytes(head[18..22].try_into().ok()?);
-        let whole = &head[..8] == CHECKPOINT_MAGIC && version == CHECKPOINT_VERSION && len == payload.len() as u64;
-        if !whole || nerf_infer::format::crc32(payload) != crc {
-            return None;
+    /// Restores a run from [`Trainer::to_bytes`]; fails with
+    /// [`Error::Checkpoint`] saying why: a header, length or checksum that
+    /// does not match (a damaged or foreign file, or another checkpoint
+    /// version), or a state that is inconsistent (parameters that its
+    /// configuration does not lay out).
+    pub fn from_bytes(b: &[u8]) -> Result<Self, Error> {
+        let bad = |m: &str| Error::Checkpoint(m.to_string());
+        let (head, payload) = b.split_at_checked(22).ok_or_else(|| bad("shorter than its header"))?;
+        if &head[..8] != CHECKPOINT_MAGIC {
+            return Err(bad("not a checkpoint (no NERFCKPT header)"));
         }
-        let t: Self = postcard::from_bytes(payload).ok()?;
+        let version = u16::from_le_bytes([head[8], head[9]]);
+        if version != CHECKPOINT_VERSION {
+            return Err(Error::Checkpoint(format!(
+                "checkpoint version {version}, this build reads version {CHECKPOINT_VERSION} (written by another build)"
+            )));
+        }
+        let len = u64::from_le_bytes(head[10..18].try_into().expect("8 bytes"));
+        let crc = u32::from_le_bytes(head[18..22].try_into().expect("4 bytes"));
+        if len != payload.len() as u64 || nerf_infer::format::crc32(payload) != crc {
+            return Err(bad("truncated or damaged (its length or checksum does not match)"));
+        }
+        let t: Self = postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
         let grid_ok = match &t.grid {
             None => t.cfg.grid_res == 0,
             Some(g) => g.res == t.cfg.grid_res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
@@ -73,6 +84,11 @@ impl Trainer {
             && t.params.len() == t.adam.v.len()
             && t.adam.steps.len() == table_values(&t.mlp(), t.params.len())
             && (t.ema.is_empty() || (t.cfg.ema_decay > 0.0 && t.ema.len() == t.params.len()));
-        (sizes_ok && grid_ok).then_some(t)
+        match sizes_ok && grid_ok {
+            true => Ok(t),
+            false => {
+                Err(bad("its state is inconsistent (parameters, grids or configuration that do not fit together)"))
+            }
+        }
     }
 }

@@ -7,32 +7,16 @@
 //! [`ParseError`] naming the file and the record: a damaged or hostile file
 //! gives an error, never a panic or a huge allocation.
 
+pub use crate::error::ParseError;
 use std::collections::HashSet;
-use std::fmt;
+
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 mod binary;
 mod text;
 pub use binary::*;
 pub use text::*;
-
-/// A file that cannot be read as a COLMAP model: which file and why.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ParseError {
-    /// The file at fault.
-    pub path: PathBuf,
-    /// What is wrong, one line.
-    pub msg: String,
-}
-
-impl fmt::Display for ParseError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.path.display(), self.msg)
-    }
-}
-
-impl std::error::Error for ParseError {}
 
 fn err(path: &Path, msg: impl Into<String>) -> ParseError {
     ParseError { path: path.to_path_buf(), msg: msg.into() }

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# A training step's time in two builds side by side: the working tree's and
+# BASE's (a commit), each training the default on lego at 100x100 for STEPS
+# steps (`--log-every STEPS`, the run's mean ms per step), alternating
+# ROUNDS times so that both see the same machine; prints each run and the
+# ratio of the medians (working tree / BASE).
+#
+#   scripts/step_ab.sh BASE [DATA_ROOT] [STEPS] [ROUNDS]   (../shared/data, 1500, 3)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+base=${1:?give BASE, a commit}
+root=${2:-../shared/data}
+steps=${3:-1500}
+rounds=${4:-3}
+work=$(mktemp -d)
+trap 'git worktree remove --force "$work/base" >/dev/null 2>&1 || true; rm -rf "$work"' EXIT
+git worktree add --detach "$work/base" "$base" >/dev/null 2>&1
+cargo build --release --quiet
+(cd "$work/base" && CARGO_TARGET_DIR="$work/target" cargo build --release --quiet)
+ms() {  # BIN OUT: the run's mean ms per step
+  "$1" train --data "$root/lego" --downscale 8 --iters "$steps" --val-views 0 --log-every "$steps" --out "$2" \
+    >/dev/null 2>&1
+  python3 -c 'import json, sys; e = json.loads(open(sys.argv[1]).read().splitlines()[-1]); print("%.3f" % (1000 * e["train_secs"] / e["step"]))' "$2/train.jsonl"
+}
+new=(); old=()
+for r in $(seq "$rounds"); do
+  old+=("$(ms "$work/target/release/nerf" "$work/old$r")")
+  new+=("$(ms target/release/nerf "$work/new$r")")
+  echo "round $r: BASE $base ${old[-1]} ms/step, working tree ${new[-1]} ms/step"
+done
+python3 - "${old[*]}" "${new[*]}" <<'PY'
+import statistics, sys
+old, new = ([float(v) for v in a.split()] for a in sys.argv[1:])
+print(f"median: BASE {statistics.median(old):.3f}, working tree {statistics.median(new):.3f} ms/step; "
+      f"ratio {statistics.median(new) / statistics.median(old):.4f}")
+PY
