@@ -75,13 +75,7 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
     let cfg = TrainConfig { batch_rays: 256, lr: 1e-2, eps: 1e-15, beta2: 0.99, ..feature_config() };
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
-    let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
-    for i in 0..120 {
-        tr.train_step(&data, i as f64 / 120.0);
-    }
-    let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
-    println!("loss {first:.4} -> {last:.4}");
-    assert!(last < 0.5 * first, "loss did not fall: {first} -> {last}");
+    support::train_until_the_loss_halves(&mut tr, &data);
     let mlp = tr.mlp();
     let table = &tr.params[mlp.table..];
     assert!(table.iter().any(|v| v.abs() > 1e-2), "the table did not move from its ±1e-4 start");
@@ -379,12 +373,7 @@ fn a_footprint_model_records_its_pixel_and_renders_alike_in_both_numeric_paths()
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
     let cfg = TrainConfig { batch_rays: 256, lr: 1e-2, eps: 1e-15, beta2: 0.99, footprint: true, ..feature_config() };
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
-    let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
-    for i in 0..120 {
-        tr.train_step(&data, i as f64 / 120.0);
-    }
-    let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
-    assert!(last < 0.5 * first, "loss did not fall: {first} -> {last}");
+    support::train_until_the_loss_halves(&mut tr, &data);
     assert_eq!(tr.pixel, data.pixel_angle());
     let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
     assert_eq!(back.pixel, tr.pixel);

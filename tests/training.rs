@@ -21,13 +21,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
     let cfg = nerf_train::config::TrainConfig { batch_rays: 256, lr: 1e-2, ..small_config() };
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
-    let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
-    for i in 0..120 {
-        tr.train_step(&data, i as f64 / 120.0);
-    }
-    let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
-    println!("loss {first:.4} -> {last:.4}");
-    assert!(last < 0.5 * first, "loss did not fall: {first} -> {last}");
+    support::train_until_the_loss_halves(&mut tr, &data);
     // checkpoints round-trip exactly
     let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
     assert_eq!(back.params, tr.params);

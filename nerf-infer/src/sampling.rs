@@ -11,6 +11,12 @@ pub const PDF_EPS: f32 = 1e-5;
 /// [`PDF_EPS`] in Q30 (`round(1e-5 · 2³⁰)`).
 pub const PDF_EPS_Q30: u64 = 10737;
 
+/// XORed into a ray's jitter key before it jitters the levels at which the
+/// network's samples are drawn from a proposal grid's weights (a stream of
+/// its own, apart from the stratified samples'); the trainer draws with it
+/// too.
+pub const PROPOSAL_DRAW_SALT: u32 = 0x5EED_0B1D;
+
 /// A 32-bit integer hash (lowbias32) used for per-pixel jitter.
 #[inline]
 pub fn hash32(mut x: u32) -> u32 {

@@ -75,7 +75,7 @@ impl RayProposal {
 /// CDF level of the network's sample `j` of `n` in a stratum, jittered by
 /// `key` as the renderer's march jitters it (`None`: the middle).
 pub fn main_u(j: usize, n: usize, key: Option<u32>) -> f32 {
-    let offset = key.map_or(32768, |k| jitter_q16(k ^ 0x5EED_0B1D, j));
+    let offset = key.map_or(32768, |k| jitter_q16(k ^ nerf_infer::sampling::PROPOSAL_DRAW_SALT, j));
     ((j as u64 * 65536 + offset as u64) / n as u64) as f32 / 65536.0
 }
 
@@ -110,7 +110,7 @@ impl ProposalGrid {
         prop.zeros.resize(3 * n_coarse, 0.0);
         prop.cdf.resize(n_coarse, 0.0);
         composite(&prop.sigma, &prop.zeros, &prop.delta, [0.0; 3], &mut prop.w);
-        let pdf_key = key ^ 0x9E37_79B9;
+        let pdf_key = key ^ crate::rng::stream::PROPOSAL_PDF;
         sample_pdf_f32(&prop.t, &prop.w, |j| main_u(j, n_main, Some(pdf_key)), &mut prop.cdf, &mut out[..n_main]);
         out[n_main] = prop.t[n_coarse - 1];
     }

@@ -29,3 +29,22 @@ impl Rng {
         ((self.u32() as u64 * n as u64) >> 32) as usize
     }
 }
+
+/// The salts that keep a run's random streams apart: each is XORed into
+/// the run's seed (or a step's key) before it seeds or keys one use, so
+/// no two uses draw the same numbers. Changing one changes every model
+/// trained after.
+pub mod stream {
+    /// The fine network's initialisation (the coarse network's is the run
+    /// seed itself).
+    pub const FINE_INIT: u64 = 0x5EED_F1E0;
+    /// The feature-table values of random models (benchmarks, tests).
+    pub const RANDOM_TABLE: u64 = 0xFEA7;
+    /// The points at which the occupancy grid's update samples each cell.
+    pub const GRID_UPDATE: u32 = 0x6121_D000;
+    /// A ray's importance samples in the fine pass.
+    pub const FINE_SAMPLES: u32 = 0xF1AE;
+    /// The CDF levels at which the trainer draws the network's samples from
+    /// a proposal grid's weights.
+    pub const PROPOSAL_PDF: u32 = 0x9E37_79B9;
+}

@@ -74,3 +74,20 @@ pub fn psnr(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
 pub fn render(model: &Model<'_>, camera: &Camera) -> Vec<[f32; 3]> {
     render_view(model, RenderOptions::from_model(model), camera).expect("render").rgb
 }
+
+/// Trains `tr` 120 steps on `data` (progress running from 0 to 1) and
+/// checks that the loss, the mean of three steps, falls to less than half
+/// from the first steps to the last; returns both.
+pub fn train_until_the_loss_halves(
+    tr: &mut nerf_train::train::Trainer,
+    data: &nerf_train::dataset::Dataset,
+) -> (f32, f32) {
+    let first: f32 = (0..3).map(|_| tr.train_step(data, 0.0).loss).sum::<f32>() / 3.0;
+    for i in 0..120 {
+        tr.train_step(data, i as f64 / 120.0);
+    }
+    let last: f32 = (0..3).map(|_| tr.train_step(data, 1.0).loss).sum::<f32>() / 3.0;
+    println!("loss {first:.4} -> {last:.4}");
+    assert!(last < 0.5 * first, "loss did not fall: {first} -> {last}");
+    (first, last)
+}

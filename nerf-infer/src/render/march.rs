@@ -32,7 +32,7 @@ fn fine_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
 fn main_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
     let offset = match key {
         None => 32768,
-        Some(k) => jitter_q16(k ^ 0x5EED_0B1D, j) as u64,
+        Some(k) => jitter_q16(k ^ crate::sampling::PROPOSAL_DRAW_SALT, j) as u64,
     };
     ((j as u64 * 65536 + offset) / n as u64) as u32
 }

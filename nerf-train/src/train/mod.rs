@@ -76,7 +76,7 @@ pub fn network_seed(seed: u64, k: usize) -> u64 {
     if k == 0 {
         seed
     } else {
-        seed ^ 0x5EED_F1E0
+        seed ^ crate::rng::stream::FINE_INIT
     }
 }
 
@@ -334,7 +334,7 @@ impl Trainer {
         let net = self.mlp();
         let thr = self.grid_threshold();
         let params = &self.params[..net.n_params];
-        let key = hash32(self.seed as u32 ^ 0x6121_D000);
+        let key = hash32(self.seed as u32 ^ crate::rng::stream::GRID_UPDATE);
         grid.update(key, thr, self.scene.unbounded.is_some(), |pts| {
             let mut acts = Acts::default();
             net.forward(params, pts, &[[0.0, 0.0, 1.0]], false, &mut acts);

@@ -316,7 +316,7 @@ impl Trainer {
         ws.offs.push(0);
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let s = i * nc..(i + 1) * nc;
-            let rk = hash32(key ^ 0xF1AE ^ (i as u32).wrapping_mul(0x27D4_EB2F));
+            let rk = hash32(key ^ crate::rng::stream::FINE_SAMPLES ^ (i as u32).wrapping_mul(0x27D4_EB2F));
             sample_pdf_f32(
                 &ws.t_c[s.clone()],
                 &ws.w_c[s.clone()],
