@@ -1,7 +1,7 @@
 //! `nerf eval`: renders a split through nerf-infer and prints one JSON
 //! object with PSNR, SSIM, per-view scores, µs per ray and model size.
 
-use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
+use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, Split};
 use clap::Parser;
 use nerf_infer::RenderOptions;
 use nerf_train::dataset::save_png_rgb;
@@ -18,8 +18,8 @@ pub struct Args {
     #[arg(long)]
     pub(crate) data: PathBuf,
     /// Split to evaluate.
-    #[arg(long, value_enum, default_value_t = SplitArg::Test)]
-    pub(crate) split: SplitArg,
+    #[arg(long, value_enum, default_value_t = Split::Test)]
+    pub(crate) split: Split,
     #[command(flatten)]
     pub(crate) capture: CaptureArgs,
     /// Worker threads (0: all cores); µs per ray is per core either way.
@@ -62,7 +62,7 @@ impl Args {
         Self {
             model,
             data,
-            split: SplitArg::Test,
+            split: Split::Test,
             capture: CaptureArgs::default(),
             threads: 0,
             save: None,
@@ -117,7 +117,7 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
     let model = decode(&a.model, &bytes)?;
     let downscale = a.capture.downscale_for(&model);
     let capture = a.capture.for_model(&model, &a.model)?;
-    let data = load_split(&a.data, a.split.into(), downscale, capture)?;
+    let data = load_split(&a.data, a.split, downscale, capture)?;
     super::same_frame(&data, &model, &a.model)?;
     let mut opts = RenderOptions::from_model(&model);
     opts.coarse = a.coarse.unwrap_or(opts.coarse);

@@ -19,7 +19,7 @@
 //! accurate candidate that fits is kept; with it, the fastest that reaches
 //! the target. What each candidate gave up to fit is printed and tabled.
 
-use super::{create_dir, eval, num_in, train, write_atomic, CaptureArgs, CmdResult, FixedBits, SplitArg, WeightBits};
+use super::{create_dir, eval, num_in, train, write_atomic, CaptureArgs, CmdResult, FixedBits, WeightBits};
 use nerf_infer::camera::FOOTPRINT_POINTS;
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::Split;
@@ -125,7 +125,7 @@ struct Row {
 /// per ray, timing the fastest of `repeat` renders of each view.
 fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> Result<eval::Report, String> {
     let args = eval::Args {
-        split: SplitArg::Val,
+        split: Split::Val,
         capture: a.capture,
         threads,
         early_stop: a.early_stop,

@@ -3,7 +3,7 @@
 //! the agreement of its silhouette with a capture's alpha masks.
 
 use super::{decode, load_split, num_in, progress, read_model, refuse_same_file, with_threads, write_atomic};
-use super::{CaptureArgs, CmdResult, SplitArg};
+use super::{CaptureArgs, CmdResult, Split};
 use nerf_train::dataset::load_rgba;
 use nerf_train::mesh::silhouette::{iou, silhouette};
 use nerf_train::mesh::{extract, sample_density, write, Mesh, MeshOptions, MeshStats};
@@ -36,8 +36,8 @@ pub struct Args {
     #[arg(long, value_name = "DATA")]
     pub(crate) masks: Option<PathBuf>,
     /// The split of --masks to compare with.
-    #[arg(long, value_enum, default_value_t = SplitArg::Test, requires = "masks")]
-    pub(crate) split: SplitArg,
+    #[arg(long, value_enum, default_value_t = Split::Test, requires = "masks")]
+    pub(crate) split: Split,
     #[command(flatten)]
     pub(crate) capture: CaptureArgs,
     /// Worker threads (0: all cores).
@@ -125,7 +125,7 @@ pub fn run(a: Args) -> CmdResult {
 fn masks(dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Result<Vec<(nerf_infer::Camera, Vec<bool>)>, String> {
     use rayon::prelude::*;
     let capture = a.capture.for_model(m, &a.model)?;
-    let data = load_split(dir, a.split.into(), capture.downscale_for(m), capture)?;
+    let data = load_split(dir, a.split, capture.downscale_for(m), capture)?;
     super::same_frame(&data, m, &a.model)?;
     data.views
         .par_iter()

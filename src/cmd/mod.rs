@@ -41,34 +41,6 @@ where
     }
 }
 
-/// `--format` values.
-#[derive(Clone, Copy, Debug, Default, clap::ValueEnum)]
-pub enum FormatArg {
-    /// Detect from the files present.
-    #[default]
-    Auto,
-    /// transforms_{train,val,test}.json
-    Blender,
-    /// poses_bounds.npy + images/
-    Llff,
-    /// transforms.json (instant-ngp / nerfstudio)
-    Ngp,
-    /// images/ + sparse/0/ (COLMAP, .bin or .txt)
-    Colmap,
-}
-
-impl From<FormatArg> for Format {
-    fn from(f: FormatArg) -> Self {
-        match f {
-            FormatArg::Auto => Format::Auto,
-            FormatArg::Blender => Format::Blender,
-            FormatArg::Llff => Format::Llff,
-            FormatArg::Ngp => Format::Ngp,
-            FormatArg::Colmap => Format::Colmap,
-        }
-    }
-}
-
 /// `--bits` of `nerf export`: the weights' numeric scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum WeightBits {
@@ -169,27 +141,6 @@ impl ActBits {
     }
 }
 
-/// `--split` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum SplitArg {
-    /// Training views.
-    Train,
-    /// Validation views.
-    Val,
-    /// Test views.
-    Test,
-}
-
-impl From<SplitArg> for Split {
-    fn from(s: SplitArg) -> Self {
-        match s {
-            SplitArg::Train => Split::Train,
-            SplitArg::Val => Split::Val,
-            SplitArg::Test => Split::Test,
-        }
-    }
-}
-
 /// How a dataset is read and, for a real capture (LLFF, COLMAP,
 /// instant-ngp), how it becomes a scene: the flags every command that loads
 /// a dataset shares. A model trained on such a capture records the last
@@ -198,8 +149,8 @@ impl From<SplitArg> for Split {
 #[derive(clap::Args, Clone, Copy, Debug, Default)]
 pub struct CaptureArgs {
     /// Dataset layout.
-    #[arg(long, value_enum, default_value_t = FormatArg::Auto)]
-    pub format: FormatArg,
+    #[arg(long, value_enum, default_value_t = Format::Auto)]
+    pub format: Format,
     /// Downscale images by this integer factor (area averaging) [default: 1 to train; with a model: the one it
     /// was trained at].
     #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
@@ -213,7 +164,7 @@ pub struct CaptureArgs {
     /// the cameras, the surroundings in the space beyond them, contracted) [default: auto; with a model: the one it was trained
     /// with].
     #[arg(long, value_enum)]
-    pub scene: Option<SceneArg>,
+    pub scene: Option<SceneKind>,
     /// Treat every photo as an ideal pinhole: ignore the lens distortion the capture gives (with a model trained
     /// so: implied).
     #[arg(long)]
@@ -268,10 +219,10 @@ impl CaptureArgs {
             ));
         }
         let scene = match c.framing {
-            Framing::Files => SceneArg::Auto,
-            Framing::Object => SceneArg::Object,
-            Framing::Forward => SceneArg::Forward,
-            Framing::Unbounded => SceneArg::Unbounded,
+            Framing::Files => SceneKind::Auto,
+            Framing::Object => SceneKind::Object,
+            Framing::Forward => SceneKind::Forward,
+            Framing::Unbounded => SceneKind::Unbounded,
         };
         Ok(Self {
             llffhold: Some(c.holdout as usize),
@@ -287,31 +238,6 @@ impl CaptureArgs {
     }
 }
 
-/// `--scene` values.
-#[derive(Clone, Copy, Debug, Default, clap::ValueEnum)]
-pub enum SceneArg {
-    /// Decide from the cameras and points.
-    #[default]
-    Auto,
-    /// A box around what the cameras look at.
-    Object,
-    /// Forward-facing: NDC rays.
-    Forward,
-    /// A box holding the object and the cameras, space beyond it contracted.
-    Unbounded,
-}
-
-impl From<SceneArg> for SceneKind {
-    fn from(s: SceneArg) -> Self {
-        match s {
-            SceneArg::Auto => SceneKind::Auto,
-            SceneArg::Object => SceneKind::Object,
-            SceneArg::Forward => SceneKind::Forward,
-            SceneArg::Unbounded => SceneKind::Unbounded,
-        }
-    }
-}
-
 /// Loads a split, mapping errors to one line and printing the loader's
 /// notes (skipped frames) as warnings.
 pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs) -> Result<Dataset, String> {
@@ -320,10 +246,10 @@ pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs
         return Err("--llffhold must be at least 1".into());
     }
     let opts = LoadOptions {
-        format: capture.format.into(),
+        format: capture.format,
         downscale,
         holdout,
-        scene: capture.scene.unwrap_or_default().into(),
+        scene: capture.scene.unwrap_or_default(),
         lens: !capture.ignore_distortion,
         undistort: capture.undistort,
         sparse_model: capture.sparse_model,

@@ -3,7 +3,7 @@
 //! colour, the depth as 16-bit PNG in scene units (the step written to
 //! `depth.json`) and as a colour-mapped preview, and the opacity.
 
-use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, SplitArg};
+use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult};
 use nerf_infer::format::Scene;
 use nerf_infer::Orbit;
 use nerf_infer::{Camera, RenderOptions};
@@ -24,7 +24,7 @@ pub struct Args {
     pub(crate) data: Option<PathBuf>,
     /// Render this split's views, each through its photo's lens.
     #[arg(long, value_enum, requires = "data")]
-    pub(crate) split: Option<SplitArg>,
+    pub(crate) split: Option<Split>,
     #[command(flatten)]
     pub(crate) capture: CaptureArgs,
     /// Render N views on an orbit around the scene: the circle fitted to the training cameras (their centre, up,
@@ -155,7 +155,7 @@ pub fn run(a: Args) -> CmdResult {
                 .collect()
         }
         (Some(dir), Some(split), _) => {
-            let data = load_split(dir, split.into(), ds, a.capture.for_model(&model, &a.model)?)?;
+            let data = load_split(dir, split, ds, a.capture.for_model(&model, &a.model)?)?;
             super::same_frame(&data, &model, &a.model)?;
             data.views.into_iter().map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>)).collect()
         }

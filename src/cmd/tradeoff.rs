@@ -7,7 +7,7 @@
 //! writes `tradeoff.csv` and `tradeoff.png` (PSNR against µs/ray, Pareto
 //! front marked) and prints the table.
 
-use super::{decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, SplitArg};
+use super::{decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, Split};
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
 use nerf_train::export::quantise_acts;
@@ -24,8 +24,8 @@ pub struct Args {
     #[arg(long)]
     pub(crate) data: PathBuf,
     /// Split whose views are rendered.
-    #[arg(long, value_enum, default_value_t = SplitArg::Val)]
-    pub(crate) split: SplitArg,
+    #[arg(long, value_enum, default_value_t = Split::Val)]
+    pub(crate) split: Split,
     #[command(flatten)]
     pub(crate) capture: CaptureArgs,
     /// Views rendered per point (the first N of the split).
@@ -103,7 +103,7 @@ impl Args {
         Self {
             model,
             data,
-            split: SplitArg::Val,
+            split: Split::Val,
             capture: CaptureArgs::default(),
             views: 2,
             repeats: 3,
@@ -130,7 +130,7 @@ pub fn run(a: Args) -> CmdResult {
     let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
     let downscale = a.capture.downscale_for(&mf);
     let capture = a.capture.for_model(&mf, &a.model)?;
-    let data = load_split(&a.data, a.split.into(), downscale, capture)?;
+    let data = load_split(&a.data, a.split, downscale, capture)?;
     super::same_frame(&data, &mf, &a.model)?;
     let views = &data.views[..a.views.clamp(1, data.views.len())];
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "tradeoff", super::outdir::Earlier::Replace, a.force)?;

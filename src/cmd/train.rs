@@ -7,7 +7,7 @@ use super::{
     CmdResult,
 };
 use nerf_infer::{Model, RenderOptions};
-use nerf_train::config::TrainConfig;
+use nerf_train::config::{Preset, TrainConfig};
 use nerf_train::dataset::{Dataset, Split};
 use nerf_train::eval::score_view;
 use nerf_train::export::{trainer_model, OwnedModel, Prune};
@@ -29,11 +29,9 @@ pub struct Args {
     pub(crate) data: PathBuf,
     #[command(flatten)]
     pub(crate) capture: CaptureArgs,
-    /// Named configuration: `features` (default: an occupancy grid, a learned feature grid and a 2x64 network;
-    /// the most PSNR per minute on lego and the real captures), `grid` (occupancy grid, one 4x64 network), `fast`
-    /// (4x64 network, coarse + fine, no grid) or `paper`.
-    #[arg(long)]
-    pub(crate) preset: Option<String>,
+    /// Named configuration [default: features]
+    #[arg(long, value_enum)]
+    pub(crate) preset: Option<Preset>,
     /// Configuration as JSON: fields of the preset (`features` without `--preset`) to override; see docs/CLI.md.
     /// A feature grid is sized to the photos of an object scene unless the file names `feature_max_res` or
     /// `feature_log2_table`, and so are the samples per ray unless it names `n_coarse`.
@@ -143,11 +141,7 @@ impl NewRun {
 }
 
 fn load_config(a: &Args) -> Result<NewRun, String> {
-    let base = match &a.preset {
-        Some(p) => TrainConfig::preset(p)
-            .ok_or_else(|| format!("unknown preset '{p}' (known: fast, grid, features, paper)"))?,
-        None => TrainConfig::default_preset(),
-    };
+    let base = a.preset.unwrap_or_default().config();
     let (mut fit_features, mut fit_samples, mut fit_proposal) = (true, true, true);
     let cfg = match &a.config {
         None => base,

@@ -7,6 +7,7 @@ use nerf_infer::format::{Encoding, Samples, Topology};
 use serde::{Deserialize, Serialize};
 
 mod presets;
+pub use presets::Preset;
 mod validate;
 
 /// Most rays per batch (and per chunk) a configuration may ask for.
@@ -144,9 +145,12 @@ pub struct TrainConfig {
     pub proposal_lr: f32,
 }
 
+/// The default preset's ([`Preset::default`]): what `nerf train` trains
+/// without `--preset`, and where a configuration file's missing fields
+/// come from.
 impl Default for TrainConfig {
     fn default() -> Self {
-        Self::fast()
+        Preset::default().config()
     }
 }
 

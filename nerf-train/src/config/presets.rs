@@ -121,23 +121,10 @@ impl TrainConfig {
         }
     }
 
-    /// The configuration `nerf train` uses without `--preset` (its feature
-    /// grid then sized to the photos, [`Self::fit_features_to`]): [`Self::features`],
-    /// the highest held-out PSNR per minute measured on lego and on the real
-    /// captures (`scripts/captures.sh`; docs/RESULTS.md).
+    /// The configuration `nerf train` uses without `--preset`:
+    /// [`Preset::default`]'s.
     pub fn default_preset() -> Self {
-        Self::features()
-    }
-
-    /// A preset by name (`paper`, `fast`, `grid`, `features`).
-    pub fn preset(name: &str) -> Option<Self> {
-        match name {
-            "paper" => Some(Self::paper()),
-            "fast" => Some(Self::fast()),
-            "grid" => Some(Self::grid()),
-            "features" => Some(Self::features()),
-            _ => None,
-        }
+        Preset::default().config()
     }
 
     /// Sizes the feature grid to photos that resolve `cells` per axis
@@ -183,5 +170,47 @@ impl TrainConfig {
         }
         self.n_coarse = fitted;
         true
+    }
+}
+
+/// A named configuration (`nerf train --preset`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Preset {
+    /// An occupancy grid, a learned feature grid and a 2×64 network: the
+    /// default, the highest held-out PSNR per minute measured on lego and
+    /// on the real captures (`scripts/captures.sh`; docs/RESULTS.md).
+    #[default]
+    Features,
+    /// An occupancy grid and one 4×64 network.
+    Grid,
+    /// A 4×64 network, coarse and fine passes, no grid.
+    Fast,
+    /// The paper's network: 8×256, 64 + 128 samples.
+    Paper,
+}
+
+impl Preset {
+    /// Every preset, the default first.
+    pub const ALL: [Preset; 4] = [Preset::Features, Preset::Grid, Preset::Fast, Preset::Paper];
+
+    /// Its configuration.
+    pub fn config(self) -> TrainConfig {
+        match self {
+            Preset::Features => TrainConfig::features(),
+            Preset::Grid => TrainConfig::grid(),
+            Preset::Fast => TrainConfig::fast(),
+            Preset::Paper => TrainConfig::paper(),
+        }
+    }
+
+    /// Its name on the command line (`features`, `grid`, `fast`, `paper`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Features => "features",
+            Preset::Grid => "grid",
+            Preset::Fast => "fast",
+            Preset::Paper => "paper",
+        }
     }
 }

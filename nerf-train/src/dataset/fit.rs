@@ -44,9 +44,11 @@ pub const MAX_NEAR: f64 = 0.2;
 pub const MIN_NEAR: f64 = 0.01;
 
 /// How to model the space a capture shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SceneKind {
-    /// Decide from the cameras and points (see the module doc).
+    /// Decide from the cameras and points (the module doc says how).
+    #[default]
     Auto,
     /// An object seen from all around on a black background, in a box around it.
     Object,

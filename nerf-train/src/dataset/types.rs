@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 /// Which part of a dataset to load.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Split {
     /// Training views.
     Train,
@@ -32,9 +33,11 @@ impl Split {
 }
 
 /// Dataset layout on disk.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Format {
     /// Detect from the files present.
+    #[default]
     Auto,
     /// `transforms_{train,val,test}.json` with `camera_angle_x`.
     Blender,
