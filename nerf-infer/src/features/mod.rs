@@ -150,6 +150,21 @@ impl Corners {
 }
 
 impl FeatureGrid<'_> {
+    /// This grid's shape with `table` as its table (i16 or f32 values, no
+    /// codebook).
+    pub fn with_table<'t>(&self, table: &'t [u8]) -> FeatureGrid<'t> {
+        FeatureGrid {
+            width: self.width,
+            log2_table: self.log2_table,
+            frac_bits: self.frac_bits,
+            resolutions: self.resolutions.clone(),
+            table,
+            narrow: None,
+        }
+    }
+}
+
+impl FeatureGrid<'_> {
     /// Number of levels.
     pub fn levels(&self) -> usize {
         self.resolutions.len()

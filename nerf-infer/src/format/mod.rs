@@ -33,6 +33,8 @@
 
 mod header;
 mod layers;
+#[cfg(feature = "alloc")]
+pub mod owned;
 mod records;
 mod validate;
 

@@ -27,20 +27,19 @@
 use crate::error::Error;
 use crate::mlp::Mlp;
 use crate::train::Trainer;
-use nerf_infer::features::{FeatureGrid, NarrowTable};
+use nerf_infer::features::FeatureGrid;
 use nerf_infer::fixed::{Requant, ENC_FRAC, LOGIT_FRAC, SIGMA_FRAC};
 use nerf_infer::format::{
-    self, read_f32, read_i16, sigma_layer, Encoding, Layer, Meta, Model, Network, Samples, Scene, Scheme, Topology,
+    self, read_f32, read_i16, sigma_layer, Encoding, Layer, Meta, Model, Network, Scene, Scheme, Topology,
 };
 use nerf_infer::network::OUTPUT_TILE;
 
 mod float;
-mod owned;
 mod prune;
 mod quantise;
 mod table;
 pub use float::*;
-pub use owned::*;
+pub use nerf_infer::format::owned::{OwnedLayer, OwnedModel, OwnedNetwork, OwnedPrecise};
 pub use prune::*;
 pub use quantise::*;
 pub use table::*;

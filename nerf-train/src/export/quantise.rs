@@ -233,7 +233,7 @@ pub(super) fn quantise_features(f: &FeatureGrid<'_>) -> (FeatureGrid<'static>, V
         .iter()
         .flat_map(|v| ((*v as f64 * 2f64.powi(frac as i32)).round().clamp(-32767.0, 32767.0) as i16).to_le_bytes())
         .collect();
-    let mut shape = with_table(f, &[]);
+    let mut shape = f.with_table(&[]);
     shape.frac_bits = frac;
     (shape, table)
 }

@@ -30,7 +30,7 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), Error> {
 
 /// The feature table of an integer model stored as `bits`-bit (8 or 4)
 /// indices into a codebook of `2^bits` i16 values per level (format
-/// version 7, [`NarrowTable`]). Each level's codebook is the Lloyd–Max
+/// version 7, [`NarrowTable`](nerf_infer::features::NarrowTable)). Each level's codebook is the Lloyd–Max
 /// quantiser of its values, each value weighted by how much a lattice of
 /// points in the occupancy grid's occupied cells reads it (the samples a
 /// render evaluates): 1-D k-means from the better of two starts (even

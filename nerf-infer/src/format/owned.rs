@@ -1,9 +1,16 @@
-//! The owned model: a mirror of `nerf_infer::Model` whose tensors the
-//! exporter builds and edits, written with the model format's serialiser.
+//! The owned model (with the `alloc` feature): a mirror of [`Model`] whose
+//! tensors a program builds and edits (the exporter, tests that make
+//! models), written by the same serialiser and validation as every model
+//! file ([`to_bytes`]).
 
-use super::*;
+use super::{
+    to_bytes, Capture, Encoding, FeatureGrid, FittedOrbit, Footprint, Layer, Meta, Model, NarrowTable, Network,
+    Occupancy, Precise, PreciseDensity, PreciseNet, Proposal, Samples, Scene, Scheme, Topology, MAX_LAYERS,
+};
+use crate::error::Error;
+use alloc::vec::Vec;
 
-/// A layer owning its tensor bytes (see [`nerf_infer::format::Layer`]).
+/// A layer owning its tensor bytes (see [`Layer`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct OwnedLayer {
     /// Input width.
@@ -35,7 +42,7 @@ pub struct OwnedNetwork {
     pub precise: Option<OwnedPrecise>,
 }
 
-/// A network's 16-bit parts, owned (see [`format::PreciseNet`]).
+/// A network's 16-bit parts, owned (see [`PreciseNet`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct OwnedPrecise {
     /// The view layer's direction rows, i16 LE (empty: none).
@@ -73,15 +80,15 @@ impl OwnedLayer {
 }
 
 impl OwnedPrecise {
-    fn view(&self) -> format::PreciseNet<'_> {
-        format::PreciseNet {
+    fn view(&self) -> PreciseNet<'_> {
+        PreciseNet {
             view_dirs: &self.view_dirs,
             colour: self.colour.as_ref().map(OwnedLayer::view),
             density: self.density.as_ref().map(OwnedLayer::view),
         }
     }
 
-    fn from_view(p: &format::PreciseNet<'_>) -> Self {
+    fn from_view(p: &PreciseNet<'_>) -> Self {
         Self {
             view_dirs: p.view_dirs.to_vec(),
             colour: p.colour.as_ref().map(OwnedLayer::from_view),
@@ -113,30 +120,18 @@ pub struct OwnedModel {
     /// and the table bytes (f32 LE, or i16 LE in quantised models).
     pub features: Option<(FeatureGrid<'static>, Vec<u8>)>,
     /// How the training capture was split and framed (format version 4).
-    pub capture: Option<format::Capture>,
+    pub capture: Option<Capture>,
     /// The feature table's index bits and codebook bytes when its values
     /// are codebook indices (format version 7, [`NarrowTable`]).
     pub narrow: Option<(u8, Vec<u8>)>,
     /// The orbit fitted to the training cameras (format version 9).
-    pub orbit: Option<format::FittedOrbit>,
+    pub orbit: Option<FittedOrbit>,
     /// Features averaged over each sample's pixel footprint (format
     /// version 10).
-    pub footprint: Option<format::Footprint>,
+    pub footprint: Option<Footprint>,
     /// The proposal grid (format version 11): its shape and scale
     /// (`codes` empty) and the codes.
-    pub proposal: Option<(format::Proposal<'static>, Vec<u8>)>,
-}
-
-/// `shape` with `table` as its table (i16 or f32 values; no codebook).
-pub(super) fn with_table<'a>(shape: &FeatureGrid<'_>, table: &'a [u8]) -> FeatureGrid<'a> {
-    FeatureGrid {
-        width: shape.width,
-        log2_table: shape.log2_table,
-        frac_bits: shape.frac_bits,
-        resolutions: shape.resolutions.clone(),
-        table,
-        narrow: None,
-    }
+    pub proposal: Option<(Proposal<'static>, Vec<u8>)>,
 }
 
 impl OwnedNetwork {
@@ -158,9 +153,9 @@ impl OwnedNetwork {
 
 impl OwnedModel {
     /// The file bytes (validated by the same code that loads them).
-    pub fn to_bytes(&self) -> Result<Vec<u8>, nerf_infer::Error> {
-        if self.coarse.layers.len() > format::MAX_LAYERS {
-            return Err(nerf_infer::Error::Capacity("more than 24 layers"));
+    pub fn to_bytes(&self) -> Result<Vec<u8>, Error> {
+        if self.coarse.layers.len() > MAX_LAYERS {
+            return Err(Error::Capacity("more than 24 layers"));
         }
         let narrow = self.narrow.as_ref().map(|(bits, codebook)| NarrowTable { bits: *bits, codebook });
         let m = Model {
@@ -171,26 +166,24 @@ impl OwnedModel {
             meta: self.meta,
             coarse: self.coarse.view(),
             fine: self.fine.as_ref().map(|f| f.view()),
-            grid: self.grid.as_ref().map(|(res, bits)| format::Occupancy { res: *res, bits }),
-            features: self.features.as_ref().map(|(f, t)| FeatureGrid { narrow, ..with_table(f, t) }),
+            grid: self.grid.as_ref().map(|(res, bits)| Occupancy { res: *res, bits }),
+            features: self.features.as_ref().map(|(f, t)| FeatureGrid { narrow, ..f.with_table(t) }),
             capture: self.capture,
             unbounded: self.scene.unbounded,
-            precise: self.coarse.precise.as_ref().map(|p| format::Precise {
+            precise: self.coarse.precise.as_ref().map(|p| Precise {
                 coarse: p.view(),
                 fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()).map(OwnedPrecise::view),
             }),
             narrow,
-            precise_density: self.coarse.precise.as_ref().and_then(|p| p.density.as_ref()).map(|d| {
-                format::PreciseDensity {
-                    coarse: d.view(),
-                    fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()?.density.as_ref()).map(OwnedLayer::view),
-                }
+            precise_density: self.coarse.precise.as_ref().and_then(|p| p.density.as_ref()).map(|d| PreciseDensity {
+                coarse: d.view(),
+                fine: self.fine.as_ref().and_then(|f| f.precise.as_ref()?.density.as_ref()).map(OwnedLayer::view),
             }),
             orbit: self.orbit,
             footprint: self.footprint,
-            proposal: self.proposal.as_ref().map(|(p, codes)| format::Proposal { codes, ..*p }),
+            proposal: self.proposal.as_ref().map(|(p, codes)| Proposal { codes, ..*p }),
         };
-        format::to_bytes(&m)
+        to_bytes(&m)
     }
 
     /// An owned copy of a decoded model.
@@ -204,12 +197,12 @@ impl OwnedModel {
             coarse: OwnedNetwork::from_view(&m.coarse),
             fine: m.fine.as_ref().map(OwnedNetwork::from_view),
             grid: m.grid.map(|g| (g.res, g.bits.to_vec())),
-            features: m.features.as_ref().map(|f| (with_table(f, &[]), f.table.to_vec())),
+            features: m.features.as_ref().map(|f| (f.with_table(&[]), f.table.to_vec())),
             capture: m.capture,
             narrow: m.narrow.map(|n| (n.bits, n.codebook.to_vec())),
             orbit: m.orbit,
             footprint: m.footprint,
-            proposal: m.proposal.map(|p| (format::Proposal { codes: &[], ..p }, p.codes.to_vec())),
+            proposal: m.proposal.map(|p| (Proposal { codes: &[], ..p }, p.codes.to_vec())),
         }
     }
 }
