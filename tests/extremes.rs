@@ -18,7 +18,7 @@ use nerf_infer::Orbit;
 use nerf_infer::{Camera, Error, Model, Pixel, RayRenderer, RenderOptions, RendererF32, RendererFixed};
 use nerf_infer::{Ray, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{quantise, quantise_acts, random_model, OwnedModel};
+use nerf_train::export::{quantise, quantise_with, random_model, ActBits, OwnedModel, Quantisation};
 use support::{small_config, unit_scene};
 
 /// What a model's weights are set to after random initialisation.
@@ -235,10 +235,13 @@ fn extreme_densities_and_weights_render_in_range_on_both_paths() {
                 let f = f32_model(&cfg, scene, w).to_bytes().unwrap();
                 renders += render_all(&f, &format!("{what} f32"));
                 let mf = Model::from_bytes(&f).unwrap();
-                for (scheme, act_bits) in [(Scheme::I16, 16), (Scheme::I8, 16), (Scheme::I8, 8)] {
-                    match quantise_acts(&mf, scheme, act_bits) {
+                for (scheme, act_bits) in
+                    [(Scheme::I16, ActBits::A16), (Scheme::I8, ActBits::A16), (Scheme::I8, ActBits::A8)]
+                {
+                    match quantise_with(&mf, &Quantisation::new(scheme).with_act_bits(act_bits)) {
                         Ok(q) => {
-                            renders += render_all(&q.to_bytes().unwrap(), &format!("{what} {scheme:?}/{act_bits}"))
+                            renders +=
+                                render_all(&q.to_bytes().unwrap(), &format!("{what} {scheme:?}/{}", act_bits.bits()))
                         }
                         // weights beyond any scale the format can hold are refused at export
                         Err(e) => assert!(matches!(w, Weights::Every(_)), "{what} {scheme:?}: {e}"),

@@ -14,7 +14,7 @@ use nerf_infer::{
     AnyRenderer, Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed,
 };
 use nerf_train::config::TrainConfig;
-use nerf_train::export::{quantise, quantise_acts, random_model};
+use nerf_train::export::{quantise, quantise_with, random_model, ActBits, Quantisation};
 use proptest::prelude::*;
 use support::*;
 
@@ -120,12 +120,12 @@ fn whole_mlp_int8_within_its_own_tier() {
 fn activation_width_must_fit_the_scheme() {
     let f = random_model(&small_config(), unit_scene(), 3, 6.0).to_bytes().unwrap();
     let mf = Model::from_bytes(&f).unwrap();
-    assert!(quantise_acts(&mf, Scheme::I16, 8).is_err());
+    assert!(quantise_with(&mf, &Quantisation::new(Scheme::I16).with_act_bits(ActBits::A8)).is_err());
     // a model claiming 8-bit activations with int16 weights is refused
-    let mut m16 = quantise_acts(&mf, Scheme::I16, 16).unwrap();
+    let mut m16 = quantise_with(&mf, &Quantisation::new(Scheme::I16)).unwrap();
     m16.coarse.act_bits = 8;
     assert_eq!(m16.to_bytes().unwrap_err(), nerf_infer::Error::InvalidTopology("unsupported activation width"));
-    let m8 = quantise_acts(&mf, Scheme::I8, 8).unwrap().to_bytes().unwrap();
+    let m8 = quantise_with(&mf, &Quantisation::new(Scheme::I8).with_act_bits(ActBits::A8)).unwrap().to_bytes().unwrap();
     assert_eq!(Model::from_bytes(&m8).unwrap().coarse.act_bits, 8);
 }
 

@@ -11,7 +11,7 @@ use nerf_infer::format::sigma_layer;
 use nerf_infer::{Model, Scheme};
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
-use nerf_train::export::{quantise_acts, quantise_layers};
+use nerf_train::export::{quantise_with, ActBits, Quantisation};
 use std::path::Path;
 use support::{psnr, render};
 
@@ -29,7 +29,8 @@ fn shipped_int16_and_int8_models_stay_within_their_bounds() {
     let (f, q16, q8) = (model("scene.nerf"), model("scene_int16.nerf"), model("scene_int8.nerf"));
     let (mf, m16, m8) =
         (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap(), Model::from_bytes(&q8).unwrap());
-    let q8a8 = quantise_acts(&mf, Scheme::I8, 8).unwrap().to_bytes().unwrap();
+    let q8a8 =
+        quantise_with(&mf, &Quantisation::new(Scheme::I8).with_act_bits(ActBits::A8)).unwrap().to_bytes().unwrap();
     let m8a8 = Model::from_bytes(&q8a8).unwrap();
     let (mut gt, mut rf, mut r16, mut r8, mut r8a8) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for v in test.views.iter().take(3) {
@@ -66,8 +67,8 @@ fn the_shipped_grid_model_renders_in_fixed_point_within_the_same_bounds() {
     let mf = Model::from_bytes(&f).unwrap();
     let grid = mf.grid.expect("the grid model carries its grid");
     assert!(mf.fine.is_none());
-    let q16 = quantise_acts(&mf, Scheme::I16, 16).unwrap().to_bytes().unwrap();
-    let q8 = quantise_acts(&mf, Scheme::I8, 16).unwrap().to_bytes().unwrap();
+    let q16 = quantise_with(&mf, &Quantisation::new(Scheme::I16)).unwrap().to_bytes().unwrap();
+    let q8 = quantise_with(&mf, &Quantisation::new(Scheme::I8)).unwrap().to_bytes().unwrap();
     let (m16, m8) = (Model::from_bytes(&q16).unwrap(), Model::from_bytes(&q8).unwrap());
     assert_eq!(m8.grid, Some(grid), "quantisation keeps the grid");
     let (mut gt, mut rf, mut r16, mut r8) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -101,7 +102,7 @@ fn int8_16_bit_parts_bring_the_render_closer_to_f32() {
     for name in ["scene.nerf", "scene_grid.nerf"] {
         let f = model(name);
         let mf = Model::from_bytes(&f).unwrap();
-        let with = quantise_acts(&mf, Scheme::I8, 16).unwrap();
+        let with = quantise_with(&mf, &Quantisation::new(Scheme::I8)).unwrap();
         let mut without = with.clone();
         assert!(with.coarse.precise.is_some());
         without.coarse.precise = None;
@@ -134,8 +135,9 @@ fn a_16_bit_density_head_renders_as_the_int16_models_density_head() {
         let f = model(name);
         let mf = Model::from_bytes(&f).unwrap();
         let si = sigma_layer(&mf.topology);
-        let plain = quantise_acts(&mf, Scheme::I16, 16).unwrap();
-        let listed = quantise_layers(&mf, Scheme::I16, 16, &[si]).unwrap();
+        let plain = quantise_with(&mf, &Quantisation::new(Scheme::I16)).unwrap();
+        let listed =
+            quantise_with(&mf, &Quantisation { eight_bit_layers: vec![si], ..Quantisation::new(Scheme::I16) }).unwrap();
         // the listed layer's own weights did take int8 precision
         assert_ne!(plain.coarse.layers[si], listed.coarse.layers[si], "{name}");
         let (plain, listed) = (plain.to_bytes().unwrap(), listed.to_bytes().unwrap());

@@ -2,7 +2,7 @@
 
 use super::{decode, read_model, write_atomic, ActBits, CmdResult, TableBits, WeightBits};
 use nerf_infer::Scheme;
-use nerf_train::export::{quantise_layers, OwnedModel};
+use nerf_train::export::{quantise_with, OwnedModel, Quantisation};
 use std::path::PathBuf;
 
 /// Arguments of `nerf export`.
@@ -106,7 +106,7 @@ pub fn run(a: Args) -> CmdResult {
             return Err(format!("{}: model is already quantised; export from the f32 model", a.model.display()))
         }
         bits => {
-            let (scheme, act_bits) = (bits.scheme(), a.act_bits.bits());
+            let (scheme, act_bits) = (bits.scheme(), a.act_bits);
             let layers = model.coarse.layers.len();
             if let Some(&bad) = a.int8_layers.iter().find(|&&i| i >= layers) {
                 return Err(format!(
@@ -115,8 +115,14 @@ pub fn run(a: Args) -> CmdResult {
                     layers - 1
                 ));
             }
-            quantise_layers(&model, scheme, act_bits, &a.int8_layers)
-                .map_err(|e| format!("{}: {e}", a.model.display()))?
+            quantise_with(
+                &model,
+                &Quantisation {
+                    eight_bit_layers: a.int8_layers.clone(),
+                    ..Quantisation::new(scheme).with_act_bits(act_bits)
+                },
+            )
+            .map_err(|e| format!("{}: {e}", a.model.display()))?
         }
     };
     if a.table_bits != TableBits::T16 {

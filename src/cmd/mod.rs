@@ -17,6 +17,7 @@ pub mod web;
 
 use nerf_infer::format::Framing;
 use nerf_train::dataset::{self, Dataset, Format, LoadOptions, SceneKind, Split};
+pub use nerf_train::export::ActBits;
 use std::path::{Path, PathBuf};
 
 /// A command's failure: one line for the user.
@@ -116,27 +117,6 @@ impl From<FixedBits> for WeightBits {
         match b {
             FixedBits::I16 => WeightBits::I16,
             FixedBits::I8 => WeightBits::I8,
-        }
-    }
-}
-
-/// `--act-bits`: hidden-activation bits of the integer path.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ActBits {
-    /// i16 activations.
-    #[value(name = "16")]
-    A16,
-    /// u8 ReLU outputs and an i8 feature layer (int8 weights only).
-    #[value(name = "8")]
-    A8,
-}
-
-impl ActBits {
-    /// Bits per activation.
-    pub fn bits(self) -> u8 {
-        match self {
-            ActBits::A16 => 16,
-            ActBits::A8 => 8,
         }
     }
 }

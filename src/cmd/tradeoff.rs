@@ -10,7 +10,7 @@
 use super::{decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, Split};
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
-use nerf_train::export::quantise_acts;
+use nerf_train::export::{quantise_with, ActBits, Quantisation};
 use nerf_train::plot::{pareto, scatter, Point};
 use std::path::PathBuf;
 
@@ -122,10 +122,14 @@ pub fn run(a: Args) -> CmdResult {
         return Err(format!("{}: give the f32 model; its int16 and int8 variants are made from it", a.model.display()));
     }
     let quantised = |scheme, act_bits| {
-        quantise_acts(&mf, scheme, act_bits)
+        quantise_with(&mf, &Quantisation::new(scheme).with_act_bits(act_bits))
             .and_then(|m| m.to_bytes().map_err(|e| nerf_train::Error::Export(e.to_string())))
     };
-    let (q16, q8, q8a8) = (quantised(Scheme::I16, 16)?, quantised(Scheme::I8, 16)?, quantised(Scheme::I8, 8)?);
+    let (q16, q8, q8a8) = (
+        quantised(Scheme::I16, ActBits::A16)?,
+        quantised(Scheme::I8, ActBits::A16)?,
+        quantised(Scheme::I8, ActBits::A8)?,
+    );
     let decoded = |bytes| Model::from_bytes(bytes).map_err(|e| e.to_string());
     let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
     let downscale = a.capture.downscale_for(&mf);

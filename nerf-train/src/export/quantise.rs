@@ -190,25 +190,67 @@ pub(super) fn fine_rows(l: &Layer<'_>, cols: &[f64], q: &Quantised, nd: usize) -
     rows.iter().flat_map(|v| v.to_le_bytes()).collect()
 }
 
+/// Hidden-activation bits of an integer model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum ActBits {
+    /// i16 activations.
+    #[default]
+    #[cfg_attr(feature = "clap", value(name = "16"))]
+    A16,
+    /// u8 ReLU outputs and an i8 feature layer (int8 weights only).
+    #[cfg_attr(feature = "clap", value(name = "8"))]
+    A8,
+}
+
+impl ActBits {
+    /// Bits per activation (16 or 8).
+    pub fn bits(self) -> u8 {
+        match self {
+            ActBits::A16 => 16,
+            ActBits::A8 => 8,
+        }
+    }
+}
+
+/// How [`quantise_with`] quantises an f32 model.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Quantisation {
+    /// The weights' scheme: int16 or int8.
+    pub scheme: Scheme,
+    /// Hidden activations: 16 bits, or 8 with int8 weights (the encoding
+    /// stays Q15).
+    pub act_bits: ActBits,
+    /// Layers (indices in each network, in file order: trunk, density
+    /// head, then the feature, view and colour layers) whose weights are
+    /// rounded to int8 precision (±127 steps per output) inside an int16
+    /// model: the int8 model's values for those layers, so listing every
+    /// layer renders exactly as the int8 export does. Finds the layers
+    /// whose 8-bit weights cost PSNR.
+    pub eight_bit_layers: Vec<usize>,
+}
+
+impl Quantisation {
+    /// `scheme` with 16-bit activations and no layer rounded to 8 bits.
+    pub fn new(scheme: Scheme) -> Self {
+        Self { scheme, act_bits: ActBits::A16, eight_bit_layers: Vec::new() }
+    }
+
+    /// The same with `act_bits` activations.
+    pub fn with_act_bits(self, act_bits: ActBits) -> Self {
+        Self { act_bits, ..self }
+    }
+}
+
 /// Quantises an f32 model to `scheme` (int16 or int8 weights, 16-bit
 /// activations), using the activation ranges stored in the model.
 pub fn quantise(m: &Model<'_>, scheme: Scheme) -> Result<OwnedModel, Error> {
-    quantise_acts(m, scheme, 16)
+    quantise_with(m, &Quantisation::new(scheme))
 }
 
-/// [`quantise`] with `act_bits`-bit hidden activations: 16, or 8 with int8
-/// weights (ReLU outputs u8, the feature layer i8; the encoding stays Q15).
-pub fn quantise_acts(m: &Model<'_>, scheme: Scheme, act_bits: u8) -> Result<OwnedModel, Error> {
-    quantise_layers(m, scheme, act_bits, &[])
-}
-
-/// [`quantise_acts`] with the weights of layers `eight_bit` (indices in
-/// each network, in file order: trunk, density head, then the feature, view
-/// and colour layers) rounded to int8 precision (±127 steps per output)
-/// inside an int16 model: the int8 model's values for those layers, so
-/// listing every layer renders exactly as the int8 export does. Finds the
-/// layers whose 8-bit weights cost PSNR.
-pub fn quantise_layers(m: &Model<'_>, scheme: Scheme, act_bits: u8, eight_bit: &[usize]) -> Result<OwnedModel, Error> {
+/// Quantises an f32 model as `q` says.
+pub fn quantise_with(m: &Model<'_>, q: &Quantisation) -> Result<OwnedModel, Error> {
+    let (scheme, act_bits, eight_bit) = (q.scheme, q.act_bits.bits(), &q.eight_bit_layers[..]);
     if m.scheme() != Scheme::F32 {
         return Err(Error::Export("the model is already quantised; export from the f32 model".into()));
     }
