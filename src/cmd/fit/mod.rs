@@ -26,6 +26,11 @@ use nerf_train::dataset::Split;
 use nerf_train::export::{quantise, random_model, OwnedModel};
 use std::path::{Path, PathBuf};
 
+mod budget;
+mod tables;
+use budget::*;
+use tables::*;
+
 /// Arguments of `nerf fit`.
 #[derive(clap::Args)]
 pub struct Args {
@@ -216,47 +221,6 @@ fn with_coarse(model: &Path, coarse: u16, out: &Path) -> Result<(), String> {
     write_atomic(out, &owned.to_bytes().map_err(|e| format!("{}: {e}", out.display()))?)
 }
 
-fn tables(rows: &[Row], bits: FixedBits) -> (String, String) {
-    let bits = WeightBits::from(bits).bits();
-    let mut csv = String::from(
-        "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample,coarse_samples,gave_up\n",
-    );
-    let mut md = format!(
-        "| candidate | coarse samples | MAC/sample | cost/sample | steps | PSNR f32 | PSNR int{bits} | µs/ray (int{bits}, 1 core) | samples/ray | bytes | to fit --max-bytes |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n"
-    );
-    for r in rows {
-        csv += &format!(
-            "{},{},{},{:.3},{:.3},{:.2},{:.2},{},{},{},{}\n",
-            r.name,
-            r.macs,
-            r.steps,
-            r.psnr_f32,
-            r.psnr_fixed,
-            r.us_per_ray,
-            r.samples_per_ray,
-            r.bytes,
-            r.cost,
-            r.coarse,
-            r.gave_up
-        );
-        md += &format!(
-            "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.1} | {:.1} | {} | {} |\n",
-            r.name,
-            r.coarse,
-            r.macs,
-            r.cost,
-            r.steps,
-            r.psnr_f32,
-            r.psnr_fixed,
-            r.us_per_ray,
-            r.samples_per_ray,
-            r.bytes,
-            r.gave_up
-        );
-    }
-    (csv, md)
-}
-
 /// What a candidate's render costs per ray with `coarse` samples, in
 /// cost units ([`cost`] per sample): the estimate that decides which
 /// candidates are still worth training.
@@ -310,86 +274,12 @@ fn save(a: &Args, rows: &[Row]) -> CmdResult {
     write_atomic(&a.out.join("fit.md"), md.as_bytes())
 }
 
-/// The fixed-point model file's size for configuration `cfg` on `scene`:
-/// a model of that shape with random weights, exported as `nerf fit`
-/// exports a trained one (an upper bound: training can only prune).
-fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: FixedBits) -> Result<usize, String> {
-    let mut twin = random_model(cfg, scene, 0, 1.0);
-    // the records a trained model may carry, at their largest (varints): the size is then an upper bound
-    twin.meta.iterations = u32::MAX;
-    twin.meta.train_downscale = u16::MAX;
-    twin.capture = Some(nerf_infer::format::Capture {
-        holdout: 100_000,
-        views: u32::MAX,
-        held_out_crc: u32::MAX,
-        framing: nerf_infer::format::Framing::Unbounded,
-        lens: true,
-    });
-    // an orbit record has a fixed size; forward-facing scenes have none
-    if scene.ndc.is_none() {
-        let orbit = nerf_infer::format::FittedOrbit {
-            centre: [0.0; 3],
-            up: [0.0, 0.0, 1.0],
-            radius: 1.0,
-            height: 0.0,
-            fov_x: 1.0,
-            azimuth: 0.0,
-        };
-        twin.orbit = Some(orbit);
-    }
-    let f = twin.to_bytes().map_err(|e| e.to_string())?;
-    let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
-    let q = quantise(&m, WeightBits::from(bits).scheme())?;
-    Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
-}
-
 /// Feature-table size (log2 entries per level) below which `nerf fit`
 /// coarsens the occupancy grid first: on lego at 64 KiB a 2¹⁰ table with a
 /// 32³ grid reached 28.64 dB in int8 after 10 minutes, where the 64³ grid
 /// with a 2⁸ table fell behind the 4x64 network (docs/EXPERIMENTS.md, "On a
 /// Cortex-M").
 pub const TABLE_FLOOR_LOG2: u8 = 10;
-
-/// `cfg` shrunk until its model fits `max` bytes, in this order, each
-/// step only as far as needed: the feature table halved down to 2¹⁰
-/// entries per level ([`TABLE_FLOOR_LOG2`]), the occupancy grid coarsened
-/// down to 32³, the table halved down to 2⁸, the grid coarsened down to
-/// 16³. Returns the configuration, what it gave up, and its size, or
-/// (`Ok(Err)`) the smallest size if it cannot fit.
-#[allow(clippy::type_complexity)]
-fn fit_budget(
-    cfg: &TrainConfig,
-    scene: nerf_infer::format::Scene,
-    bits: FixedBits,
-    max: usize,
-) -> Result<Result<(TrainConfig, Vec<String>, usize), usize>, String> {
-    let mut c = cfg.clone();
-    let mut bytes = model_bytes(&c, scene, bits)?;
-    for (table_floor, grid_floor) in [(TABLE_FLOOR_LOG2, 32), (8, 16)] {
-        while bytes > max && c.feature_levels > 0 && c.feature_log2_table > table_floor {
-            c.feature_log2_table -= 1;
-            bytes = model_bytes(&c, scene, bits)?;
-        }
-        while bytes > max && c.grid_res > grid_floor {
-            c.grid_res /= 2;
-            bytes = model_bytes(&c, scene, bits)?;
-        }
-    }
-    if bytes > max {
-        return Ok(Err(bytes));
-    }
-    let mut gave = Vec::new();
-    if c.feature_log2_table != cfg.feature_log2_table {
-        gave.push(format!(
-            "feature table 2^{} -> 2^{} entries per level",
-            cfg.feature_log2_table, c.feature_log2_table
-        ));
-    }
-    if c.grid_res != cfg.grid_res {
-        gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid_res, c.grid_res));
-    }
-    Ok(Ok((c, gave, bytes)))
-}
 
 /// Runs `nerf fit`.
 pub fn run(a: Args) -> CmdResult {

@@ -20,6 +20,11 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
+mod report;
+mod resume;
+use report::*;
+use resume::*;
+
 /// Arguments of `nerf train`.
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("budget").required(true).args(["iters", "minutes"])))]
@@ -210,56 +215,6 @@ fn catch_interrupts() {
             std::process::exit(130);
         }
     });
-}
-
-/// `--resume` continues the checkpoint's run: a `--data` or `--downscale`
-/// that says otherwise is refused, naming what differs.
-fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
-    let data = data_source(a);
-    if tr.data != data {
-        return Err(format!(
-            "--data and its loading flags ({data}) differ from the checkpoint's ({}): resume with the run's data, \
-             or start over with --force",
-            tr.data
-        ));
-    }
-    if let Some(d) = a.capture.downscale.filter(|&d| d != tr.downscale) {
-        return Err(format!("--downscale {d} differs from the checkpoint's {}: resume without it", tr.downscale));
-    }
-    Ok(())
-}
-
-/// `--resume` with `--preset` or `--config`: refused, naming the fields,
-/// unless they give the checkpoint's configuration (its feature grid sized
-/// to `data` as a new run's would be).
-fn check_resume_config(a: &Args, tr: &Trainer, data: &Dataset) -> CmdResult {
-    if a.preset.is_some() || a.config.is_some() {
-        let cfg = load_config(a)?.for_data(data);
-        if cfg != tr.cfg {
-            let (now, was) =
-                (serde_json::to_value(&cfg).unwrap_or_default(), serde_json::to_value(&tr.cfg).unwrap_or_default());
-            let differ: Vec<String> = now
-                .as_object()
-                .into_iter()
-                .flatten()
-                .filter(|(k, v)| was.get(k.as_str()) != Some(v))
-                .map(|(k, _)| k.clone())
-                .collect();
-            return Err(format!(
-                "--preset/--config differ from the checkpoint's configuration in {}: resume without them, or \
-                 start over with --force",
-                differ.join(", ")
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// The dataset a run trains on, as stored in its checkpoint: the absolute
-/// path and the flags that change which views and rays are loaded.
-fn data_source(a: &Args) -> String {
-    let path = a.data.canonicalize().unwrap_or_else(|_| a.data.clone());
-    format!("{} {}", path.display(), a.capture.describe())
 }
 
 impl Args {
@@ -474,41 +429,4 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
             .unwrap_or_default()
     );
     Ok(())
-}
-
-/// Milliseconds per step of each stage of [`StepTimes`], averaged over `steps`.
-fn stage_ms(t: &StepTimes, steps: u64) -> serde_json::Value {
-    let per = 1e3 / steps.max(1) as f64;
-    serde_json::Value::Object(t.stages().iter().map(|&(k, v)| (k.to_string(), (v * per).into())).collect())
-}
-
-/// GFLOP/s per thread of the network's layers, forward (2 flops per
-/// multiply-accumulate) and backward (4: the input's and the weights'
-/// gradients), over `samples` network evaluations.
-fn mlp_gflops(t: &StepTimes, samples: usize, mlp: &Mlp) -> serde_json::Value {
-    let flops = samples as f64 * mlp.macs_per_sample() as f64 / 1e9;
-    serde_json::json!({
-        "forward": 2.0 * flops / t.forward.max(1e-9),
-        "backward": 4.0 * flops / t.backward.max(1e-9),
-    })
-}
-
-/// One line on where the run's time went: each wall stage's share of the
-/// steps, the chunks' thread time split, and the layers' GFLOP/s per thread.
-fn time_summary(t: &StepTimes, steps: u64, samples: usize, mlp: &Mlp) -> String {
-    let wall = t.wall().max(1e-9);
-    let thread = t.thread().max(1e-9);
-    let share = |v: f64, of: f64| format!("{:.0} %", 100.0 * v / of);
-    let stages: Vec<String> = t.wall_stages().iter().map(|&(k, v)| format!("{k} {}", share(v, wall))).collect();
-    let split: Vec<String> = t.thread_stages().iter().map(|&(k, v)| format!("{k} {}", share(v, thread))).collect();
-    let g = mlp_gflops(t, samples, mlp);
-    format!(
-        "time per step {:.2} ms over {steps} steps: {}; chunks' thread time: {}; layers {:.1} GFLOP/s forward, {:.1} \
-         backward per thread",
-        1e3 * wall / steps.max(1) as f64,
-        stages.join(", "),
-        split.join(", "),
-        g["forward"].as_f64().unwrap_or(0.0),
-        g["backward"].as_f64().unwrap_or(0.0),
-    )
 }

@@ -1,0 +1,82 @@
+//! `--max-bytes`: a candidate's model size at the chosen weight bits, and
+//! the candidate shrunk (grid, table, samples) until it fits.
+
+use super::*;
+
+/// The fixed-point model file's size for configuration `cfg` on `scene`:
+/// a model of that shape with random weights, exported as `nerf fit`
+/// exports a trained one (an upper bound: training can only prune).
+pub(super) fn model_bytes(
+    cfg: &TrainConfig,
+    scene: nerf_infer::format::Scene,
+    bits: FixedBits,
+) -> Result<usize, String> {
+    let mut twin = random_model(cfg, scene, 0, 1.0);
+    // the records a trained model may carry, at their largest (varints): the size is then an upper bound
+    twin.meta.iterations = u32::MAX;
+    twin.meta.train_downscale = u16::MAX;
+    twin.capture = Some(nerf_infer::format::Capture {
+        holdout: 100_000,
+        views: u32::MAX,
+        held_out_crc: u32::MAX,
+        framing: nerf_infer::format::Framing::Unbounded,
+        lens: true,
+    });
+    // an orbit record has a fixed size; forward-facing scenes have none
+    if scene.ndc.is_none() {
+        let orbit = nerf_infer::format::FittedOrbit {
+            centre: [0.0; 3],
+            up: [0.0, 0.0, 1.0],
+            radius: 1.0,
+            height: 0.0,
+            fov_x: 1.0,
+            azimuth: 0.0,
+        };
+        twin.orbit = Some(orbit);
+    }
+    let f = twin.to_bytes().map_err(|e| e.to_string())?;
+    let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
+    let q = quantise(&m, WeightBits::from(bits).scheme())?;
+    Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
+}
+
+/// `cfg` shrunk until its model fits `max` bytes, in this order, each
+/// step only as far as needed: the feature table halved down to 2¹⁰
+/// entries per level ([`TABLE_FLOOR_LOG2`]), the occupancy grid coarsened
+/// down to 32³, the table halved down to 2⁸, the grid coarsened down to
+/// 16³. Returns the configuration, what it gave up, and its size, or
+/// (`Ok(Err)`) the smallest size if it cannot fit.
+#[allow(clippy::type_complexity)]
+pub(super) fn fit_budget(
+    cfg: &TrainConfig,
+    scene: nerf_infer::format::Scene,
+    bits: FixedBits,
+    max: usize,
+) -> Result<Result<(TrainConfig, Vec<String>, usize), usize>, String> {
+    let mut c = cfg.clone();
+    let mut bytes = model_bytes(&c, scene, bits)?;
+    for (table_floor, grid_floor) in [(TABLE_FLOOR_LOG2, 32), (8, 16)] {
+        while bytes > max && c.feature_levels > 0 && c.feature_log2_table > table_floor {
+            c.feature_log2_table -= 1;
+            bytes = model_bytes(&c, scene, bits)?;
+        }
+        while bytes > max && c.grid_res > grid_floor {
+            c.grid_res /= 2;
+            bytes = model_bytes(&c, scene, bits)?;
+        }
+    }
+    if bytes > max {
+        return Ok(Err(bytes));
+    }
+    let mut gave = Vec::new();
+    if c.feature_log2_table != cfg.feature_log2_table {
+        gave.push(format!(
+            "feature table 2^{} -> 2^{} entries per level",
+            cfg.feature_log2_table, c.feature_log2_table
+        ));
+    }
+    if c.grid_res != cfg.grid_res {
+        gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid_res, c.grid_res));
+    }
+    Ok(Ok((c, gave, bytes)))
+}
