@@ -99,4 +99,5 @@ def main():
     print(f"all views, every pixel: {psnr(sq, n_all):.2f} dB over {n_all} px")
 
 
-main()
+if __name__ == "__main__":
+    main()

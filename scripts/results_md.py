@@ -260,7 +260,10 @@ and the same scene on black, `--scene object`) trained 5 minutes each with
 no flag but `--data`, `--downscale 8` (the room at full size) and `--out`,
 back to back on one machine: unbounded captures get the proposal grid that
 places the network's samples, object scenes the occupancy grid's stratified
-samples. ms per step is the run's wall time over its steps; PSNR on the
+samples. In the rows of aee59e8 the proposal grid is composited at 192
+stratified samples and the network evaluated at 48, the default of that
+commit; the default is 128 and 32 since ("Configurations compared on a
+capture" compares the two). ms per step is the run's wall time over its steps; PSNR on the
 held-out views (every 8th photo; lego's 10 validation views) in f32 and
 after `nerf export --bits 8`; the int8 render on one core with early
 termination 10⁻³ (`nerf eval --threads 1 --repeat 3 --early-stop 1e-3`,
@@ -277,13 +280,37 @@ def proposal_samples_section():
     t = table(["<capture", "stratified", "network samples", "PSNR int8", "evaluated/ray", "µs/ray", "<run"], body)
     return ("The network's samples per ray with a proposal grid", "proposal", """`scripts/proposal_samples.sh
 MODEL DATA CAPTURE` (run by `scripts/proposal.sh` on its bird and fox
-models, trained with 192 stratified samples and 48 network samples): the
+models, trained with 192 stratified and 48 network samples in the rows of
+aee59e8): the
 int8 export rendered on the held-out views with S stratified samples
 compositing the proposal grid and N network samples drawn from its weights
 (`nerf eval --coarse S --fine N`), one core, early termination 10⁻³, the
 fastest of three. The network's samples are placed where the grid's weight
 is, so early termination cuts few of them: the time follows the counts,
 and the grid's pass at the stratified samples is part of every row's.""", t if rs else missing("proposal"))
+
+
+def capture_ab_section():
+    rs = rows("capture_ab.csv")
+    for r in rs:
+        r["length"] = f"{r['minutes']} min" if r["minutes"] else f"{thousands(r['steps'])} steps"
+    rs = latest(rs, "capture", "length", "configuration")
+    body = [[r["capture"], r["length"], f"`{r['configuration']}`", thousands(r["steps"]), r["ms_per_step"],
+             f"**{r['psnr']}**", r["psnr_right_half"], r["psnr_right_half_corrected"], r["psnr_int8"],
+             r["evaluations_per_ray"], r["us_per_ray_int8"], run(r)] for r in rs]
+    t = table(["<capture", "<length", "<configuration", "steps", "ms/step", "PSNR", "right halves",
+               "corrected", "int8", "evaluated/ray", "µs/ray int8", "<run"], body)
+    return ("Configurations compared on a capture", "capture-ab", """`scripts/capture_ab.sh DATA LENGTH
+CONFIG...` (the commands are `scripts/results.sh --list`'s `capture-ab`):
+the capture trained at 1/8 size for a number of steps (the rows compare
+at equal steps) or minutes (at equal time, back to back), seed 0, the
+default with the configuration's fields on top (`--config`; `{}` is the
+default). PSNR on the held-out views at the field's own colour; "right
+halves" the same renders' right halves, and "corrected" those halves
+after an affine colour correction fitted on each view's left half
+(`scripts/appearance_half.py`); int8: the `--bits 8` export, rendered on
+one core with early termination 10⁻³. ms per step is the run's wall time
+(loading included) over its steps.""", t if rs else missing("capture_ab"))
 
 
 def plain_build_section():
@@ -451,7 +478,7 @@ thread.""", t if rs else missing("web"))
 
 
 SECTIONS = [default_section, full_section, tradeoff_section, fast_int8_section, int8_section, table_bits_section, captures_section, proposal_section,
-            proposal_samples_section, plain_build_section, bench_section, train_step_section,
+            proposal_samples_section, capture_ab_section, plain_build_section, bench_section, train_step_section,
             mesh_section,
             mcu_section, web_section]
 

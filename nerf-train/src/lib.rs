@@ -11,6 +11,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod adam;
+pub mod appearance;
 pub mod atomic;
 pub mod config;
 pub mod dataset;

@@ -45,8 +45,9 @@ impl TrainConfig {
             footprint_from: 0.0,
             ema_decay: 0.0,
             proposal_res: 0,
-            n_main: 48,
+            n_main: 32,
             proposal_lr: 0.05,
+            appearance: false,
         }
     }
 

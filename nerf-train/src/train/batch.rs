@@ -15,6 +15,9 @@ pub struct Sample {
     /// (white or black), or a random colour for a pixel with an alpha channel
     /// ([`TrainConfig::random_background`]).
     pub bg: [f32; 3],
+    /// The index of the photo the pixel is from among the dataset's
+    /// views (for its [`crate::appearance`] correction).
+    pub view: u32,
 }
 
 /// Where [`Trainer::draw_batch`] sends its rays.
@@ -47,9 +50,9 @@ impl Draw {
 }
 
 impl Sample {
-    /// A ray on the scene's background with ground truth `rgb`.
+    /// A ray on the scene's background with ground truth `rgb` from view 0.
     pub fn on_scene(scene: &Scene, ray: Ray, rgb: [f32; 3]) -> Self {
-        Self { ray, rgb, bg: [scene.background(); 3] }
+        Self { ray, rgb, bg: [scene.background(); 3], view: 0 }
     }
 }
 
@@ -92,7 +95,7 @@ impl Trainer {
             if how.footprint {
                 ray = ray.with_footprint(&data.scene, v.camera.pixel_angle(), rng.f32() * std::f32::consts::TAU);
             }
-            let mut s = Sample::on_scene(&data.scene, ray, v.rgb[px]);
+            let mut s = Sample { view: vi as u32, ..Sample::on_scene(&data.scene, ray, v.rgb[px]) };
             let alpha = if how.random_background > 0.0 { v.alpha.get(px) } else { None };
             if let Some(&a) = alpha.filter(|_| rng.f32() < how.random_background) {
                 s.bg = [rng.f32(), rng.f32(), rng.f32()];

@@ -8,7 +8,7 @@ use crate::error::Error;
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 11;
+pub const CHECKPOINT_VERSION: u16 = 12;
 
 /// How many of a run's `params` parameters are a feature grid's table: the
 /// last ones (a run with a feature grid has one network), none without one.
@@ -74,8 +74,13 @@ impl Trainer {
                     && p.adam.steps.len() == n
             }
         };
+        let appearance_ok = match &t.appearance {
+            None => true,
+            Some(a) => t.cfg.appearance && a.is_consistent(),
+        };
         let nets = if t.cfg.n_fine > 0 { 2 } else { 1 };
         let sizes_ok = proposal_ok
+            && appearance_ok
             && t.cfg.validate().is_ok()
             && t.pixel.is_finite()
             && t.pixel >= 0.0

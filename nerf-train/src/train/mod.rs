@@ -18,6 +18,7 @@
 //! state.
 
 use crate::adam::Adam;
+use crate::appearance::{self, Appearance};
 use crate::config::TrainConfig;
 use crate::dataset::Dataset;
 use crate::grid::DensityGrid;
@@ -131,6 +132,9 @@ pub struct Trainer {
     /// The proposal grid placing the network's samples (runs with
     /// `proposal_res > 0`).
     pub proposal: Option<ProposalGrid>,
+    /// Each training photo's colour correction (runs with
+    /// [`TrainConfig::appearance`], from their first step).
+    pub appearance: Option<Appearance>,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
@@ -214,6 +218,9 @@ struct Workspace {
     props: Vec<RayProposal>,
     dsig: Vec<f32>,
     drgb: Vec<f32>,
+    /// The photos' colour corrections' gradient (runs with
+    /// [`TrainConfig::appearance`]; as [`Appearance::params`]).
+    dapp: Vec<f32>,
 }
 
 /// The losses beside the colour's: the distortion loss's weight and each
@@ -225,6 +232,13 @@ struct Priors<'a> {
     mid: &'a [f32],
     width: &'a [f32],
     density_l1: f32,
+}
+
+/// The photos' colour corrections and their gradient, which
+/// [`step::loss_gradients`] adds to.
+struct Corrections<'a> {
+    params: &'a [f32],
+    grad: &'a mut Vec<f32>,
 }
 
 impl Trainer {
@@ -257,6 +271,7 @@ impl Trainer {
             pixel: 0.0,
             ema: Vec::new(),
             proposal,
+            appearance: None,
             pool: GradPool::default(),
         }
     }

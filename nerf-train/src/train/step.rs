@@ -4,7 +4,9 @@
 use super::*;
 
 /// Composites each ray's samples (`offs[i]..offs[i + 1]`, weights into
-/// `w`) on the ray's background and writes the gradients of `scale · Σ (C − C_gt)²`
+/// `w`) on the ray's background, corrects the colour `C` by the ray's photo's
+/// correction if `corrections` holds them (adding their gradient to its
+/// `grad`), and writes the gradients of `scale · Σ (C − C_gt)²`
 /// (plus `scale · 3/2 · λ · L_dist` per ray for the distortion weight λ, and
 /// `scale · 3/2 · μ ·` [`optical_depth`](crate::volume::optical_depth) for the density weight μ) with respect to
 /// the raw densities and colours into `dsig` and `drgb`; returns the summed
@@ -17,6 +19,7 @@ pub(super) fn loss_gradients(
     acts: &Acts,
     delta: &[f32],
     priors: Priors<'_>,
+    mut corrections: Option<Corrections<'_>>,
     w: &mut [f32],
     dw: &mut Vec<f32>,
     dsig: &mut Vec<f32>,
@@ -25,14 +28,24 @@ pub(super) fn loss_gradients(
     let n = offs[rays.len()];
     dsig.resize(n, 0.0);
     drgb.resize(n * 3, 0.0);
+    if let Some(c) = corrections.as_mut() {
+        c.grad.resize(c.params.len(), 0.0);
+    }
     let mut sq = 0.0f64;
     for (i, r) in rays.iter().enumerate() {
         let (s, gt, bg) = (offs[i]..offs[i + 1], r.rgb, r.bg);
         let c = 3 * s.start..3 * s.end;
         let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[c.clone()]);
         let col = composite(sig, rgb, &delta[s.clone()], bg, &mut w[s.clone()]);
-        let dc: [f32; 3] = std::array::from_fn(|k| scale * (col[k] - gt[k]));
-        sq += (0..3).map(|k| ((col[k] - gt[k]) as f64).powi(2)).sum::<f64>();
+        // the photo's colour correction, if the run fits one
+        let photo = r.view as usize * appearance::PER_PHOTO..(r.view as usize + 1) * appearance::PER_PHOTO;
+        let y = corrections.as_ref().map_or(col, |k| appearance::apply(&k.params[photo.clone()], col));
+        let dy: [f32; 3] = std::array::from_fn(|k| scale * (y[k] - gt[k]));
+        let dc = match corrections.as_mut() {
+            Some(k) => appearance::apply_back(&k.params[photo.clone()], col, dy, &mut k.grad[photo]),
+            None => dy,
+        };
+        sq += (0..3).map(|k| ((y[k] - gt[k]) as f64).powi(2)).sum::<f64>();
         dw.clear();
         // the colour loss is a mean over rays and channels, the priors means over rays
         if priors.distortion > 0.0 {
@@ -69,7 +82,14 @@ impl Trainer {
         how.footprint &= self.footprint().is_some();
         let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
-        let (grad, sq_c, sq_f, samples) = self.gradients_timed(&batch, step_key, &mut times);
+        if self.cfg.appearance {
+            let photos = data.views.len();
+            let a = self.appearance.get_or_insert_with(|| Appearance::new(photos));
+            if a.photos() != photos {
+                *a = Appearance::new(photos);
+            }
+        }
+        let (grad, sq_c, sq_f, samples, mut photos) = self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
         let mse_f = if self.cfg.n_fine > 0 { sq_f / n } else { sq_c / n };
         let loss = (sq_c + sq_f) / n;
@@ -95,6 +115,10 @@ impl Trainer {
             }
             let lr_p = c.proposal_lr * lr / c.lr;
             timed(&mut stats.times.adam, || self.step_proposal(lr_p));
+            if let Some(a) = self.appearance.as_mut().filter(|_| !photos.is_empty()) {
+                let c = &self.cfg;
+                a.update(&mut photos, appearance::LR_SHARE * lr, c.beta1, c.beta2, c.eps);
+            }
         }
         if let Ok(mut g) = self.pool.2.lock() {
             g.clear();
@@ -113,17 +137,19 @@ impl Trainer {
     /// gradient is scattered afterwards, one level per task, chunk after
     /// chunk ([`Mlp::scatter_table`]).
     pub fn gradients(&self, batch: &[Sample], step_key: u32) -> (Vec<f32>, f64, f64, usize) {
-        self.gradients_timed(batch, step_key, &mut StepTimes::default())
+        let (g, c, f, n, _) = self.gradients_timed(batch, step_key, &mut StepTimes::default());
+        (g, c, f, n)
     }
 
     /// [`Trainer::gradients`], adding the time of its stages to `times`
-    /// (`chunks` and its split, `scatter`).
+    /// (`chunks` and its split, `scatter`), and the photos' colour
+    /// corrections' gradient (empty without [`TrainConfig::appearance`]).
     pub(super) fn gradients_timed(
         &self,
         batch: &[Sample],
         step_key: u32,
         times: &mut StepTimes,
-    ) -> (Vec<f32>, f64, f64, usize) {
+    ) -> (Vec<f32>, f64, f64, usize, Vec<f32>) {
         let start = std::time::Instant::now();
         // the proposal grid's gradient is this batch's alone
         if let Ok(mut g) = self.pool.2.lock() {
@@ -137,8 +163,8 @@ impl Trainer {
         let chunk = self.cfg.chunk_rays;
         // a few accumulators per thread, for balance
         let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
-        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes);
-        let (dense_grad, sq_c, sq_f, samples, mut grids, split): Acc = batch
+        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes, Vec<f32>);
+        let (dense_grad, sq_c, sq_f, samples, mut grids, split, photos): Acc = batch
             .par_chunks(chunk)
             .with_min_len(min_len.max(1))
             .enumerate()
@@ -154,21 +180,25 @@ impl Trainer {
                     (g, c + a, f + b, n + k, grids, t, ws)
                 },
             )
-            .map(|(g, c, f, n, grids, t, _)| (g, c, f, n, grids, t))
+            .map(|(g, c, f, n, grids, t, ws)| (g, c, f, n, grids, t, ws.dapp))
             .reduce(
-                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new(), StepTimes::default()),
-                |(mut g1, c1, f1, n1, mut r1, mut t1), (g2, c2, f2, n2, r2, t2)| {
+                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new(), StepTimes::default(), Vec::new()),
+                |(mut g1, c1, f1, n1, mut r1, mut t1, mut p1), (g2, c2, f2, n2, r2, t2, p2)| {
                     g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
                     self.pool.give(g2);
                     r1.extend(r2);
                     t1.add(&t2);
-                    (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1)
+                    if p1.len() < p2.len() {
+                        p1.resize(p2.len(), 0.0);
+                    }
+                    p1.iter_mut().zip(&p2).for_each(|(a, b)| *a += b);
+                    (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1, p1)
                 },
             );
         times.add(&split);
         times.chunks += start.elapsed().as_secs_f64();
         if dense == np {
-            return (dense_grad, sq_c, sq_f, samples);
+            return (dense_grad, sq_c, sq_f, samples, photos);
         }
         let start = std::time::Instant::now();
         let mut grad = self.pool.take(np);
@@ -179,7 +209,7 @@ impl Trainer {
         net.scatter_table(&grids, &mut grad[dense..]);
         self.pool.give_grids(grids);
         times.scatter += start.elapsed().as_secs_f64();
-        (grad, sq_c, sq_f, samples)
+        (grad, sq_c, sq_f, samples, photos)
     }
 
     /// Stratified samples of every ray of a chunk (jitter key per ray from
@@ -283,7 +313,20 @@ impl Trainer {
         let sq_c = timed(&mut t.composite, || {
             let priors = self.priors(&ws.s_mid, &ws.s_width);
             let (w, dw) = (&mut ws.w_c, &mut ws.dw);
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_c, &ws.delta, priors, w, dw, &mut ws.dsig, &mut ws.drgb)
+            let corr = self.corrections(&mut ws.dapp);
+            loss_gradients(
+                rays,
+                &ws.offs,
+                scale,
+                &ws.acts_c,
+                &ws.delta,
+                priors,
+                corr,
+                w,
+                dw,
+                &mut ws.dsig,
+                &mut ws.drgb,
+            )
         });
         if let Some(pg) = &self.proposal {
             // the interlevel loss, a mean over the batch's rays as the colour loss is
@@ -339,10 +382,29 @@ impl Trainer {
         let sq_f = timed(&mut t.composite, || {
             let priors = self.priors(&ws.s_mid, &ws.s_width);
             let (w, dw) = (&mut ws.w_f, &mut ws.dw);
-            loss_gradients(rays, &ws.offs, scale, &ws.acts_f, &ws.delta, priors, w, dw, &mut ws.dsig, &mut ws.drgb)
+            let corr = self.corrections(&mut ws.dapp);
+            loss_gradients(
+                rays,
+                &ws.offs,
+                scale,
+                &ws.acts_f,
+                &ws.delta,
+                priors,
+                corr,
+                w,
+                dw,
+                &mut ws.dsig,
+                &mut ws.drgb,
+            )
         });
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)
+    }
+
+    /// The photos' colour corrections, their gradient summed into `grad`
+    /// (runs with [`TrainConfig::appearance`]).
+    pub(super) fn corrections<'a>(&'a self, grad: &'a mut Vec<f32>) -> Option<Corrections<'a>> {
+        self.appearance.as_ref().map(|a| Corrections { params: &a.params, grad })
     }
 
     /// The run's losses beside the colour's, over the samples' intervals.

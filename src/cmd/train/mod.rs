@@ -109,8 +109,9 @@ struct NewRun {
     /// Size the feature grid to the photos ([`TrainConfig::fit_features_to`]):
     /// unless `--config` names `feature_max_res` or `feature_log2_table`.
     fit_features: bool,
-    /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]):
-    /// unless `--config` names `n_coarse`.
+    /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]),
+    /// or to [`TrainConfig::PROPOSAL_COARSE`] where a proposal grid is
+    /// turned on: unless `--config` names `n_coarse`.
     fit_samples: bool,
     /// Place the network's samples with a proposal grid in unbounded and
     /// forward-facing scenes ([`TrainConfig::proposal_res`]): unless
@@ -128,7 +129,11 @@ impl NewRun {
         // one network over an occupancy grid: the presets whose stratified samples the proposal replaces
         if self.fit_proposal && open && cfg.proposal_res == 0 && cfg.n_fine == 0 && cfg.grid_res > 0 {
             // only a configuration the grid can serve (n_coarse 3..=256, n_main 1..=255) gets it
-            let with = TrainConfig { proposal_res: TrainConfig::PROPOSAL_RES, ..cfg.clone() };
+            let mut with = TrainConfig { proposal_res: TrainConfig::PROPOSAL_RES, ..cfg.clone() };
+            if self.fit_samples {
+                // the grid composited at fewer stratified samples than the occupancy grid's
+                with.n_coarse = TrainConfig::PROPOSAL_COARSE;
+            }
             if with.validate().is_ok() {
                 cfg = with;
             }
@@ -293,15 +298,16 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
         }
         if cfg.proposal_res != run.cfg.proposal_res {
             eprintln!(
-                "{} scene: the network's {} samples per ray placed by a {}³ proposal grid; set proposal_res 0 with \
-                 --config for the occupancy grid's {} stratified samples",
+                "{} scene: the network's {} samples per ray placed by a {}³ proposal grid composited at {} \
+                 stratified samples; set proposal_res 0 with --config for the occupancy grid's {} stratified samples",
                 if data.scene.ndc.is_some() { "forward-facing" } else { "unbounded" },
                 cfg.n_main,
                 cfg.proposal_res,
-                cfg.n_coarse
+                cfg.n_coarse,
+                run.cfg.n_coarse
             );
         }
-        if cfg.n_coarse != run.cfg.n_coarse {
+        if cfg.n_coarse != run.cfg.n_coarse && cfg.proposal_res == run.cfg.proposal_res {
             eprintln!(
                 "samples per ray set for the photos: {} (was {}); set n_coarse with --config to choose",
                 cfg.n_coarse, run.cfg.n_coarse
