@@ -26,7 +26,7 @@ steps=(
   "lens|12|scripts/lens.sh ROOT 1000 0 && scripts/lens.sh ROOT 1000 1"
   "scene360|5|scripts/scene360.sh 2"
   "proposal|45|BASELINE=1 scripts/proposal.sh ROOT 5"
-  "capture-ab|40|scripts/capture_ab.sh ROOT/fox 2500 '{}' '{\"appearance\": true}' && scripts/capture_ab.sh ROOT/bird 2500 '{}' '{\"appearance\": true}' && scripts/capture_ab.sh ROOT/bird 5m '{}' '{\"n_coarse\": 192, \"n_main\": 48}' && scripts/capture_ab.sh ROOT/fox 5m '{}' '{\"n_coarse\": 192, \"n_main\": 48}'"
+  "capture-ab|40|scripts/capture_ab.sh ROOT/fox 2500 '{}' '{\"appearance\": true}' '{\"distortion\": 0.001}' && scripts/capture_ab.sh ROOT/bird 2500 '{}' '{\"appearance\": true}' '{\"distortion\": 0.001}' && scripts/capture_ab.sh ROOT/bird 5m '{}' '{\"n_coarse\": 192, \"n_main\": 48}' && scripts/capture_ab.sh ROOT/fox 5m '{}' '{\"n_coarse\": 192, \"n_main\": 48}' && scripts/capture_ab.sh ROOT/lego 5m '{}'"
   "layouts|10|scripts/llff_layout.sh ROOT 1500 && scripts/capture_bird.sh ROOT 1500"
   "plain-build|12|scripts/plain_build_lego.sh ROOT 10"
   "bench|12|scripts/bench.sh"
