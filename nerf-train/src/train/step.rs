@@ -310,24 +310,7 @@ impl Trainer {
             timed(&mut t.encode, || net.encode_footprint(pc, &ws.pos, &ws.foot, &mut ws.acts_c));
             timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
         }
-        let sq_c = timed(&mut t.composite, || {
-            let priors = self.priors(&ws.s_mid, &ws.s_width);
-            let (w, dw) = (&mut ws.w_c, &mut ws.dw);
-            let corr = self.corrections(&mut ws.dapp);
-            loss_gradients(
-                rays,
-                &ws.offs,
-                scale,
-                &ws.acts_c,
-                &ws.delta,
-                priors,
-                corr,
-                w,
-                dw,
-                &mut ws.dsig,
-                &mut ws.drgb,
-            )
-        });
+        let sq_c = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, false));
         if let Some(pg) = &self.proposal {
             // the interlevel loss, a mean over the batch's rays as the colour loss is
             timed(&mut t.composite, || self.proposal_backward(pg, r, key, 1.5 * scale, ws));
@@ -379,36 +362,20 @@ impl Trainer {
         t.sample += start.elapsed().as_secs_f64();
         timed(&mut t.encode, || net.encode(pf, &ws.pos, &mut ws.acts_f));
         timed(&mut t.forward, || net.forward_layers(pf, &ws.dirs, true, &mut ws.acts_f));
-        let sq_f = timed(&mut t.composite, || {
-            let priors = self.priors(&ws.s_mid, &ws.s_width);
-            let (w, dw) = (&mut ws.w_f, &mut ws.dw);
-            let corr = self.corrections(&mut ws.dapp);
-            loss_gradients(
-                rays,
-                &ws.offs,
-                scale,
-                &ws.acts_f,
-                &ws.delta,
-                priors,
-                corr,
-                w,
-                dw,
-                &mut ws.dsig,
-                &mut ws.drgb,
-            )
-        });
+        let sq_f = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, true));
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)
     }
 
-    /// The photos' colour corrections, their gradient summed into `grad`
-    /// (runs with [`TrainConfig::appearance`]).
-    pub(super) fn corrections<'a>(&'a self, grad: &'a mut Vec<f32>) -> Option<Corrections<'a>> {
-        self.appearance.as_ref().map(|a| Corrections { params: &a.params, grad })
-    }
-
-    /// The run's losses beside the colour's, over the samples' intervals.
-    pub(super) fn priors<'a>(&self, mid: &'a [f32], width: &'a [f32]) -> Priors<'a> {
-        Priors { distortion: self.cfg.distortion, mid, width, density_l1: self.cfg.density_l1 }
+    /// [`loss_gradients`] of a chunk's pass (the coarse or only pass's
+    /// samples in `ws`, or with `fine` the fine pass's), with the run's
+    /// losses beside the colour's and, with [`TrainConfig::appearance`],
+    /// the photos' colour corrections, their gradient summed into `ws.dapp`.
+    fn colour_loss(&self, rays: &[Sample], scale: f32, ws: &mut Workspace, fine: bool) -> f64 {
+        let c = &self.cfg;
+        let priors = Priors { distortion: c.distortion, mid: &ws.s_mid, width: &ws.s_width, density_l1: c.density_l1 };
+        let corr = self.appearance.as_ref().map(|a| Corrections { params: &a.params, grad: &mut ws.dapp });
+        let (acts, w) = if fine { (&ws.acts_f, &mut ws.w_f) } else { (&ws.acts_c, &mut ws.w_c) };
+        loss_gradients(rays, &ws.offs, scale, acts, &ws.delta, priors, corr, w, &mut ws.dw, &mut ws.dsig, &mut ws.drgb)
     }
 }
