@@ -67,7 +67,7 @@ fn corrections_take_each_photos_exposure() {
     assert!((all - 1.0).abs() < 1e-4, "mean gain {all}");
     assert!(loss_with < loss_without, "loss {loss_with} with corrections, {loss_without} without");
     // a checkpoint keeps them
-    let back = Trainer::from_bytes(&with.to_bytes()).unwrap();
+    let back = Trainer::from_bytes(&with.to_bytes().unwrap()).unwrap();
     assert_eq!(back.appearance.as_ref().unwrap().params, a.params);
     assert_ne!(a.of(1), &IDENTITY[..]);
 }

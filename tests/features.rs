@@ -79,7 +79,7 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     let mlp = tr.mlp();
     let table = &tr.params[mlp.table..];
     assert!(table.iter().any(|v| v.abs() > 1e-2), "the table did not move from its ±1e-4 start");
-    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     assert_eq!(back.params, tr.params);
 
     let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));
@@ -144,7 +144,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
         assert_eq!(tr.ema, want, "step {n}");
     }
     assert_ne!(tr.ema, tr.params);
-    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     assert_eq!(back.ema, tr.ema, "checkpoints keep the average");
 
     // the model holds the average, the run goes on with its own parameters
@@ -205,7 +205,7 @@ fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
     println!("{moved} value updates, {kept} times a value updated before kept it");
     assert!(moved > 1000 && kept > 1000, "{moved} updates, {kept} kept");
     assert!(tr.adam.steps.contains(&0), "some values never had a gradient");
-    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     assert_eq!(back.adam.steps, tr.adam.steps);
 }
 
@@ -375,7 +375,7 @@ fn a_footprint_model_records_its_pixel_and_renders_alike_in_both_numeric_paths()
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     support::train_until_the_loss_halves(&mut tr, &data);
     assert_eq!(tr.pixel, data.pixel_angle());
-    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     assert_eq!(back.pixel, tr.pixel);
 
     let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));

@@ -23,7 +23,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     support::train_until_the_loss_halves(&mut tr, &data);
     // checkpoints round-trip exactly
-    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     assert_eq!(back.params, tr.params);
     assert_eq!(back.step, tr.step);
     // the exported model renders a validation view far better than a constant
@@ -71,7 +71,7 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
     let cfg = nerf_train::config::TrainConfig { batch_rays: 128, ..small_config() };
     let mut tr = Trainer::new(cfg, good.scene, 1, 2);
     tr.train_step(&good, 0.0);
-    let (params, adam_before) = (tr.params.clone(), tr.to_bytes());
+    let (params, adam_before) = (tr.params.clone(), tr.to_bytes().unwrap());
     for _ in 0..3 {
         let st = tr.train_step(&bad, 0.1);
         assert!(st.skipped && !st.loss.is_finite(), "{st:?}");
@@ -82,7 +82,7 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
     let mut back = Trainer::from_bytes(&adam_before).unwrap();
     back.step = tr.step;
     back.skipped = tr.skipped;
-    assert_eq!(back.to_bytes(), tr.to_bytes());
+    assert_eq!(back.to_bytes().unwrap(), tr.to_bytes().unwrap());
     let st = tr.train_step(&good, 0.2);
     assert!(!st.skipped && st.loss.is_finite());
     assert_ne!(tr.params, params);
@@ -124,7 +124,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     assert!(per_ray < 0.6 * 48.0, "{per_ray} samples per ray");
     assert!(last.loss < 0.5 * first.loss);
     // checkpoints keep the grid
-    let back = Trainer::from_bytes(&tr.to_bytes()).unwrap();
+    let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     assert_eq!(back.grid, tr.grid);
     // the model file carries the grid (format version 2), no second network,
     // and renders the validation view well

@@ -1,30 +1,49 @@
-//! The 14-byte header (magic, version, payload length, CRC-32) and the
-//! reading of older versions' payloads as the newest.
+//! The framing shared by model files and training checkpoints (magic,
+//! version, payload length, CRC-32), the model's 14-byte header on it, and
+//! the reading of older versions' payloads as the newest.
 
 use crate::error::{Error, Result};
-use crate::limits::{FORMAT_VERSION, FORMAT_VERSION_NO_GRID, HEADER_LEN, MAGIC};
+use crate::limits::{FORMAT_VERSION, FORMAT_VERSION_NO_GRID, MAGIC};
+
+/// Bytes of a frame after its magic: the version (u16 LE), the payload's
+/// length (u32 LE) and the payload's CRC-32 (u32 LE).
+pub const FRAME_FIELDS_LEN: usize = 10;
 
 /// Checks magic, version, length and checksum; returns the version and the payload.
 pub(super) fn check_header(bytes: &[u8]) -> Result<(u16, &[u8])> {
-    if bytes.len() < 4 {
-        return Err(Error::Truncated);
-    }
-    if bytes[0..4] != MAGIC {
-        return Err(Error::BadMagic);
-    }
-    if bytes.get(4..8) == Some(b"CKPT") {
+    if bytes.len() >= 8 && bytes[0..4] == MAGIC && bytes[4..8] == *b"CKPT" {
         return Err(Error::Checkpoint);
     }
-    if bytes.len() < HEADER_LEN {
+    unframe(bytes, &MAGIC, FORMAT_VERSION_NO_GRID, FORMAT_VERSION)
+}
+
+/// Splits a framed container: `magic`, then the version (u16 LE), the
+/// payload's length (u32 LE), its CRC-32 (u32 LE, [`crc32`]) and the
+/// payload. Checked in that order: [`Error::Truncated`] (shorter than the
+/// magic, the header or the stated length), [`Error::BadMagic`],
+/// [`Error::UnsupportedVersion`] (outside `oldest..=newest`),
+/// [`Error::TrailingBytes`], [`Error::ChecksumMismatch`]. Returns the
+/// version and the payload. Model files use it with [`MAGIC`]; the
+/// trainer's checkpoints with their own magic.
+#[inline(always)]
+pub fn unframe<'a>(bytes: &'a [u8], magic: &[u8], oldest: u16, newest: u16) -> Result<(u16, &'a [u8])> {
+    let m = magic.len();
+    if bytes.len() < m {
         return Err(Error::Truncated);
     }
-    let version = u16::from_le_bytes([bytes[4], bytes[5]]);
-    if !(FORMAT_VERSION_NO_GRID..=FORMAT_VERSION).contains(&version) {
+    if bytes[..m] != *magic {
+        return Err(Error::BadMagic);
+    }
+    if bytes.len() < m + FRAME_FIELDS_LEN {
+        return Err(Error::Truncated);
+    }
+    let version = u16::from_le_bytes([bytes[m], bytes[m + 1]]);
+    if !(oldest..=newest).contains(&version) {
         return Err(Error::UnsupportedVersion(version));
     }
-    let len = u32::from_le_bytes([bytes[6], bytes[7], bytes[8], bytes[9]]) as usize;
-    let crc = u32::from_le_bytes([bytes[10], bytes[11], bytes[12], bytes[13]]);
-    let rest = &bytes[HEADER_LEN..];
+    let len = u32::from_le_bytes([bytes[m + 2], bytes[m + 3], bytes[m + 4], bytes[m + 5]]) as usize;
+    let crc = u32::from_le_bytes([bytes[m + 6], bytes[m + 7], bytes[m + 8], bytes[m + 9]]);
+    let rest = &bytes[m + FRAME_FIELDS_LEN..];
     if rest.len() < len {
         return Err(Error::Truncated);
     }
@@ -35,6 +54,21 @@ pub(super) fn check_header(bytes: &[u8]) -> Result<(u16, &[u8])> {
         return Err(Error::ChecksumMismatch);
     }
     Ok((version, rest))
+}
+
+/// Frames `payload` as [`unframe`] reads it: `magic`, `version`, the
+/// length and the CRC-32, then the payload. Fails with
+/// [`Error::Capacity`] for a payload of 4 GiB or more.
+#[cfg(feature = "alloc")]
+pub fn frame(magic: &[u8], version: u16, payload: &[u8]) -> Result<alloc::vec::Vec<u8>> {
+    let len = u32::try_from(payload.len()).map_err(|_| Error::Capacity("a payload of 4 GiB or more"))?;
+    let mut out = alloc::vec::Vec::with_capacity(magic.len() + FRAME_FIELDS_LEN + payload.len());
+    out.extend_from_slice(magic);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&len.to_le_bytes());
+    out.extend_from_slice(&crc32(payload).to_le_bytes());
+    out.extend_from_slice(payload);
+    Ok(out)
 }
 
 static CRC_TABLE: [u32; 256] = {
@@ -105,3 +139,5 @@ impl<'a> postcard::de_flavors::Flavor<'a> for Padded<'a> {
         }
     }
 }
+
+const _: () = assert!(crate::limits::HEADER_LEN == MAGIC.len() + FRAME_FIELDS_LEN);

@@ -38,8 +38,10 @@ pub mod owned;
 mod records;
 mod validate;
 
-pub use header::crc32;
+#[cfg(feature = "alloc")]
+pub use header::frame;
 use header::{check_header, Padded};
+pub use header::{crc32, unframe, FRAME_FIELDS_LEN};
 pub use layers::{
     expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network, Precise, PreciseDensity, PreciseNet,
 };
@@ -267,13 +269,7 @@ fn encode(model: &Model<'_>) -> Result<alloc::vec::Vec<u8>> {
     // older versions are the same encoding without the trailing `None` bytes
     let absent = (FORMAT_VERSION - model.format_version()) as usize;
     payload.truncate(payload.len() - absent);
-    let mut out = alloc::vec::Vec::with_capacity(HEADER_LEN + payload.len());
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&model.format_version().to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
-    out.extend_from_slice(&crc32(&payload).to_le_bytes());
-    out.extend_from_slice(&payload);
-    Ok(out)
+    frame(&MAGIC, model.format_version(), &payload)
 }
 
 #[cfg(test)]

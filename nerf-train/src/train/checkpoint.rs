@@ -1,14 +1,17 @@
-//! The checkpoint container: a header (magic, version, length, CRC-32)
-//! before the run's state in postcard.
+//! The checkpoint container: the run's state in postcard, framed as a
+//! model file is (`nerf_infer::format::frame`: magic, version, length,
+//! CRC-32) under its own magic.
 
 use super::*;
 use crate::error::Error;
+use nerf_infer::format::{frame, unframe};
+use nerf_infer::Error as FormatError;
 
 /// The first bytes of a checkpoint file.
 pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 12;
+pub const CHECKPOINT_VERSION: u16 = 13;
 
 /// How many of a run's `params` parameters are a feature grid's table: the
 /// last ones (a run with a feature grid has one network), none without one.
@@ -22,17 +25,12 @@ pub(super) fn table_values(net: &Mlp, params: usize) -> usize {
 
 impl Trainer {
     /// Serialises the run for a checkpoint: [`CHECKPOINT_MAGIC`], the
-    /// format version (u16 LE), the payload's length (u64 LE) and CRC-32
-    /// (u32 LE), then the payload (postcard).
-    pub fn to_bytes(&self) -> Vec<u8> {
-        let payload = postcard::to_stdvec(self).expect("trainer state serialises");
-        let mut out = Vec::with_capacity(payload.len() + 22);
-        out.extend_from_slice(CHECKPOINT_MAGIC);
-        out.extend_from_slice(&CHECKPOINT_VERSION.to_le_bytes());
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&nerf_infer::format::crc32(&payload).to_le_bytes());
-        out.extend_from_slice(&payload);
-        out
+    /// format version (u16 LE), the payload's length (u32 LE) and CRC-32
+    /// (u32 LE), then the payload (postcard). Fails with
+    /// [`Error::Checkpoint`] for a state of 4 GiB or more.
+    pub fn to_bytes(&self) -> Result<Vec<u8>, Error> {
+        let payload = postcard::to_stdvec(self).map_err(|e| Error::Checkpoint(format!("cannot encode: {e}")))?;
+        frame(CHECKPOINT_MAGIC, CHECKPOINT_VERSION, &payload).map_err(|e| Error::Checkpoint(e.to_string()))
     }
 
     /// Restores a run from [`Trainer::to_bytes`]; fails with
@@ -42,21 +40,16 @@ impl Trainer {
     /// configuration does not lay out).
     pub fn from_bytes(b: &[u8]) -> Result<Self, Error> {
         let bad = |m: &str| Error::Checkpoint(m.to_string());
-        let (head, payload) = b.split_at_checked(22).ok_or_else(|| bad("shorter than its header"))?;
-        if &head[..8] != CHECKPOINT_MAGIC {
-            return Err(bad("not a checkpoint (no NERFCKPT header)"));
-        }
-        let version = u16::from_le_bytes([head[8], head[9]]);
-        if version != CHECKPOINT_VERSION {
-            return Err(Error::Checkpoint(format!(
-                "checkpoint version {version}, this build reads version {CHECKPOINT_VERSION} (written by another build)"
-            )));
-        }
-        let len = u64::from_le_bytes(head[10..18].try_into().expect("8 bytes"));
-        let crc = u32::from_le_bytes(head[18..22].try_into().expect("4 bytes"));
-        if len != payload.len() as u64 || nerf_infer::format::crc32(payload) != crc {
-            return Err(bad("truncated or damaged (its length or checksum does not match)"));
-        }
+        let payload = match unframe(b, CHECKPOINT_MAGIC, CHECKPOINT_VERSION, CHECKPOINT_VERSION) {
+            Ok((_, payload)) => payload,
+            Err(FormatError::BadMagic) => return Err(bad("not a checkpoint (no NERFCKPT header)")),
+            Err(FormatError::UnsupportedVersion(v)) => {
+                return Err(Error::Checkpoint(format!(
+                    "checkpoint version {v}, this build reads version {CHECKPOINT_VERSION} (written by another build)"
+                )))
+            }
+            Err(_) => return Err(bad("truncated or damaged (its length or checksum does not match)")),
+        };
         let t: Self = postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
         let grid_ok = match &t.grid {
             None => t.cfg.grid_res == 0,

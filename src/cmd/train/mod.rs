@@ -201,7 +201,7 @@ fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::S
 /// model records how its capture was split and the orbit fitted to its
 /// cameras).
 fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Prune, data: &Dataset) -> CmdResult {
-    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes())?;
+    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes().map_err(|e| e.to_string())?)?;
     let cams: Vec<_> = data.views.iter().map(|v| v.camera).collect();
     let orbit = fit_orbit(&data.scene, &cams);
     let model = OwnedModel { capture: data.capture, orbit, ..trainer_model(tr, calib, prune) };
