@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Configurations compared on one capture, back to back: the capture
-# trained LENGTH at 1/8 size (ITERS steps, or with an m suffix that many
+# trained LENGTH at 1/8 size (DATA_DIR `room`: the built-in room of
+# `nerf scene --size 64`, at full size; ITERS steps, or with an m suffix that many
 # minutes; seed 0, the default with each
 # configuration's fields on top, as `--config` takes them), scored on its
 # held-out views in f32 at the field's own colour and with a per-photo
@@ -17,8 +18,10 @@
 #   scripts/capture_ab.sh DATA_DIR LENGTH CONFIG_JSON...
 #   scripts/capture_ab.sh ../shared/data/fox 2500 '{}' '{"appearance": true}'
 #   scripts/capture_ab.sh ../shared/data/bird 5m '{}' '{"n_coarse": 192, "n_main": 48}'
+#   scripts/capture_ab.sh room 5m '{}' '{"distortion": 0.001}'
 set -euo pipefail
-data=$(realpath "$1")
+data=$1
+[ "$data" = room ] || data=$(realpath "$data")
 length=$2
 shift 2
 case $length in
@@ -26,6 +29,12 @@ case $length in
   *) budget=(--iters "$length") ;;
 esac
 . "$(dirname "$0")/lib.sh"
+downscale=8
+if [ "$data" = room ]; then
+  "$bin" scene --out "$work/scene" --size 64 >&2
+  data=$work/scene/room
+  downscale=1
+fi
 out_csv=docs/capture_ab.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,configuration,minutes,steps,ms_per_step,psnr,psnr_right_half,\
 psnr_right_half_corrected,psnr_int8,evaluations_per_ray,us_per_ray_int8" > "$out_csv"
@@ -34,7 +43,7 @@ for cfg in "$@"; do
   rm -rf "$out"
   echo "$cfg" > "$work/config.json"
   start=$(date +%s.%N)
-  "$bin" train --data "$data" --downscale 8 "${budget[@]}" --seed 0 --out "$out" --config "$work/config.json" >&2
+  "$bin" train --data "$data" --downscale "$downscale" "${budget[@]}" --seed 0 --out "$out" --config "$work/config.json" >&2
   end=$(date +%s.%N)
   "$bin" eval "$out/model.nerf" --data "$data" --split val --save "$out/save" > "$out/eval.json"
   half=$(python3 scripts/appearance_half.py "$out/save" | tail -1)

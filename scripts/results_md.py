@@ -260,16 +260,16 @@ and the same scene on black, `--scene object`) trained 5 minutes each with
 no flag but `--data`, `--downscale 8` (the room at full size) and `--out`,
 back to back on one machine: unbounded captures get the proposal grid that
 places the network's samples, object scenes the occupancy grid's stratified
-samples. In the rows of aee59e8 the proposal grid is composited at 192
-stratified samples and the network evaluated at 48, the default of that
-commit; the default is 128 and 32 since ("Configurations compared on a
+samples. The default composites the proposal grid at 128 stratified
+samples and evaluates the network at 32 (in the rows of 6f7ebdc); the rows
+of aee59e8 are of its default, 192 and 48 ("Configurations compared on a
 capture" compares the two). ms per step is the run's wall time over its steps; PSNR on the
 held-out views (every 8th photo; lego's 10 validation views) in f32 and
 after `nerf export --bits 8`; the int8 render on one core with early
 termination 10⁻³ (`nerf eval --threads 1 --repeat 3 --early-stop 1e-3`,
 the fastest of three). "no proposal grid" rows are the same runs with
 `--config '{"proposal_res": 0}'`; "× lego" compares with lego's row of the
-same run.""", t if rs else missing("proposal"))
+same run (aee59e8's lego row is not shown, so its rows have none).""", t if rs else missing("proposal"))
 
 
 def proposal_samples_section():
@@ -281,7 +281,7 @@ def proposal_samples_section():
     return ("The network's samples per ray with a proposal grid", "proposal", """`scripts/proposal_samples.sh
 MODEL DATA CAPTURE` (run by `scripts/proposal.sh` on its bird and fox
 models, trained with 192 stratified and 48 network samples in the rows of
-aee59e8): the
+aee59e8, with the default's 128 and 32 in those of 6f7ebdc): the
 int8 export rendered on the held-out views with S stratified samples
 compositing the proposal grid and N network samples drawn from its weights
 (`nerf eval --coarse S --fine N`), one core, early termination 10⁻³, the
@@ -301,8 +301,9 @@ def capture_ab_section():
     t = table(["<capture", "<length", "<configuration", "steps", "ms/step", "PSNR", "right halves",
                "corrected", "int8", "evaluated/ray", "µs/ray int8", "<run"], body)
     return ("Configurations compared on a capture", "capture-ab", """`scripts/capture_ab.sh DATA LENGTH
-CONFIG...` (the commands are `scripts/results.sh --list`'s `capture-ab`):
-the capture trained at 1/8 size for a number of steps (the rows compare
+CONFIG...` (the commands are `scripts/results.sh --list`'s `capture-ab`
+and `capture-5m`): the capture trained at 1/8 size (the built-in room,
+`room`: `nerf scene --size 64` at full size) for a number of steps (the rows compare
 at equal steps) or minutes (at equal time, back to back), seed 0, the
 default with the configuration's fields on top (`--config`; `{}` is the
 default). PSNR on the held-out views at the field's own colour; "right
