@@ -2,6 +2,7 @@
 
 mod support;
 
+use nerf_train::config::TrainConfig;
 use support::cli::{blender_scene, fails, ok, s, tmp};
 
 #[test]
@@ -373,4 +374,37 @@ fn export_stores_the_feature_table_as_8_or_4_bit_codebook_indices() {
     let e =
         fails(&["export", s(&d.join("t4.nerf")), "--bits", "8", "--table-bits", "4", "--out", s(&d.join("x.nerf"))]);
     assert!(e.contains("already quantised") || e.contains("already narrow"), "{e}");
+}
+
+#[test]
+fn unbounded_captures_get_the_distortion_loss_unless_the_config_names_it() {
+    let d = tmp("fit-distortion");
+    ok(&["scene", "--out", s(&d.join("scene")), "--size", "16"]);
+    let train = |data: &str, cfg: &str, name: &str, more: &[&str]| {
+        let file = d.join(format!("{name}.json"));
+        std::fs::write(&file, cfg).unwrap();
+        let run = d.join(name);
+        let data = d.join("scene").join(data);
+        let args = [
+            &["train", "--data", s(&data), "--config", s(&file), "--iters", "1", "--val-views", "0", "--out", s(&run)],
+            more,
+        ]
+        .concat();
+        let o = support::cli::nerf(&args);
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{err}");
+        let t = nerf_train::train::Trainer::from_bytes(&std::fs::read(run.join("checkpoint.bin")).unwrap()).unwrap();
+        (t.cfg.proposal_res, t.cfg.distortion, err)
+    };
+    // the room (unbounded): the proposal grid and the distortion loss, said on the terminal
+    let (res, distortion, err) = train("room", "{}", "room", &[]);
+    assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, TrainConfig::PROPOSAL_DISTORTION));
+    assert!(err.contains("the distortion loss at 0.001"), "{err}");
+    // a configuration that names the weight keeps it
+    let (res, distortion, err) = train("room", r#"{"distortion": 0}"#, "room-chosen", &[]);
+    assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, 0.0));
+    assert!(!err.contains("distortion loss"), "{err}");
+    // the same photos as an object scene: neither
+    let (res, distortion, _) = train("colmap", "{}", "object", &["--scene", "object"]);
+    assert_eq!((res, distortion), (0, 0.0));
 }

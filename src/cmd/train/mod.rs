@@ -117,6 +117,10 @@ struct NewRun {
     /// forward-facing scenes ([`TrainConfig::proposal_res`]): unless
     /// `--config` names `proposal_res`.
     fit_proposal: bool,
+    /// Turn the distortion loss on ([`TrainConfig::PROPOSAL_DISTORTION`])
+    /// where the proposal grid is turned on in an unbounded scene: unless
+    /// `--config` names `distortion`.
+    fit_distortion: bool,
 }
 
 impl NewRun {
@@ -133,6 +137,9 @@ impl NewRun {
             if self.fit_samples {
                 // the grid composited at fewer stratified samples than the occupancy grid's
                 with.n_coarse = TrainConfig::PROPOSAL_COARSE;
+            }
+            if self.fit_distortion && data.scene.unbounded.is_some() {
+                with.distortion = TrainConfig::PROPOSAL_DISTORTION;
             }
             if with.validate().is_ok() {
                 cfg = with;
@@ -152,7 +159,7 @@ impl NewRun {
 
 fn load_config(a: &Args) -> Result<NewRun, String> {
     let base = a.preset.unwrap_or_default().config();
-    let (mut fit_features, mut fit_samples, mut fit_proposal) = (true, true, true);
+    let (mut fit_features, mut fit_samples, mut fit_proposal, mut fit_distortion) = (true, true, true, true);
     let cfg = match &a.config {
         None => base,
         Some(path) => {
@@ -165,6 +172,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
             fit_features = !over.contains_key("feature_max_res") && !over.contains_key("feature_log2_table");
             fit_samples = !over.contains_key("n_coarse");
             fit_proposal = !over.contains_key("proposal_res");
+            fit_distortion = !over.contains_key("distortion");
             // the preset's fields, then the file's on top of them
             let mut merged = serde_json::to_value(&base).map_err(|e| bad(&e))?;
             if let Some(m) = merged.as_object_mut() {
@@ -174,7 +182,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
         }
     };
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    Ok(NewRun { cfg, fit_features, fit_samples, fit_proposal })
+    Ok(NewRun { cfg, fit_features, fit_samples, fit_proposal, fit_distortion })
 }
 
 /// The validation views, or none if the dataset has no such split.
@@ -258,7 +266,7 @@ pub fn run(a: Args) -> CmdResult {
 /// `--preset` and `--config`).
 pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    let run = NewRun { cfg, fit_features: false, fit_samples: false, fit_proposal: true };
+    let run = NewRun { cfg, fit_features: false, fit_samples: false, fit_proposal: true, fit_distortion: true };
     with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
 
@@ -299,11 +307,15 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
         if cfg.proposal_res != run.cfg.proposal_res {
             eprintln!(
                 "{} scene: the network's {} samples per ray placed by a {}³ proposal grid composited at {} \
-                 stratified samples; set proposal_res 0 with --config for the occupancy grid's {} stratified samples",
+                 stratified samples{}; set proposal_res 0 with --config for the occupancy grid's {} stratified samples",
                 if data.scene.ndc.is_some() { "forward-facing" } else { "unbounded" },
                 cfg.n_main,
                 cfg.proposal_res,
                 cfg.n_coarse,
+                match cfg.distortion != run.cfg.distortion {
+                    true => format!(", the distortion loss at {} (set distortion with --config)", cfg.distortion),
+                    false => String::new(),
+                },
                 run.cfg.n_coarse
             );
         }
