@@ -263,7 +263,9 @@ places the network's samples, object scenes the occupancy grid's stratified
 samples. The default composites the proposal grid at 128 stratified
 samples and evaluates the network at 32 (in the rows of 6f7ebdc); the rows
 of aee59e8 are of its default, 192 and 48 ("Configurations compared on a
-capture" compares the two). ms per step is the run's wall time over its steps; PSNR on the
+capture" compares the two). The default of 0a4ff61 on also turns the
+distortion loss on in unbounded scenes, which these rows are without
+(that section's `capture-5m` rows measure it). ms per step is the run's wall time over its steps; PSNR on the
 held-out views (every 8th photo; lego's 10 validation views) in f32 and
 after `nerf export --bits 8`; the int8 render on one core with early
 termination 10⁻³ (`nerf eval --threads 1 --repeat 3 --early-stop 1e-3`,

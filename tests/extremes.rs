@@ -1,16 +1,17 @@
 //! Numerical extremes, both numeric paths: models whose density is zero,
 //! huge or negative everywhere, whose weights are all zero or at the ends of
-//! their type, scenes with a tiny or a very long depth range, the highest
-//! encoding frequencies, and hostile rays (axis-parallel, grazing a bounding
-//! plane or edge, starting inside the bounds, far outside, tiny or huge
-//! directions, NaN and infinities). Every render must be finite with colour
+//! their type, scenes with a tiny or a very long depth range, and hostile
+//! rays (axis-parallel, grazing a bounding plane or edge, starting inside
+//! the bounds, far outside, tiny or huge directions, NaN and infinities). Every render must be finite with colour
 //! and opacity in [0, 1] and depth in [near, far] (far for an empty ray), or
-//! the model/options must be refused with a typed error.
+//! the model/options must be refused with a typed error. The compositor's,
+//! the encoding's and the samplers' own extremes are nerf-infer's tests
+//! (`nerf-infer/tests/compositing.rs`, `entry_points.rs`).
 
 mod support;
 
 use glam::Vec3;
-use nerf_infer::composite::{alpha_f32, survival_fixed, Compositor, CompositorF32, CompositorFixed, DELTA_INF_Q16};
+use nerf_infer::composite::alpha_f32;
 use nerf_infer::fixed::to_fixed;
 use nerf_infer::format::{Scene, Scheme};
 use nerf_infer::sampling::hash32;
@@ -336,79 +337,6 @@ fn scene_and_camera_extremes_are_typed_errors() {
     let s = unit_scene();
     for (o, d) in [(Vec3::NAN, Vec3::X), (Vec3::ZERO, Vec3::ZERO), (Vec3::ZERO, Vec3::INFINITY)] {
         assert!(Ray::new(&s, o, d).is_none());
-    }
-}
-
-#[test]
-fn compositing_extremes_stay_in_range() {
-    // δ = 0 (coincident samples) adds nothing, whatever σ
-    assert_eq!(alpha_f32(1e30, 0.0), 0.0);
-    assert_eq!(survival_fixed(i32::MAX, 0), 1 << 30);
-    // the last interval is infinite: any positive σ is opaque, σ ≤ 0 empty
-    assert_eq!(alpha_f32(1e-30, f32::INFINITY), 1.0);
-    assert_eq!(alpha_f32(0.0, f32::INFINITY), 0.0);
-    assert_eq!(survival_fixed(1, DELTA_INF_Q16), 0);
-    for (s, d) in [(f32::NAN, 1.0), (1.0, f32::NAN), (f32::INFINITY, 1.0), (f32::NEG_INFINITY, 1.0), (-1.0, 1e30)] {
-        let a = alpha_f32(s, d);
-        assert!((0.0..=1.0).contains(&a), "σ {s}, δ {d}: α {a}");
-    }
-    // saturating inputs to both compositors
-    let mut cf = CompositorF32::default();
-    let mut cq = CompositorFixed::default();
-    for k in 0..300 {
-        let (s, d) = [(f32::MAX, 1e-30), (f32::NAN, 1.0), (1e-30, f32::MAX)][k % 3];
-        cf.add(s, d, [f32::NAN, f32::INFINITY, -1.0], f32::MAX);
-        cq.add(i32::MAX, i32::MAX - 1, [u16::MAX; 3], i32::MAX);
-    }
-    let (pf, pq) = (cf.finish(true, 6.0), cq.finish(true, 6 << 16).to_pixel());
-    for p in [pf, pq] {
-        assert!(p.rgb.iter().chain([&p.opacity]).all(|c| (0.0..=1.0).contains(c)), "{p:?}");
-        assert!(p.depth.is_finite() && (0.0..=6.0).contains(&p.depth), "{p:?}");
-    }
-}
-
-#[test]
-fn encoding_entry_points_take_nan_and_infinity() {
-    use nerf_infer::encoding::{encode_f32, sincospi_f32};
-    for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-        assert_eq!(sincospi_f32(x), (0.0, 1.0));
-        let mut out = [7.0f32; 3 * 33];
-        let n = encode_f32([x, 0.5, x], 16, true, &mut out);
-        assert!(out[..n].iter().all(|v| v.is_finite() && v.abs() <= 1.0), "{x}: {:?}", &out[..n]);
-    }
-    // the highest frequency at the edges of the coordinate range: sin(2^15 π p)
-    // for p = ±1 is exactly 0, cos exactly 1
-    let mut out = [0.0f32; 3 * 33];
-    encode_f32([1.0, -1.0, 1.0 - f32::EPSILON], 16, true, &mut out);
-    assert!(out.iter().all(|v| v.abs() <= 1.0));
-    assert_eq!(sincospi_f32(32768.0), (0.0, 1.0));
-    assert_eq!(sincospi_f32(-32768.0), (0.0, 1.0));
-}
-
-#[test]
-fn sampling_entry_points_take_nan_and_infinity() {
-    use nerf_infer::sampling::stratified_fixed;
-    use nerf_infer::sampling::{sample_pdf_f32, stratified_f32};
-    for n in [0, 1, 2, 8] {
-        let mut t = vec![0.0f32; n];
-        let mut tq = vec![0i32; n];
-        for (near, far) in [(f32::NAN, 6.0), (2.0, f32::INFINITY), (2.0, 2.0), (6.0, 2.0), (2.0, 6.0)] {
-            for jitter in [None, Some(9)] {
-                stratified_f32(near, far, jitter, &mut t);
-                let ok = t.iter().all(|v| v.is_finite()) && t.windows(2).all(|p| p[0] <= p[1]);
-                assert!(ok, "{n} samples over {near}..{far}, jitter {jitter:?}: {t:?}");
-                stratified_fixed(to_fixed(near, 16), to_fixed(far, 16), jitter, &mut tq);
-                assert!(tq.windows(2).all(|p| p[0] <= p[1]), "{n} over {near}..{far} (Q16): {tq:?}");
-            }
-        }
-    }
-    let tc = [2.0, 2.5, 3.0, 3.5, 4.0];
-    let mut cdf = [0.0f32; 5];
-    let mut out = [0.0f32; 16];
-    for w in [[f32::NAN; 5], [f32::INFINITY; 5], [0.0; 5], [-1.0, 1e30, f32::NAN, 0.0, f32::MAX]] {
-        sample_pdf_f32(&tc, &w, |j| j as f32 / 15.0, &mut cdf, &mut out);
-        assert!(out.iter().all(|v| (2.0..=4.0).contains(v)), "weights {w:?}: {out:?}");
-        assert!(out.windows(2).all(|p| p[0] <= p[1]), "weights {w:?}: not sorted: {out:?}");
     }
 }
 

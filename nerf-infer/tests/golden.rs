@@ -131,3 +131,14 @@ fn early_termination_does_not_depend_on_the_block_size() {
         assert_ne!(one, render_with::<8>(blob, 0.0));
     }
 }
+
+#[test]
+fn golden_pixels_are_not_trivial() {
+    // a golden image of one flat colour would test little
+    let px = &expected::GOLDEN16;
+    let min = px.iter().map(|p| p.0).min().unwrap();
+    let max = px.iter().map(|p| p.0).max().unwrap();
+    let opaque = px.iter().filter(|p| p.3 > 16384).count();
+    assert!(max - min > 3000, "red channel spans only {min}..{max}");
+    assert!(opaque > 20 && opaque < 250, "{opaque} pixels over half opaque");
+}
