@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Configurations compared on one capture, back to back: the capture
 # trained LENGTH at 1/8 size (DATA_DIR `room`: the built-in room of
-# `nerf scene --size 64`, at full size; ITERS steps, or with an m suffix that many
-# minutes; seed 0, the default with each
-# configuration's fields on top, as `--config` takes them), scored on its
+# `nerf scene --size 64`, at full size; ITERS steps, or with an m suffix
+# that many minutes; seed 0, the default with each configuration's
+# fields on top, as `--config` takes them), scored on its
 # held-out views in f32 at the field's own colour and with a per-photo
 # colour correction fitted on the left half of each view and scored on
 # the right half (scripts/appearance_half.py), exported with --bits 8 and

@@ -3,6 +3,9 @@
 
 /// The four bytes every model starts with.
 pub const MAGIC: [u8; 4] = *b"NERF";
+/// The eight bytes a training checkpoint starts with (`nerf_train`'s,
+/// framed as a model is); the model reader names such a file.
+pub const CHECKPOINT_MAGIC: [u8; 8] = *b"NERFCKPT";
 /// The newest format version this build reads and writes (it reads 1 to 10 too).
 pub const FORMAT_VERSION: u16 = 11;
 /// The version of models without a proposal grid.

@@ -7,8 +7,8 @@ use crate::error::Error;
 use nerf_infer::format::{frame, unframe};
 use nerf_infer::Error as FormatError;
 
-/// The first bytes of a checkpoint file.
-pub const CHECKPOINT_MAGIC: &[u8; 8] = b"NERFCKPT";
+/// The first bytes of a checkpoint file (`nerf_infer::format::CHECKPOINT_MAGIC`).
+pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
 pub const CHECKPOINT_VERSION: u16 = 13;
