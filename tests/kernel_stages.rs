@@ -9,9 +9,7 @@ use nerf_infer::encoding::NPOS_FRAC;
 use nerf_infer::format::Scheme;
 use nerf_infer::network::{BlockF32, BlockFixed, F32, W16, W8};
 use nerf_infer::Orbit;
-use nerf_infer::{
-    AnyRenderer, Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed,
-};
+use nerf_infer::{Model, RayRenderer, RenderOptions, RendererF32, RendererFixed, ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, quantise_with, random_model, ActBits, Quantisation};
 use support::*;
@@ -158,73 +156,4 @@ fn full_rays_fixed_against_f32_and_degenerate_rays() {
         assert_eq!((a.rgb, a.opacity, a.depth), ([1.0; 3], 0.0, mf.scene.far));
         assert_eq!((b.rgb, b.opacity, b.depth), ([1.0; 3], 0.0, mf.scene.far));
     }
-}
-
-#[test]
-fn wrong_path_and_bad_options_are_typed_errors() {
-    let (f, q16, _) = models(&small_config(), 4);
-    let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
-    let e = RendererFixed::new(&mf, RenderOptions::from_model(&mf)).unwrap_err();
-    assert_eq!(e, nerf_infer::Error::WrongNumericPath(Scheme::F32));
-    // the error names the renderer the model needs
-    assert!(e.to_string().contains("needs RendererF32"), "{e}");
-    let e = RendererF32::new(&mq, RenderOptions::from_model(&mq)).unwrap_err();
-    assert_eq!(e, nerf_infer::Error::WrongNumericPath(Scheme::I16));
-    assert!(e.to_string().contains("needs RendererFixed"), "{e}");
-    // and AnyRenderer takes both
-    assert!(AnyRenderer::new(&mf, RenderOptions::from_model(&mf)).is_ok());
-    assert!(AnyRenderer::new(&mq, RenderOptions::from_model(&mq)).is_ok());
-    let mut o = RenderOptions::from_model(&mf);
-    o.coarse = 1;
-    assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
-    o.coarse = 16;
-    o.early_stop = f32::NAN;
-    assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
-}
-
-#[test]
-fn one_pass_models_march_up_to_1024_samples_and_two_pass_models_256() {
-    use nerf_infer::format::{MAX_COARSE, MAX_MARCH};
-    let cfg = TrainConfig { n_coarse: MAX_MARCH as u16, n_fine: 0, ..small_config() };
-    cfg.validate().unwrap();
-    let (f, q16, _) = models(&cfg, 5);
-    let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q16).unwrap());
-    assert_eq!((mf.samples.coarse, mf.samples.fine), (MAX_MARCH as u16, 0));
-    // every sample of the longest march is evaluated, in both paths, and they agree
-    let rf = RendererF32::new(&mf, RenderOptions::from_model(&mf)).unwrap();
-    let rq = RendererFixed::new(&mq, RenderOptions::from_model(&mq)).unwrap();
-    let (mut sf, mut sq) = (Box::<ScratchF32>::default(), Box::<ScratchFixed>::default());
-    let cam = Orbit::new(&mf.scene, None).camera(0.3, 8, 8).unwrap();
-    let (mut worst, mut marched) = (0.0f32, 0);
-    for (x, y) in (0..8).flat_map(|y| (0..8).map(move |x| (x, y))) {
-        let (o, d) = cam.ray(x, y);
-        let before = (sf.evaluations, sq.evaluations);
-        let a = rf.render_ray(o, d, (x, y), &mut sf);
-        let b = rq.render_ray(o, d, (x, y), &mut sq).to_pixel();
-        worst = (0..3).fold(worst, |w, c| w.max((a.rgb[c] - b.rgb[c]).abs()));
-        // a ray that meets the bounds evaluates every sample (no grid, no
-        // early termination); one that misses them, none
-        let n = (sf.evaluations - before.0, sq.evaluations - before.1);
-        assert!(n == (0, 0) || n == (MAX_MARCH as u64, MAX_MARCH as u64), "pixel ({x}, {y}): {n:?}");
-        marched += (n.0 > 0) as u32;
-    }
-    assert!(marched >= 32, "{marched} of 64 rays met the bounds");
-    assert!(worst < 0.02, "worst |Δrgb| {worst}");
-    let mut o = RenderOptions::from_model(&mf);
-    o.coarse = MAX_MARCH + 1;
-    assert_eq!(RendererF32::new(&mf, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
-    // with a fine pass the coarse samples stop at 256: in the trainer's
-    // config, the renderer's options and the decoder
-    let two = small_config();
-    assert!(TrainConfig { n_coarse: MAX_COARSE as u16 + 1, ..two.clone() }.validate().is_err());
-    let (f2, _, _) = models(&two, 6);
-    let m2 = Model::from_bytes(&f2).unwrap();
-    let mut o = RenderOptions::from_model(&m2);
-    o.coarse = MAX_COARSE + 1;
-    assert_eq!(RendererF32::new(&m2, o).unwrap_err(), nerf_infer::Error::InvalidSamples);
-    o.fine = 0; // the coarse network alone is one pass
-    RendererF32::new(&m2, o).unwrap();
-    let mut owned = random_model(&two, unit_scene(), 6, 6.0);
-    owned.samples.coarse = MAX_COARSE as u16 + 1;
-    assert_eq!(owned.to_bytes().unwrap_err(), nerf_infer::Error::InvalidSamples);
 }

@@ -88,3 +88,14 @@ fn fitting_the_feature_grid_only_ever_refines_it() {
         assert_eq!(fitted, c);
     }
 }
+
+#[test]
+fn a_one_pass_march_takes_up_to_1024_samples_and_a_two_pass_one_256() {
+    use nerf_infer::format::{MAX_COARSE, MAX_MARCH};
+    let one = TrainConfig { n_coarse: MAX_MARCH as u16, n_fine: 0, ..TrainConfig::fast() };
+    assert!(one.validate().is_ok());
+    assert!(TrainConfig { n_coarse: MAX_MARCH as u16 + 1, ..one }.validate().is_err());
+    let two = TrainConfig { n_coarse: MAX_COARSE as u16, n_fine: 24, ..TrainConfig::fast() };
+    assert!(two.validate().is_ok());
+    assert!(TrainConfig { n_coarse: MAX_COARSE as u16 + 1, ..two }.validate().is_err());
+}

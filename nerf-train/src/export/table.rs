@@ -199,3 +199,37 @@ pub(super) fn nearest_code(codes: &[i16]) -> impl Fn(i64) -> usize {
     let mids: Vec<i64> = codes.windows(2).map(|c| (c[0] as i64 + c[1] as i64).div_euclid(2)).collect();
     move |x| mids.partition_point(|&m| m < x)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::coarsen_grid;
+    use nerf_infer::format::{Occupancy, Scene};
+    use nerf_infer::sampling::hash32;
+
+    /// A coarse cell is occupied where any fine cell it covers is: every
+    /// point occupied in a sparse random 16³ grid is occupied in its 4³
+    /// coarsening, which stays sparse; 3 (not a divisor of 16) is refused.
+    #[test]
+    fn a_coarsened_grid_keeps_every_occupied_point() {
+        let cfg = crate::config::TrainConfig { n_fine: 0, ..crate::config::TrainConfig::fast() };
+        let mut m = super::random_model(&cfg, Scene::blender(1.0, 2.0, 6.0), 3, 6.0);
+        let bits: Vec<u8> = (0..512u32).map(|i| hash32(i).is_multiple_of(16) as u8).collect();
+        m.grid = Some((16, bits));
+        let fine = m.clone();
+        coarsen_grid(&mut m, 4).unwrap();
+        assert_eq!(m.grid.as_ref().unwrap().1.len(), 8);
+        assert!(coarsen_grid(&mut m.clone(), 3).is_err());
+        let (f, c) = (fine.grid.as_ref().unwrap(), m.grid.as_ref().unwrap());
+        let (f, c) = (Occupancy { res: f.0, bits: &f.1 }, Occupancy { res: c.0, bits: &c.1 });
+        let mut both = 0;
+        for k in 0..20_000u32 {
+            let h = |j: u32| (hash32(k * 3 + j) >> 8) as f32 / (1 << 23) as f32 - 1.0;
+            let p = [h(0), h(1), h(2)];
+            if f.at_f32(p) {
+                assert!(c.at_f32(p), "{p:?} occupied in the fine grid, clear in the coarse one");
+                both += 1;
+            }
+        }
+        assert!(both > 50 && c.occupied_cells() < 40, "{both} {}", c.occupied_cells());
+    }
+}
