@@ -119,11 +119,11 @@
 //!
 //! - `feature-grid` (default): the learned feature grid's lookups (models
 //!   of format version 3 and later with `features`). Without it such models are
-//!   refused at load with [`Error::Capacity`], and a Cortex-M3 build is about
-//!   7 KB of flash smaller.
+//!   refused at load with [`Error::Capacity`], and a Cortex-M build's flash
+//!   is smaller by the lookup code (docs/EXPERIMENTS.md measures it).
 //! - `proposal` (default): the proposal grid's pass (format version 11
 //!   models with `proposal`); without it such models are refused, and a
-//!   Cortex-M3 build is about 3 KB smaller.
+//!   Cortex-M build is smaller by the pass's code.
 //! - `alloc`: the model writer (`format::to_bytes`).
 //! - `std`: `alloc`, and the SIMD kernels chosen at run time from the CPU's
 //!   features ([`kernels`]). [`Error`] implements `core::error::Error`

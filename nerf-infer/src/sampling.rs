@@ -17,6 +17,11 @@ pub const PDF_EPS_Q30: u64 = 10737;
 /// too.
 pub const PROPOSAL_DRAW_SALT: u32 = 0x5EED_0B1D;
 
+/// XORed into a ray's jitter key before it jitters the levels at which the
+/// fine pass's importance samples are drawn from the coarse weights (a
+/// stream of its own, apart from the stratified samples').
+pub const FINE_DRAW_SALT: u32 = 0xA511_E9B3;
+
 /// A 32-bit integer hash (lowbias32) used for per-pixel jitter.
 #[inline]
 pub fn hash32(mut x: u32) -> u32 {

@@ -1,7 +1,10 @@
-//! The crate's one error type: every fallible function of `nerf-train`
-//! returns [`Error`], whose variant says which stage failed and whose
-//! message names what is at fault (the file, the field, the camera) and,
-//! where there is one, what to do.
+//! The crate's one error type, [`Error`]: its variant says which stage
+//! failed and its message names what is at fault (the file, the field, the
+//! camera) and, where there is one, what to do. A stage's own functions
+//! may return the error that stage wraps ([`DataError`], [`ParseError`],
+//! [`MeshError`], each converting into [`Error`] with `?`); the low-level
+//! file writers (`atomic`, the COLMAP and `.npy` writers) return
+//! `std::io::Result`, which their callers name the file in.
 
 use std::fmt;
 use std::path::{Path, PathBuf};

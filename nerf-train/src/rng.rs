@@ -47,4 +47,7 @@ pub mod stream {
     /// The CDF levels at which the trainer draws the network's samples from
     /// a proposal grid's weights.
     pub const PROPOSAL_PDF: u32 = 0x9E37_79B9;
+    /// The rays `nerf train` draws once to calibrate the exported model's
+    /// activation ranges and to find its dead neurons.
+    pub const CALIBRATION: u64 = 0xCA11;
 }

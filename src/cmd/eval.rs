@@ -90,6 +90,9 @@ pub struct Report {
     pub psnr_vs_reference: Option<f64>,
     /// Mean network evaluations per ray.
     pub samples_per_ray: f64,
+    /// Rays rendered (one per pixel, over every view; once, whatever
+    /// `--repeat` says): the divisor for a count over the whole render.
+    pub rays: u64,
     /// Mean rendered opacity, in `[0, 1]`, over the pixels whose photo is
     /// fully transparent (alpha 0), over the views that have such pixels:
     /// density left in empty space that a white background hides (0 for a
@@ -177,6 +180,7 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
         psnr: results.iter().map(|(_, s, _)| s.psnr).sum::<f64>() / n,
         psnr_vs_reference: reference.as_ref().map(|_| results.iter().filter_map(|(_, _, p)| *p).sum::<f64>() / n),
         samples_per_ray: results.iter().map(|(r, _, _)| r.samples_per_ray).sum::<f64>() / n,
+        rays: results.iter().map(|(r, _, _)| r.width as u64 * r.height as u64).sum(),
         clear_opacity: mean_some(results.iter().map(|(_, s, _)| s.clear_opacity)),
         scheme: format!("{:?}", model.scheme()),
         ssim: results.iter().map(|(_, s, _)| s.ssim).sum::<f64>() / n,

@@ -20,7 +20,7 @@ fn fine_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
     match key {
         None if n <= 1 => 0,
         None => ((j as u64 * 65536) / (n as u64 - 1)) as u32,
-        Some(k) => ((j as u64 * 65536 + jitter_q16(k ^ 0xA511_E9B3, j) as u64) / n as u64) as u32,
+        Some(k) => ((j as u64 * 65536 + jitter_q16(k ^ crate::sampling::FINE_DRAW_SALT, j) as u64) / n as u64) as u32,
     }
 }
 

@@ -6,17 +6,21 @@ use super::*;
 /// Which neurons never active on the calibration rays the exported model
 /// drops (`nerf train --prune`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Prune {
     /// Keep every neuron.
     Off,
-    /// Drop dead neurons in whole groups of [`OUTPUT_TILE`] (32): a layer
-    /// at least that wide keeps a multiple of it, padded with dead
-    /// neurons, so the kernels run only whole register tiles. Narrower
-    /// layers are pruned exactly.
+    /// Drop dead neurons in groups of 32 (layer widths stay on the kernels' register tile: no slowdown).
+    ///
+    /// A layer at least [`OUTPUT_TILE`] wide keeps a multiple of it,
+    /// padded with dead neurons, so the kernels run only whole register
+    /// tiles; narrower layers are pruned exactly.
     Tiles,
-    /// Drop every dead neuron: fewest bytes, but widths off the tile grain
-    /// take the kernels' slower remainder loop (2.2x the µs per ray on the
-    /// lego grid model with AVX-512; no difference on Cortex-M).
+    /// Drop every dead neuron (fewest bytes; widths off the 32 grain render slower).
+    ///
+    /// Such widths take the kernels' slower remainder loop
+    /// (docs/EXPERIMENTS.md, "Pruning on this model", counts what that
+    /// costs with AVX2).
     Exact,
 }
 

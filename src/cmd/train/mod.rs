@@ -76,29 +76,8 @@ pub struct Args {
     #[arg(long, default_value_t = 10, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
     pub(crate) log_every: u64,
     /// Neurons never active on the calibration rays that model.nerf drops.
-    #[arg(long, value_enum, default_value_t = PruneArg::Tiles)]
-    pub(crate) prune: PruneArg,
-}
-
-/// `--prune` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum PruneArg {
-    /// Keep every neuron.
-    Off,
-    /// Drop dead neurons in groups of 32 (layer widths stay on the kernels' register tile: no slowdown).
-    Tiles,
-    /// Drop every dead neuron (fewest bytes; widths off the 32 grain render slower with AVX-512 VNNI).
-    Exact,
-}
-
-impl From<PruneArg> for Prune {
-    fn from(p: PruneArg) -> Prune {
-        match p {
-            PruneArg::Off => Prune::Off,
-            PruneArg::Tiles => Prune::Tiles,
-            PruneArg::Exact => Prune::Exact,
-        }
-    }
+    #[arg(long, value_enum, default_value_t = Prune::Tiles)]
+    pub(crate) prune: Prune,
 }
 
 /// A new run's configuration, from `--preset` and `--config`.
@@ -250,7 +229,7 @@ impl Args {
             val_secs: 120.0,
             val_views: 2,
             log_every: 10,
-            prune: PruneArg::Tiles,
+            prune: Prune::Tiles,
         }
     }
 }
@@ -331,7 +310,8 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
     };
     data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     let val = load_val(&a, tr.downscale);
-    let calib = Trainer::draw_batch(&data, 4096, Draw::CENTRES, &mut Rng::new(tr.seed ^ 0xCA11));
+    let calib =
+        Trainer::draw_batch(&data, 4096, Draw::CENTRES, &mut Rng::new(tr.seed ^ nerf_train::rng::stream::CALIBRATION));
     let budget_secs = a.minutes.map(|m| m * 60.0);
     let total = match (a.iters, budget_secs) {
         (Some(n), _) => n,
@@ -417,7 +397,7 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
         });
         if INTERRUPTS.load(Ordering::SeqCst) > 0 {
             pb.finish_and_clear();
-            save(&tr, &a.out, &calib, a.prune.into(), &data)?;
+            save(&tr, &a.out, &calib, a.prune, &data)?;
             return Err(format!(
                 "interrupted at step {}: checkpoint saved to {}; continue with --resume",
                 tr.step,
@@ -425,12 +405,12 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
             ));
         }
         if tr.elapsed - last_ckpt >= a.checkpoint_secs {
-            save(&tr, &a.out, &calib, a.prune.into(), &data)?;
+            save(&tr, &a.out, &calib, a.prune, &data)?;
             last_ckpt = tr.elapsed;
         }
     }
     pb.finish_and_clear();
-    save(&tr, &a.out, &calib, a.prune.into(), &data)?;
+    save(&tr, &a.out, &calib, a.prune, &data)?;
     let val_psnr = match &val {
         Some(v) => Some(validate(&tr, v, a.val_views, &calib[..256])?),
         None => None,
