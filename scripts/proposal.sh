@@ -10,7 +10,9 @@
 # Appends rows to docs/proposal.csv: date, commit, CPU, cores, capture,
 # treatment, minutes, steps, ms per step (the run's wall time over its
 # steps), PSNR f32, PSNR int8, network evaluations per ray and µs per ray
-# of the int8 render; then prints scripts/region_psnr.py on the room.
+# of the int8 render; then, where valgrind is installed, counts the int8
+# renders' instructions per ray (scripts/ray_instructions.sh), and prints
+# scripts/region_psnr.py on the room.
 #
 #   scripts/proposal.sh [DATA_ROOT] [MINUTES]
 set -euo pipefail
@@ -53,5 +55,16 @@ if [ "${BASELINE:-0}" = 1 ]; then
   echo '{"proposal_res": 0}' > "$work/no_proposal.json"
   run bird "no proposal grid" "$root/bird" 8 --config "$work/no_proposal.json"
   run fox "no proposal grid" "$root/fox" 8 --config "$work/no_proposal.json"
+fi
+# instructions per ray of the int8 exports (docs/ray_instructions.csv), where valgrind is installed
+if command -v valgrind >/dev/null; then
+  while read -r name data ds; do
+    scripts/ray_instructions.sh "$name" "$work/$name-default/int8.nerf" "$data" "$ds"
+  done <<EOF2
+lego $root/lego 8
+bird $root/bird 8
+fox $root/fox 8
+room $work/scene/room 1
+EOF2
 fi
 python3 scripts/region_psnr.py "$work/room-default/save" "$work/room-on-black-object/save" >&2

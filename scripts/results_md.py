@@ -261,11 +261,15 @@ no flag but `--data`, `--downscale 8` (the room at full size) and `--out`,
 back to back on one machine: unbounded captures get the proposal grid that
 places the network's samples, object scenes the occupancy grid's stratified
 samples. The default composites the proposal grid at 128 stratified
-samples and evaluates the network at 32 (in the rows of 6f7ebdc); the rows
-of aee59e8 are of its default, 192 and 48 ("Configurations compared on a
-capture" compares the two). The default of 0a4ff61 on also turns the
-distortion loss on in unbounded scenes, which these rows are without
-(that section's `capture-5m` rows measure it). ms per step is the run's wall time over its steps; PSNR on the
+samples, evaluates the network at 32 and, from 0a4ff61 on, adds the
+distortion loss at 0.001 in unbounded scenes (`capture-5m` in
+"Configurations compared on a capture" measures the loss): the rows of
+3e04c50 are of that default; older rows, where no newer one replaces
+them, are of aee59e8's default, 192 and 48 samples. The same CPU model
+gave lego 34 220 steps in 5 minutes on 6f7ebdc and 16 087 on 3e04c50
+(another machine, or another load), so compare rows of one commit;
+"Instructions per ray" below gives the ray-cost ratio as a count that
+does not move with the load. ms per step is the run's wall time over its steps; PSNR on the
 held-out views (every 8th photo; lego's 10 validation views) in f32 and
 after `nerf export --bits 8`; the int8 render on one core with early
 termination 10⁻³ (`nerf eval --threads 1 --repeat 3 --early-stop 1e-3`,
@@ -292,6 +296,32 @@ is, so early termination cuts few of them: the time follows the counts,
 and the grid's pass at the stratified samples is part of every row's.""", t if rs else missing("proposal"))
 
 
+def ray_instructions_section():
+    rs = latest(rows("ray_instructions.csv"), "capture", "scheme")
+    order = {"lego": 0, "bird": 1, "fox": 2, "room": 3}
+    rs.sort(key=lambda r: (order.get(r["capture"], 4), r["scheme"]))
+    lego = {(r["commit"], r["scheme"]): r for r in rs if r["capture"] == "lego"}
+
+    def ratio(r):
+        ref = lego.get((r["commit"], r["scheme"]))
+        return f"{int(r['instructions_per_ray']) / int(ref['instructions_per_ray']):.2f}×" if ref and r is not ref else ""
+
+    body = [[r["capture"], r["scheme"], r["downscale"], thousands(r["rays"]), r["evaluations_per_ray"],
+             thousands(r["instructions_per_ray"]), ratio(r), r["psnr"], run(r)] for r in rs]
+    t = table(["<capture", "<scheme", "downscale", "rays", "evaluated/ray", "instructions/ray", "× lego", "PSNR",
+               "<run"], body)
+    return ("Instructions per ray of the real captures", "proposal", """`scripts/ray_instructions.sh CAPTURE
+MODEL DATA [DOWNSCALE]` (run by `scripts/proposal.sh` on its int8
+exports where valgrind is installed): callgrind's count of `render_view`
+over the held-out views at the size they were trained at (1/8 of the
+photos; the room's 64×64 views whole), one thread, early termination
+10⁻³, over the rays rendered, with a build for x86-64-v3 (AVX2; valgrind
+cannot run AVX-512). Unlike µs per ray, the count does not move with the
+machine's load, so "× lego" (lego's row of the same commit) is the
+stable form of the ray-cost ratio; it leaves out what the count cannot
+see, such as cache misses in a larger model.""", t if rs else missing("proposal"))
+
+
 def capture_ab_section():
     rs = rows("capture_ab.csv")
     for r in rs:
@@ -303,9 +333,10 @@ def capture_ab_section():
     t = table(["<capture", "<length", "<configuration", "steps", "ms/step", "PSNR", "right halves",
                "corrected", "int8", "evaluated/ray", "µs/ray int8", "<run"], body)
     return ("Configurations compared on a capture", "capture-ab", """`scripts/capture_ab.sh DATA LENGTH
-CONFIG...` (the commands are `scripts/results.sh --list`'s `capture-ab`
-and `capture-5m`): the capture trained at 1/8 size (the built-in room,
-`room`: `nerf scene --size 64` at full size) for a number of steps (the rows compare
+CONFIG...` (the commands are `scripts/results.sh --list`'s `capture-ab`,
+`capture-5m` and `capture-ff`): the capture trained at 1/8 size (the
+built-in room, `room`, and forward-facing capture, `llff`: `nerf scene
+--size 64` at full size) for a number of steps (the rows compare
 at equal steps) or minutes (at equal time, back to back), seed 0, the
 default with the configuration's fields on top (`--config`; `{}` is the
 default). PSNR on the held-out views at the field's own colour; "right
@@ -481,7 +512,7 @@ thread.""", t if rs else missing("web"))
 
 
 SECTIONS = [default_section, full_section, tradeoff_section, fast_int8_section, int8_section, table_bits_section, captures_section, proposal_section,
-            proposal_samples_section, capture_ab_section, plain_build_section, bench_section, train_step_section,
+            proposal_samples_section, ray_instructions_section, capture_ab_section, plain_build_section, bench_section, train_step_section,
             mesh_section,
             mcu_section, web_section]
 
@@ -536,9 +567,12 @@ def readme_rows():
     p = {(r["capture"], r["treatment"]): r for r in latest(rows("proposal.csv"), "capture", "treatment")}
     if ("bird", "default") in p and ("fox", "default") in p:
         b, f = p["bird", "default"], p["fox", "default"]
+        lg = p.get(("lego", "default"))
+        lego_us = f" (lego {lg['us_per_ray_int8']} in the same run)" if lg and lg["commit"] == b["commit"] else ""
         out.append(("bird / fox with the proposal grid (the default for unbounded captures), 5 min at 1/8 size",
-                    f"{b['psnr']} / {f['psnr']} dB f32, {b['psnr_int8']} / {f['psnr_int8']} dB int8, "
-                    f"{b['us_per_ray_int8']} / {f['us_per_ray_int8']} µs per ray", "Real captures at the default"))
+                    f"{b['psnr']} / {f['psnr']} dB f32, {b['psnr_int8']} / {f['psnr_int8']} dB int8 "
+                    f"({thousands(b['steps'])} / {thousands(f['steps'])} steps), "
+                    f"{b['us_per_ray_int8']} / {f['us_per_ray_int8']} µs per ray" + lego_us, "Real captures at the default"))
     m = [r for r in latest(rows("mesh.csv"), "resolution") if r["resolution"] == "256"]
     if m:
         out.append(("lego mesh, 256³ lattice", f"{'closed' if m[0]['closed'] == 'True' else 'open'}, silhouette IoU "

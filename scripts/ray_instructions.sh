@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Instructions per ray of a model's render, counted by callgrind: the
+# inclusive count of `render_view` over its held-out views (--split val)
+# at 1/DOWNSCALE of the photos (default 8), one thread, early termination 1e-3,
+# divided by the rays rendered. The binary is built for x86-64-v3 (AVX2;
+# valgrind cannot run AVX-512), or NERF_BIN_V3 names one. Counts are exact
+# and do not depend on the machine's load, so the ratio of two captures'
+# counts is a stable figure where µs per ray is noisy. Appends a row to
+# docs/ray_instructions.csv: date, commit, CPU, cores, capture, scheme,
+# downscale, rays, network evaluations per ray, instructions per ray and
+# PSNR of that render.
+#
+#   scripts/ray_instructions.sh CAPTURE MODEL DATA [DOWNSCALE]
+set -euo pipefail
+name=$1
+model=$(realpath "$2")
+data=$(realpath "$3")
+ds=${4:-8}
+given=${NERF_BIN_V3:+$(realpath "$NERF_BIN_V3")}
+cd "$(dirname "$0")/.."
+command -v valgrind >/dev/null || { echo "needs valgrind (apt-get install valgrind)" >&2; exit 1; }
+if [ -n "$given" ]; then
+  bin=$given
+else
+  RUSTFLAGS="-C target-cpu=x86-64-v3" cargo build --release --quiet --bin nerf --target-dir target/v3
+  bin=target/v3/release/nerf
+fi
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+out_csv=docs/ray_instructions.csv
+[ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,scheme,downscale,rays,evaluations_per_ray,\
+instructions_per_ray,psnr" > "$out_csv"
+cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//; s/,//g')
+stamp="$(date -u +%F),${NERF_COMMIT:-$(git rev-parse --short HEAD)},$cpu,$(nproc)"
+valgrind --tool=callgrind --callgrind-out-file="$work/cg" --toggle-collect='*render_view*' "$bin" eval "$model" \
+  --data "$data" --split val --downscale "$ds" --threads 1 --early-stop 1e-3 > "$work/eval.json" 2>/dev/null
+# awk reads to the end (grep -m1 would stop the pipe early and fail it under pipefail)
+ir=$(callgrind_annotate "$work/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ && !n {gsub(",", "", $1); print $1; n = 1}')
+python3 - "$stamp" "$name" "$ds" "$ir" "$work/eval.json" >> "$out_csv" <<'PY'
+import json, sys
+stamp, name, ds, ir, path = sys.argv[1:]
+e = json.load(open(path))
+print(f"{stamp},{name},{e['scheme']},{ds},{e['rays']},{e['samples_per_ray']:.2f},{int(ir) // e['rays']},{e['psnr']:.2f}")
+PY
+tail -1 "$out_csv" >&2
