@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Configurations compared on one capture, back to back: the capture
-# trained LENGTH at 1/8 size (DATA_DIR `room`: the built-in room of
-# `nerf scene --size 64`, at full size; ITERS steps, or with an m suffix
+# trained LENGTH at 1/8 size (DATA_DIR `room` or `llff`: the built-in
+# room or forward-facing capture of `nerf scene --size 64`, at full
+# size; ITERS steps, or with an m suffix
 # that many minutes; seed 0, the default with each configuration's
 # fields on top, as `--config` takes them), scored on its
 # held-out views in f32 at the field's own colour and with a per-photo
@@ -19,9 +20,10 @@
 #   scripts/capture_ab.sh ../shared/data/fox 2500 '{}' '{"appearance": true}'
 #   scripts/capture_ab.sh ../shared/data/bird 5m '{}' '{"n_coarse": 192, "n_main": 48}'
 #   scripts/capture_ab.sh room 5m '{}' '{"distortion": 0.001}'
+#   scripts/capture_ab.sh llff 3000 '{}' '{"distortion": 0.001}'
 set -euo pipefail
 data=$1
-[ "$data" = room ] || data=$(realpath "$data")
+case $data in room | llff) ;; *) data=$(realpath "$data") ;; esac
 length=$2
 shift 2
 case $length in
@@ -30,9 +32,9 @@ case $length in
 esac
 . "$(dirname "$0")/lib.sh"
 downscale=8
-if [ "$data" = room ]; then
+if [ "$data" = room ] || [ "$data" = llff ]; then
   "$bin" scene --out "$work/scene" --size 64 >&2
-  data=$work/scene/room
+  data=$work/scene/$data
   downscale=1
 fi
 out_csv=docs/capture_ab.csv

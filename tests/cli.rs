@@ -377,7 +377,7 @@ fn export_stores_the_feature_table_as_8_or_4_bit_codebook_indices() {
 }
 
 #[test]
-fn unbounded_captures_get_the_distortion_loss_unless_the_config_names_it() {
+fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
     let d = tmp("fit-distortion");
     ok(&["scene", "--out", s(&d.join("scene")), "--size", "16"]);
     let train = |data: &str, cfg: &str, name: &str, more: &[&str]| {
@@ -404,6 +404,10 @@ fn unbounded_captures_get_the_distortion_loss_unless_the_config_names_it() {
     let (res, distortion, err) = train("room", r#"{"distortion": 0}"#, "room-chosen", &[]);
     assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, 0.0));
     assert!(!err.contains("distortion loss"), "{err}");
+    // a forward-facing capture: both too
+    let (res, distortion, err) = train("llff", "{}", "forward", &[]);
+    assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, TrainConfig::PROPOSAL_DISTORTION));
+    assert!(err.contains("forward-facing") && err.contains("the distortion loss at 0.001"), "{err}");
     // the same photos as an object scene: neither
     let (res, distortion, _) = train("colmap", "{}", "object", &["--scene", "object"]);
     assert_eq!((res, distortion), (0, 0.0));

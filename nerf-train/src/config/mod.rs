@@ -232,10 +232,10 @@ impl TrainConfig {
     pub const PROPOSAL_COARSE: u16 = 128;
 
     /// The distortion loss's weight ([`Self::distortion`]) where `nerf
-    /// train` turns the proposal grid on in an unbounded scene (unless the
-    /// configuration names it): 0.001, measured against 0 on bird, fox and
-    /// the built-in room in docs/RESULTS.md, "Configurations compared on a
-    /// capture"; forward-facing scenes are not measured and keep 0.
+    /// train` turns the proposal grid on, in unbounded and forward-facing
+    /// scenes (unless the configuration names it): 0.001, measured against
+    /// 0 on bird, fox and the built-in room and forward-facing capture in
+    /// docs/RESULTS.md, "Configurations compared on a capture".
     pub const PROPOSAL_DISTORTION: f32 = 0.001;
 }
 

@@ -97,8 +97,8 @@ struct NewRun {
     /// `--config` names `proposal_res`.
     fit_proposal: bool,
     /// Turn the distortion loss on ([`TrainConfig::PROPOSAL_DISTORTION`])
-    /// where the proposal grid is turned on in an unbounded scene: unless
-    /// `--config` names `distortion`.
+    /// where the proposal grid is turned on (unbounded and forward-facing
+    /// scenes): unless `--config` names `distortion`.
     fit_distortion: bool,
 }
 
@@ -117,7 +117,7 @@ impl NewRun {
                 // the grid composited at fewer stratified samples than the occupancy grid's
                 with.n_coarse = TrainConfig::PROPOSAL_COARSE;
             }
-            if self.fit_distortion && data.scene.unbounded.is_some() {
+            if self.fit_distortion {
                 with.distortion = TrainConfig::PROPOSAL_DISTORTION;
             }
             if with.validate().is_ok() {
