@@ -41,7 +41,8 @@ for m in default/model default/int16 default/int8 fast/model fast/int16 fast/int
     valgrind --tool=callgrind --callgrind-out-file="$out" --toggle-collect='*render_view*' "$work/nerf-$c" eval \
       "$work/$m.nerf" --data "$root/lego" --split val --downscale 40 --threads 1 --early-stop 1e-3 \
       > "$out.json" 2>/dev/null
-    ir=$(callgrind_annotate "$out" 2>/dev/null | grep -m1 'PROGRAM TOTALS' | awk '{gsub(",", "", $1); print $1}')
+    # awk reads to the end (grep -m1 would stop the pipe early and fail it under pipefail)
+    ir=$(callgrind_annotate "$out" 2>/dev/null | awk '/PROGRAM TOTALS/ && !n {gsub(",", "", $1); print $1; n = 1}')
     psnr=$(python3 -c 'import json,sys; print("%.6f" % json.load(open(sys.argv[1]))["psnr"])' "$out.json")
     echo "$m,$c,$((ir / 4000)),$psnr"
   done

@@ -16,22 +16,18 @@ name=$1
 model=$(realpath "$2")
 data=$(realpath "$3")
 ds=${4:-8}
-given=${NERF_BIN_V3:+$(realpath "$NERF_BIN_V3")}
-cd "$(dirname "$0")/.."
+given_v3=${NERF_BIN_V3:+$(realpath "$NERF_BIN_V3")}
 command -v valgrind >/dev/null || { echo "needs valgrind (apt-get install valgrind)" >&2; exit 1; }
-if [ -n "$given" ]; then
-  bin=$given
+. "$(dirname "$0")/lib.sh"
+if [ -n "$given_v3" ]; then
+  bin=$given_v3
 else
   RUSTFLAGS="-C target-cpu=x86-64-v3" cargo build --release --quiet --bin nerf --target-dir target/v3
   bin=target/v3/release/nerf
 fi
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
 out_csv=docs/ray_instructions.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,scheme,downscale,rays,evaluations_per_ray,\
 instructions_per_ray,psnr" > "$out_csv"
-cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//; s/,//g')
-stamp="$(date -u +%F),${NERF_COMMIT:-$(git rev-parse --short HEAD)},$cpu,$(nproc)"
 valgrind --tool=callgrind --callgrind-out-file="$work/cg" --toggle-collect='*render_view*' "$bin" eval "$model" \
   --data "$data" --split val --downscale "$ds" --threads 1 --early-stop 1e-3 > "$work/eval.json" 2>/dev/null
 # awk reads to the end (grep -m1 would stop the pipe early and fail it under pipefail)

@@ -240,7 +240,10 @@ photos (every 8th image) at 1/8 size.
 
 
 def proposal_section():
-    rs = latest(rows("proposal.csv"), "capture", "treatment")
+    every = rows("proposal.csv")
+    lego_steps = ", ".join(f"{thousands(r['steps'])} on {r['commit']}" for r in every
+                           if r["capture"] == "lego" and r["minutes"] == "5")
+    rs = latest(every, "capture", "treatment")
     order = {"lego": 0, "bird": 1, "fox": 2, "room": 3, "room-on-black": 4}
     rs.sort(key=lambda r: (order.get(r["capture"], 5), r["treatment"]))
     lego = {r["commit"]: r for r in rs if r["capture"] == "lego"}
@@ -265,11 +268,11 @@ samples, evaluates the network at 32 and, from 0a4ff61 on, adds the
 distortion loss at 0.001 in unbounded scenes (`capture-5m` in
 "Configurations compared on a capture" measures the loss): the rows of
 3e04c50 are of that default; older rows, where no newer one replaces
-them, are of aee59e8's default, 192 and 48 samples. The same CPU model
-gave lego 34 220 steps in 5 minutes on 6f7ebdc and 16 087 on 3e04c50
-(another machine, or another load), so compare rows of one commit;
-"Instructions per ray" below gives the ray-cost ratio as a count that
-does not move with the load. ms per step is the run's wall time over its steps; PSNR on the
+them, are of aee59e8's default, 192 and 48 samples. Lego's steps in
+these runs (""" + lego_steps + """) differ with the machine and its load on
+one CPU model, so compare rows of one commit; "Instructions per ray"
+below gives the ray-cost ratio as a count that does not move with the
+load. ms per step is the run's wall time over its steps; PSNR on the
 held-out views (every 8th photo; lego's 10 validation views) in f32 and
 after `nerf export --bits 8`; the int8 render on one core with early
 termination 10⁻³ (`nerf eval --threads 1 --repeat 3 --early-stop 1e-3`,
