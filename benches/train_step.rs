@@ -29,7 +29,7 @@ fn steps(c: &mut Criterion) {
     let mut g = c.benchmark_group("train_step");
     g.sample_size(20);
     for (name, cfg) in [("features", TrainConfig::features()), ("fast", TrainConfig::fast())] {
-        g.throughput(Throughput::Elements(cfg.batch_rays as u64));
+        g.throughput(Throughput::Elements(cfg.sampling.batch_rays as u64));
         let mut tr = Trainer::new(cfg, data.scene, 1, 1);
         for i in 0..200 {
             tr.train_step(&data, i as f64 / 1000.0);

@@ -30,13 +30,12 @@ fn corrections_take_each_photos_exposure() {
     let steps = 400;
     let run = |appearance: bool| {
         // a colour without the view direction: only the corrections can tell the photos apart
-        let cfg = TrainConfig {
-            proposal_res: 32,
-            batch_rays: 256,
-            appearance,
-            view_dependent: false,
-            ..TrainConfig::features()
-        };
+        let cfg = TrainConfig::features().with(|c| {
+            c.sampling.proposal_res = 32;
+            c.sampling.batch_rays = 256;
+            c.loss.appearance = appearance;
+            c.model.view_dependent = false;
+        });
         let mut tr = Trainer::new(cfg, data.scene, 1, 0);
         let mut last = 0.0;
         for k in 0..steps {

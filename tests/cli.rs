@@ -226,7 +226,7 @@ fn train_sizes_the_feature_grid_to_the_photos_unless_the_config_does() {
     // a configuration that names the finest level or the table keeps its grid
     for (cfg, want) in [
         (r#"{"feature_levels": 2, "feature_max_res": 256}"#, (256, 15)),
-        (r#"{"feature_levels": 2, "feature_log2_table": 12}"#, (256, 12)),
+        (r#"{"features": {"levels": 2, "log2_table": 12}}"#, (256, 12)),
     ] {
         let (res, table, err) = train(cfg, "chosen", &["--iters", "1", "--force"]);
         assert_eq!((res, table), want, "{cfg}");
@@ -394,7 +394,7 @@ fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
         let err = String::from_utf8_lossy(&o.stderr).into_owned();
         assert!(o.status.success(), "{err}");
         let t = nerf_train::train::Trainer::from_bytes(&std::fs::read(run.join("checkpoint.bin")).unwrap()).unwrap();
-        (t.cfg.proposal_res, t.cfg.distortion, err)
+        (t.cfg.sampling.proposal_res, t.cfg.loss.distortion, err)
     };
     // the room (unbounded): the proposal grid and the distortion loss, said on the terminal
     let (res, distortion, err) = train("room", "{}", "room", &[]);

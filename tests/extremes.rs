@@ -201,19 +201,23 @@ fn scenes() -> Vec<(&'static str, Scene)> {
 
 fn feature_grid_config() -> TrainConfig {
     // a learned feature grid: 3 levels (dense, dense, hashed) beside γ(x)
-    TrainConfig {
-        n_fine: 0,
-        feature_levels: 3,
-        feature_log2_table: 9,
-        feature_min_res: 2,
-        feature_max_res: 40,
-        ..small_config()
-    }
+    small_config().with(|c| {
+        c.sampling.n_fine = 0;
+        c.features.levels = 3;
+        c.features.log2_table = 9;
+        c.features.min_res = 2;
+        c.features.max_res = 40;
+    })
 }
 
 fn high_freq_config() -> TrainConfig {
     // the highest frequencies the format allows, no view branch
-    TrainConfig { pos_freqs: 16, dir_freqs: 16, view_dependent: false, n_fine: 0, ..small_config() }
+    small_config().with(|c| {
+        c.model.pos_freqs = 16;
+        c.model.dir_freqs = 16;
+        c.model.view_dependent = false;
+        c.sampling.n_fine = 0;
+    })
 }
 
 #[test]
@@ -276,7 +280,7 @@ fn integer_weights_at_the_ends_of_their_type_saturate_or_are_refused() {
 #[test]
 fn huge_density_is_opaque_at_the_first_sample_and_negative_density_is_empty() {
     let scene = unit_scene();
-    let cfg = TrainConfig { n_fine: 0, ..small_config() };
+    let cfg = small_config().with(|c| c.sampling.n_fine = 0);
     let (o, d) = (Vec3::new(0.0, 0.0, 4.0), Vec3::NEG_Z); // enters the bounds at t = 3
     for (bias, opaque) in [(1e6f32, true), (-1e6, false)] {
         let f = f32_model(&cfg, scene, Weights::SigmaBias(bias)).to_bytes().unwrap();

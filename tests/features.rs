@@ -18,22 +18,21 @@ use support::*;
 /// A small grid model: 4 levels of 2 values, 2¹⁰ entries (the two coarse
 /// levels dense, the two fine ones hashed), γ(x) with 2 frequencies.
 fn feature_config() -> TrainConfig {
-    TrainConfig {
-        depth: 2,
-        width: 32,
-        skips: vec![],
-        view_width: 16,
-        pos_freqs: 2,
-        dir_freqs: 2,
-        n_coarse: 48,
-        n_fine: 0,
-        feature_levels: 4,
-        feature_width: 2,
-        feature_log2_table: 10,
-        feature_min_res: 4,
-        feature_max_res: 32,
-        ..TrainConfig::fast()
-    }
+    TrainConfig::fast().with(|c| {
+        c.model.depth = 2;
+        c.model.width = 32;
+        c.model.skips = vec![];
+        c.model.view_width = 16;
+        c.model.pos_freqs = 2;
+        c.model.dir_freqs = 2;
+        c.sampling.n_coarse = 48;
+        c.sampling.n_fine = 0;
+        c.features.levels = 4;
+        c.features.width = 2;
+        c.features.log2_table = 10;
+        c.features.min_res = 4;
+        c.features.max_res = 32;
+    })
 }
 
 #[test]
@@ -41,7 +40,12 @@ fn a_step_reports_the_time_of_each_of_its_stages_within_its_own_duration() {
     let d = support::TestDir::new("step-times-test");
     write_blender(&d, SceneSpec { size: 24, train: 4, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
-    let cfg = TrainConfig { batch_rays: 256, grid_res: 16, grid_warmup: 0, grid_every: 2, ..feature_config() };
+    let cfg = feature_config().with(|c| {
+        c.sampling.batch_rays = 256;
+        c.grid.res = 16;
+        c.grid.warmup = 0;
+        c.grid.every = 2;
+    });
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     for _ in 0..4 {
         let start = std::time::Instant::now();
@@ -73,7 +77,12 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
-    let cfg = TrainConfig { batch_rays: 256, lr: 1e-2, eps: 1e-15, beta2: 0.99, ..feature_config() };
+    let cfg = feature_config().with(|c| {
+        c.sampling.batch_rays = 256;
+        c.optimiser.lr = 1e-2;
+        c.optimiser.eps = 1e-15;
+        c.optimiser.beta2 = 0.99;
+    });
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     support::train_until_the_loss_halves(&mut tr, &data);
     let mlp = tr.mlp();
@@ -124,14 +133,13 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     let d = support::TestDir::new("ema-test");
     write_blender(&d, SceneSpec { size: 24, train: 6, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
-    let cfg = TrainConfig {
-        batch_rays: 128,
-        grid_res: 16,
-        grid_warmup: 0,
-        grid_every: 4,
-        ema_decay: 0.9,
-        ..feature_config()
-    };
+    let cfg = feature_config().with(|c| {
+        c.sampling.batch_rays = 128;
+        c.grid.res = 16;
+        c.grid.warmup = 0;
+        c.grid.every = 4;
+        c.optimiser.ema_decay = 0.9;
+    });
     let mut tr = Trainer::new(cfg.clone(), data.scene, 1, 2);
     tr.train_step(&data, 0.0);
     assert_eq!(tr.ema, tr.params, "the average starts at the first step's parameters");
@@ -163,7 +171,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     assert_eq!(avg.updates, run.updates + 1);
 
     // before the run's first refresh its grid stays whole in the average's model too
-    let mut young = Trainer::new(TrainConfig { grid_warmup: 1000, ..cfg.clone() }, data.scene, 1, 2);
+    let mut young = Trainer::new(cfg.clone().with(|c| c.grid.warmup = 1000), data.scene, 1, 2);
     for _ in 0..3 {
         young.train_step(&data, 0.0);
     }
@@ -172,7 +180,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     assert_eq!(young.grid.as_ref().unwrap().updates, 0);
 
     // without an average the model is the run's last step
-    let mut plain = Trainer::new(TrainConfig { ema_decay: 0.0, ..cfg }, data.scene, 1, 2);
+    let mut plain = Trainer::new(cfg.with(|c| c.optimiser.ema_decay = 0.0), data.scene, 1, 2);
     plain.train_step(&data, 0.0);
     assert!(plain.ema.is_empty() && std::ptr::eq(&*plain.averaged(), &plain));
 }
@@ -183,8 +191,13 @@ fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     // few rays per step, a fine hashed level: most values get a gradient now and then
-    let cfg =
-        TrainConfig { batch_rays: 16, feature_log2_table: 14, lr: 1e-2, eps: 1e-15, beta2: 0.99, ..feature_config() };
+    let cfg = feature_config().with(|c| {
+        c.sampling.batch_rays = 16;
+        c.features.log2_table = 14;
+        c.optimiser.lr = 1e-2;
+        c.optimiser.eps = 1e-15;
+        c.optimiser.beta2 = 0.99;
+    });
     let mut tr = Trainer::new(cfg, data.scene, 1, 4);
     let table = tr.mlp().table;
     assert_eq!(tr.adam.steps.len(), tr.params.len() - table);
@@ -371,7 +384,13 @@ fn a_footprint_model_records_its_pixel_and_renders_alike_in_both_numeric_paths()
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
-    let cfg = TrainConfig { batch_rays: 256, lr: 1e-2, eps: 1e-15, beta2: 0.99, footprint: true, ..feature_config() };
+    let cfg = feature_config().with(|c| {
+        c.sampling.batch_rays = 256;
+        c.optimiser.lr = 1e-2;
+        c.optimiser.eps = 1e-15;
+        c.optimiser.beta2 = 0.99;
+        c.features.footprint = true;
+    });
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     support::train_until_the_loss_halves(&mut tr, &data);
     assert_eq!(tr.pixel, data.pixel_angle());

@@ -75,7 +75,12 @@ fn bless() {
     }
     // golden8_proposal.nerf: an int8 model whose proposal grid (format version 11) places its samples in
     // a ball about the centre
-    let pcfg = nerf_train::config::TrainConfig { n_fine: 0, n_coarse: 48, n_main: 16, proposal_res: 8, ..cfg };
+    let pcfg = cfg.with(|c| {
+        c.sampling.n_fine = 0;
+        c.sampling.n_coarse = 48;
+        c.sampling.n_main = 16;
+        c.sampling.proposal_res = 8;
+    });
     let mut p = random_model(&pcfg, unit_scene(), 7, 6.0);
     let (grid, codes) = p.proposal.as_mut().unwrap();
     let r = grid.res as usize;

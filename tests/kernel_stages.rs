@@ -84,7 +84,7 @@ fn compare_mlp(cfg: &TrainConfig, scheme: Scheme, sigma_tol: f32, rgb_tol: f32) 
     }
     println!(
         "{scheme:?} {}x{}: max |Δσ| = {:.4} (max |σ| {sig_max:.2}), max |Δrgb| = {:.5}",
-        cfg.depth, cfg.width, errs.0, errs.1
+        cfg.model.depth, cfg.model.width, errs.0, errs.1
     );
     assert!(sig_max > 1.0, "test model has no density");
     assert!(errs.0 <= sigma_tol * sig_max + 2.0 / 1024.0, "σ error {} over {}·{sig_max}", errs.0, sigma_tol);
@@ -94,7 +94,13 @@ fn compare_mlp(cfg: &TrainConfig, scheme: Scheme, sigma_tol: f32, rgb_tol: f32) 
 #[test]
 fn one_dense_layer_then_heads_int16() {
     // depth 1: a single hidden layer between the encoding and the heads
-    let cfg = TrainConfig { depth: 1, width: 48, skips: vec![], view_dependent: false, n_fine: 0, ..small_config() };
+    let cfg = small_config().with(|c| {
+        c.model.depth = 1;
+        c.model.width = 48;
+        c.model.skips = vec![];
+        c.model.view_dependent = false;
+        c.sampling.n_fine = 0;
+    });
     compare_mlp(&cfg, Scheme::I16, tol::SIGMA_REL, tol::RGB);
 }
 

@@ -46,7 +46,7 @@ fn octahedron() -> OwnedModel {
                 l.act_max = 1.0;
             } else if i < depth {
                 // a skip layer reads the encoding first, then the previous layer
-                let off = if topo.is_skip(i) { l.in_dim as usize - cfg.width as usize } else { 0 };
+                let off = if topo.is_skip(i) { l.in_dim as usize - cfg.model.width as usize } else { 0 };
                 for c in 0..6 {
                     put(&mut l.weights, (off + c) * od + c, 1.0);
                 }

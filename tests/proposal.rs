@@ -20,7 +20,12 @@ use support::*;
 
 /// A configuration with a proposal grid of `res` cells per axis.
 fn proposal_config(res: u16) -> TrainConfig {
-    TrainConfig { n_fine: 0, n_coarse: 64, n_main: 24, proposal_res: res, ..small_config() }
+    small_config().with(|c| {
+        c.sampling.n_fine = 0;
+        c.sampling.n_coarse = 64;
+        c.sampling.n_main = 24;
+        c.sampling.proposal_res = res;
+    })
 }
 
 /// A random model whose proposal grid puts its density in a ball of
@@ -74,7 +79,10 @@ fn a_trained_proposal_grid_bounds_the_networks_weights() {
     write_colmap(&d, SceneSpec { size: 24, train: 16, val: 2, test: 0 }, ColmapText::Binary, true).unwrap();
     let data = load(&d, Split::Train, LoadOptions { holdout: 8, ..Default::default() }).unwrap();
     assert!(data.scene.unbounded.is_some(), "the room is unbounded");
-    let cfg = TrainConfig { proposal_res: 32, batch_rays: 512, ..TrainConfig::features() };
+    let cfg = TrainConfig::features().with(|c| {
+        c.sampling.proposal_res = 32;
+        c.sampling.batch_rays = 512;
+    });
     let mut tr = Trainer::new(cfg, data.scene, 1, 0);
     let batch = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(9));
     let (before, _) = tr.proposal_bound(&batch).unwrap();

@@ -7,7 +7,6 @@ mod support;
 use nerf_infer::format::{prunable, Scheme};
 use nerf_infer::Model;
 use nerf_infer::Orbit;
-use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, trainer_model, OwnedModel, Prune};
 use nerf_train::path::orbit_rays;
 use nerf_train::train::Trainer;
@@ -23,7 +22,10 @@ const DEAD_VIEW: usize = 20;
 /// `DEAD` outputs of trunk layer 1 and the first `DEAD_VIEW` outputs of the
 /// view layer can never be positive: zero weights, bias −1.
 fn trainer_with_dead_neurons() -> Trainer {
-    let cfg = TrainConfig { width: 64, view_width: 32, ..small_config() };
+    let cfg = small_config().with(|c| {
+        c.model.width = 64;
+        c.model.view_width = 32;
+    });
     let mut tr = Trainer::new(cfg, unit_scene(), 1, 7);
     let mlp = tr.mlp();
     let view = mlp.topo.depth as usize + 2;
@@ -56,7 +58,7 @@ fn renders(m: &Model<'_>) -> Vec<Vec<[f32; 3]>> {
 fn dead_neurons_leave_the_model_and_every_render_stays_the_same() {
     let tr = trainer_with_dead_neurons();
     let calib = orbit_rays(&tr.scene, 4, 16);
-    let view = tr.cfg.depth as usize + 2;
+    let view = tr.cfg.model.depth as usize + 2;
     let [off, tiles, exact] = [Prune::Off, Prune::Tiles, Prune::Exact].map(|p| bytes(&trainer_model(&tr, &calib, p)));
     let [off, tiles, exact] = [&off, &tiles, &exact].map(|b| Model::from_bytes(b).expect("decode"));
 

@@ -19,7 +19,10 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
-    let cfg = nerf_train::config::TrainConfig { batch_rays: 256, lr: 1e-2, ..small_config() };
+    let cfg = small_config().with(|c| {
+        c.sampling.batch_rays = 256;
+        c.optimiser.lr = 1e-2;
+    });
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     support::train_until_the_loss_halves(&mut tr, &data);
     // checkpoints round-trip exactly
@@ -44,7 +47,10 @@ fn both_networks_learn_from_every_seed() {
     let d = support::TestDir::new("seeds-test");
     write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
-    let cfg = nerf_train::config::TrainConfig { batch_rays: 128, lr: 1e-2, ..small_config() };
+    let cfg = small_config().with(|c| {
+        c.sampling.batch_rays = 128;
+        c.optimiser.lr = 1e-2;
+    });
     let probe = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(5));
     for seed in 0..4 {
         let mut tr = Trainer::new(cfg.clone(), data.scene, 1, seed);
@@ -68,7 +74,7 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
     for v in &mut bad.views {
         v.rgb.iter_mut().step_by(7).for_each(|p| *p = [f32::NAN, f32::INFINITY, 0.5]);
     }
-    let cfg = nerf_train::config::TrainConfig { batch_rays: 128, ..small_config() };
+    let cfg = small_config().with(|c| c.sampling.batch_rays = 128);
     let mut tr = Trainer::new(cfg, good.scene, 1, 2);
     tr.train_step(&good, 0.0);
     let (params, adam_before) = (tr.params.clone(), tr.to_bytes().unwrap());
@@ -94,16 +100,15 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let val = load(&d, Split::Val, LoadOptions::default()).unwrap();
-    let cfg = nerf_train::config::TrainConfig {
-        batch_rays: 256,
-        lr: 1e-2,
-        n_coarse: 48,
-        n_fine: 0,
-        grid_res: 16,
-        grid_warmup: 40,
-        grid_every: 8,
-        ..small_config()
-    };
+    let cfg = small_config().with(|c| {
+        c.sampling.batch_rays = 256;
+        c.optimiser.lr = 1e-2;
+        c.sampling.n_coarse = 48;
+        c.sampling.n_fine = 0;
+        c.grid.res = 16;
+        c.grid.warmup = 40;
+        c.grid.every = 8;
+    });
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     let first = tr.train_step(&data, 0.0);
     assert_eq!(first.samples, first.rays * 48, "before warm-up every sample counts");
@@ -290,7 +295,11 @@ fn the_optical_depth_penalty_empties_the_space_the_photos_leave_free() {
     write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let mean_density = |density_l1: f32| {
-        let cfg = nerf_train::config::TrainConfig { batch_rays: 128, lr: 1e-2, density_l1, ..small_config() };
+        let cfg = small_config().with(|c| {
+            c.sampling.batch_rays = 128;
+            c.optimiser.lr = 1e-2;
+            c.loss.density_l1 = density_l1;
+        });
         let mut tr = Trainer::new(cfg, data.scene, 1, 3);
         let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
         for i in 0..80 {
@@ -317,7 +326,7 @@ fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() 
     let diagonal = 2.2 * 3f32.sqrt();
     // the default (one network) and `fast` (coarse and fine)
     for cfg in [nerf_train::config::TrainConfig::default_preset(), nerf_train::config::TrainConfig::fast()] {
-        let nets = 1 + (cfg.n_fine > 0) as usize;
+        let nets = 1 + (cfg.sampling.n_fine > 0) as usize;
         for seed in 0..4 {
             let even = initial_densities(&cfg, unbounded, seed);
             let fogs = initial_densities(&cfg, bounded, seed);

@@ -15,16 +15,14 @@ use support::cli::{fails, ok, s, tmp};
 /// model with a feature grid and odd layer widths (45 inputs, a 16-wide
 /// view layer, 3 colours), random weights, written into `dir`.
 fn models(dir: &Path) -> Vec<PathBuf> {
-    use nerf_train::config::TrainConfig;
     use nerf_train::export::{quantise, random_model};
-    let cfg = TrainConfig {
-        n_fine: 0,
-        feature_levels: 3,
-        feature_log2_table: 9,
-        feature_min_res: 2,
-        feature_max_res: 40,
-        ..support::small_config()
-    };
+    let cfg = support::small_config().with(|c| {
+        c.sampling.n_fine = 0;
+        c.features.levels = 3;
+        c.features.log2_table = 9;
+        c.features.min_res = 2;
+        c.features.max_res = 40;
+    });
     let f32_bytes = random_model(&cfg, support::unit_scene(), 7, 4.0).to_bytes().unwrap();
     let m = nerf_infer::Model::from_bytes(&f32_bytes).unwrap();
     let int8 = quantise(&m, nerf_infer::Scheme::I8).unwrap().to_bytes().unwrap();

@@ -5,7 +5,7 @@
 //! geometry. The exported model renders the field's own colour, which
 //! [`Appearance::recentre`] keeps at the photos' mean appearance (the
 //! mean correction is the identity), and held-out photos are scored with it
-//! ([`TrainConfig::appearance`](crate::config::TrainConfig::appearance)).
+//! ([`LossConfig::appearance`](crate::config::LossConfig::appearance)).
 
 use crate::adam::Adam;
 use serde::{Deserialize, Serialize};
@@ -28,7 +28,7 @@ pub const IDENTITY: [f32; PER_PHOTO] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 
 pub const PRIOR: f32 = 1e-3;
 
 /// The corrections' learning rate as a share of the network's
-/// ([`TrainConfig::lr`](crate::config::TrainConfig::lr)), following its
+/// ([`OptimiserConfig::lr`](crate::config::OptimiserConfig::lr)), following its
 /// decay.
 pub const LR_SHARE: f32 = 0.1;
 
@@ -66,7 +66,7 @@ impl Appearance {
         &self.params[photo * PER_PHOTO..(photo + 1) * PER_PHOTO]
     }
 
-    /// One Adam step at learning rate `lr` on the colour loss's gradient
+    /// One Adam step at learning rate `optimiser.lr` on the colour loss's gradient
     /// `grad` (as `params`) plus [`PRIOR`]'s.
     pub fn update(&mut self, grad: &mut [f32], lr: f32, beta1: f32, beta2: f32, eps: f32) {
         for (i, g) in grad.iter_mut().enumerate() {

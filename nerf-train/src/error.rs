@@ -4,7 +4,8 @@
 //! may return the error that stage wraps ([`DataError`], [`ParseError`],
 //! [`MeshError`], each converting into [`Error`] with `?`); the low-level
 //! file writers (`atomic`, the COLMAP and `.npy` writers) return
-//! `std::io::Result`, which their callers name the file in.
+//! `std::io::Result`, which their callers wrap with the file's path in
+//! [`Error::Io`] ([`Error::io`]).
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -37,9 +38,27 @@ pub enum Error {
     /// A mesh that cannot be made.
     #[error(transparent)]
     Mesh(#[from] MeshError),
-    /// A plot that cannot be drawn or written.
+    /// A plot that cannot be drawn.
     #[error("{0}")]
     Plot(String),
+    /// A file that cannot be read or written: its path and the system's
+    /// reason.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the system reported.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl Error {
+    /// For `map_err` on an I/O result about `path`: the error as
+    /// [`Error::Io`], naming the file.
+    pub fn io(path: &Path) -> impl FnOnce(std::io::Error) -> Error + '_ {
+        move |source| Error::Io { path: path.to_path_buf(), source }
+    }
 }
 
 /// For callers whose errors are messages (the `nerf` command): the message.
@@ -115,3 +134,20 @@ impl fmt::Display for MeshError {
 }
 
 impl std::error::Error for MeshError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_io_error_names_its_file_and_keeps_the_systems_reason() {
+        let e = Error::io(Path::new("out/plot.png"))(std::io::Error::from(std::io::ErrorKind::PermissionDenied));
+        let message = e.to_string();
+        assert!(
+            message.starts_with("out/plot.png: ") && message.to_lowercase().contains("permission denied"),
+            "{message}"
+        );
+        let source = std::error::Error::source(&e).and_then(|s| s.downcast_ref::<std::io::Error>());
+        assert_eq!(source.map(|s| s.kind()), Some(std::io::ErrorKind::PermissionDenied));
+    }
+}

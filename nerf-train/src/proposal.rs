@@ -1,10 +1,10 @@
 //! The proposal grid during training: where each ray's network samples go
-//! in unbounded and forward-facing scenes ([`TrainConfig::proposal_res`]).
+//! in unbounded and forward-facing scenes ([`SamplingConfig::proposal_res`](crate::config::SamplingConfig::proposal_res)).
 //!
 //! A dense grid of log-densities `v` over the normalised (contracted)
 //! coordinates, the cell layout of the occupancy grid, constant over each
-//! cell: `σ = exp(v)` (1/world units). Per ray, `n_coarse` stratified
-//! samples composite it into weights; the network's `n_main` samples are
+//! cell: `σ = exp(v)` (1/world units). Per ray, `sampling.n_coarse` stratified
+//! samples composite it into weights; the network's `sampling.n_main` samples are
 //! drawn from them (`sample_pdf_f32`, as the renderer's
 //! [`nerf_infer::render`] march draws them) and the last stratified sample
 //! is added, so that the last interval still reaches the far plane. The
@@ -14,7 +14,7 @@
 //! ray crossed keep their moments). Exported as 8-bit codes
 //! ([`nerf_infer::proposal`]).
 //!
-//! [`TrainConfig::proposal_res`]: crate::config::TrainConfig::proposal_res
+//! [`SamplingConfig::proposal_res`](crate::config::SamplingConfig::proposal_res): crate::config::SamplingConfig::proposal_res
 
 use crate::adam::Adam;
 use crate::interlevel::interlevel;
@@ -93,8 +93,8 @@ impl ProposalGrid {
     }
 
     /// Fills `out` with the sorted `t` of the network's samples of `ray`
-    /// (`n_main` drawn from the proposal's weights, then the last of
-    /// `n_coarse` stratified samples, jittered by `key`), and `prop` with
+    /// (`sampling.n_main` drawn from the proposal's weights, then the last of
+    /// `sampling.n_coarse` stratified samples, jittered by `key`), and `prop` with
     /// the proposal's samples for [`ProposalGrid::backward`].
     pub fn place(&self, ray: &Ray, key: u32, n_coarse: usize, out: &mut [f32], prop: &mut RayProposal) {
         let n_main = out.len() - 1;

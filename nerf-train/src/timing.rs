@@ -18,7 +18,7 @@ const WALL_STAGES: usize = 5;
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StepTimes {
     /// Wall: the occupancy grid refreshed from the density (every
-    /// `grid_every` steps).
+    /// `grid.every` steps).
     pub grid: f64,
     /// Wall: the batch of rays drawn.
     pub draw: f64,
@@ -27,7 +27,7 @@ pub struct StepTimes {
     pub chunks: f64,
     /// Wall: the feature table's gradient scattered from the chunks.
     pub scatter: f64,
-    /// Wall: the Adam update of every parameter (and the parameters' average, `ema_decay`).
+    /// Wall: the Adam update of every parameter (and the parameters' average, `optimiser.ema_decay`).
     pub adam: f64,
     /// Thread: samples along the rays and the occupancy tests.
     pub sample: f64,

@@ -101,7 +101,7 @@ pub fn distortion(mid: &[f32], width: &[f32], w: &[f32], scale: f32, dw: &mut [f
 /// The optical depth of one ray, `Σᵢ max(σᵢ, 0)·δᵢ` (σ in 1/world units,
 /// δ in world units, the sum unitless) over its samples but one whose δ
 /// is [`LAST_DELTA`] (its density changes no render): the quantity
-/// [`TrainConfig::density_l1`](crate::config::TrainConfig::density_l1) penalises.
+/// [`LossConfig::density_l1`](crate::config::LossConfig::density_l1) penalises.
 pub fn optical_depth(sigma: &[f32], delta: &[f32]) -> f32 {
     sigma.iter().zip(delta).filter(|&(_, &d)| d < LAST_DELTA).map(|(&s, &d)| s.max(0.0) * d).sum()
 }

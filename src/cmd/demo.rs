@@ -4,7 +4,8 @@
 //! plot — each step the command a user would type, called with its typed
 //! arguments.
 
-use super::{eval, num_in, CmdResult, WeightBits};
+use super::{eval, num_in, CmdResult};
+use nerf_infer::Scheme;
 use std::path::PathBuf;
 
 /// Arguments of `nerf demo`.
@@ -35,7 +36,7 @@ pub fn run(a: Args) -> CmdResult {
     super::train::run(train)?;
     eprintln!("3/6 exporting int16 and int8 models");
     let model = run_dir.join("model.nerf");
-    for bits in [WeightBits::I16, WeightBits::I8] {
+    for bits in [Scheme::I16, Scheme::I8] {
         let file = run_dir.join(format!("model_int{}.nerf", bits.bits()));
         super::export::run(super::export::Args::new(model.clone(), bits, file))?;
     }

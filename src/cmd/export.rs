@@ -1,6 +1,6 @@
 //! `nerf export`: writes the model with 32-, 16- or 8-bit weights.
 
-use super::{decode, read_model, write_atomic, ActBits, CmdResult, TableBits, WeightBits};
+use super::{decode, read_model, write_atomic, ActBits, CmdResult, TableBits};
 use nerf_infer::Scheme;
 use nerf_train::export::{quantise_with, OwnedModel, Quantisation};
 use std::path::PathBuf;
@@ -12,7 +12,7 @@ pub struct Args {
     pub(crate) model: PathBuf,
     /// Weight bits: 32 (f32 path), 16 or 8 (integer fixed-point path).
     #[arg(long, value_enum)]
-    pub bits: WeightBits,
+    pub bits: Scheme,
     /// Hidden-activation bits of the integer path: 16, or 8 with `--bits 8`
     /// (ReLU outputs u8, the feature layer i8; the encoding stays 16-bit).
     #[arg(long, value_enum, default_value_t = ActBits::A16)]
@@ -68,7 +68,7 @@ fn refuse_foreign_file(out: &std::path::Path) -> CmdResult {
 
 impl Args {
     /// `nerf export MODEL --bits BITS --out OUT` with every other flag at its default.
-    pub fn new(model: PathBuf, bits: WeightBits, out: PathBuf) -> Self {
+    pub fn new(model: PathBuf, bits: Scheme, out: PathBuf) -> Self {
         Self {
             model,
             bits,
@@ -84,16 +84,16 @@ impl Args {
 
 /// Runs `nerf export`.
 pub fn run(a: Args) -> CmdResult {
-    if a.act_bits == ActBits::A8 && a.bits != WeightBits::I8 {
+    if a.act_bits == ActBits::A8 && a.bits != Scheme::I8 {
         return Err("--act-bits 8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into());
     }
-    if a.table_bits != TableBits::T16 && a.bits == WeightBits::F32 {
+    if a.table_bits != TableBits::T16 && a.bits == Scheme::F32 {
         return Err(format!(
             "--table-bits {} needs --bits 16 or 8 (an f32 model keeps an f32 table)",
             a.table_bits.bits()
         ));
     }
-    if !a.int8_layers.is_empty() && a.bits != WeightBits::I16 {
+    if !a.int8_layers.is_empty() && a.bits != Scheme::I16 {
         return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
     }
     super::refuse_same_file(&a.out, "--out", &a.model)?;
@@ -101,12 +101,12 @@ pub fn run(a: Args) -> CmdResult {
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let mut owned = match a.bits {
-        WeightBits::F32 if model.scheme() == Scheme::F32 => OwnedModel::from_model(&model),
-        WeightBits::F32 => {
+        Scheme::F32 if model.scheme() == Scheme::F32 => OwnedModel::from_model(&model),
+        Scheme::F32 => {
             return Err(format!("{}: model is already quantised; export from the f32 model", a.model.display()))
         }
-        bits => {
-            let (scheme, act_bits) = (bits.scheme(), a.act_bits);
+        scheme => {
+            let act_bits = a.act_bits;
             let layers = model.coarse.layers.len();
             if let Some(&bad) = a.int8_layers.iter().find(|&&i| i >= layers) {
                 return Err(format!(
@@ -138,7 +138,7 @@ pub fn run(a: Args) -> CmdResult {
     let out = owned.to_bytes().map_err(|e| format!("{}: {e}", a.out.display()))?;
     write_atomic(&a.out, &out)?;
     let acts = match a.bits {
-        WeightBits::F32 => String::new(),
+        Scheme::F32 => String::new(),
         _ => format!(", {}-bit activations", a.act_bits.bits()),
     };
     let table = match a.table_bits {

@@ -42,20 +42,6 @@ where
     }
 }
 
-/// `--bits` of `nerf export`: the weights' numeric scheme.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum WeightBits {
-    /// f32 (the f32 path).
-    #[value(name = "32")]
-    F32,
-    /// int16 (the integer fixed-point path).
-    #[value(name = "16")]
-    I16,
-    /// int8 (the integer fixed-point path).
-    #[value(name = "8")]
-    I8,
-}
-
 /// `--table-bits` of `nerf export`: bits per value of the feature table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum TableBits {
@@ -81,44 +67,17 @@ impl TableBits {
     }
 }
 
-impl WeightBits {
-    /// The model scheme.
-    pub fn scheme(self) -> nerf_infer::Scheme {
-        match self {
-            WeightBits::F32 => nerf_infer::Scheme::F32,
-            WeightBits::I16 => nerf_infer::Scheme::I16,
-            WeightBits::I8 => nerf_infer::Scheme::I8,
+/// `--bits` of the commands that score a fixed-point model: `16` or `8`,
+/// the integer [`Scheme`](nerf_infer::Scheme)s.
+pub fn fixed_scheme() -> impl clap::builder::TypedValueParser<Value = nerf_infer::Scheme> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(["16", "8"]).map(|s| {
+        if s == "16" {
+            nerf_infer::Scheme::I16
+        } else {
+            nerf_infer::Scheme::I8
         }
-    }
-
-    /// Bits per weight.
-    pub fn bits(self) -> u32 {
-        match self {
-            WeightBits::F32 => 32,
-            WeightBits::I16 => 16,
-            WeightBits::I8 => 8,
-        }
-    }
-}
-
-/// `--bits` of the commands that score a fixed-point model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum FixedBits {
-    /// int16 weights.
-    #[value(name = "16")]
-    I16,
-    /// int8 weights.
-    #[value(name = "8")]
-    I8,
-}
-
-impl From<FixedBits> for WeightBits {
-    fn from(b: FixedBits) -> Self {
-        match b {
-            FixedBits::I16 => WeightBits::I16,
-            FixedBits::I8 => WeightBits::I8,
-        }
-    }
+    })
 }
 
 /// How a dataset is read and, for a real capture (LLFF, COLMAP,
@@ -402,7 +361,7 @@ mod tests {
         let train = parsed::<train::Args>(&["train", "--data", "d", "--minutes", "2", "--out", "o"]);
         same(train, train::Args::new("d".into(), 2.0, "o".into()));
         let export = parsed::<export::Args>(&["export", "m.nerf", "--bits", "8", "--out", "o.nerf"]);
-        same(export, export::Args::new("m.nerf".into(), WeightBits::I8, "o.nerf".into()));
+        same(export, export::Args::new("m.nerf".into(), nerf_infer::Scheme::I8, "o.nerf".into()));
         same(parsed::<scene::Args>(&["scene", "--out", "o"]), scene::Args::new("o".into()));
         let render = parsed::<render::Args>(&["render", "m.nerf", "--orbit", "24", "--out", "o"]);
         same(render, render::Args::orbit("m.nerf".into(), 24, "o".into()));

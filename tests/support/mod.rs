@@ -52,17 +52,16 @@ pub fn unit_scene() -> Scene {
 
 /// A small configuration for tests.
 pub fn small_config() -> TrainConfig {
-    TrainConfig {
-        depth: 3,
-        width: 32,
-        skips: vec![2],
-        view_width: 16,
-        pos_freqs: 6,
-        dir_freqs: 2,
-        n_coarse: 24,
-        n_fine: 24,
-        ..TrainConfig::fast()
-    }
+    TrainConfig::fast().with(|c| {
+        c.model.depth = 3;
+        c.model.width = 32;
+        c.model.skips = vec![2];
+        c.model.view_width = 16;
+        c.model.pos_freqs = 6;
+        c.model.dir_freqs = 2;
+        c.sampling.n_coarse = 24;
+        c.sampling.n_fine = 24;
+    })
 }
 
 /// PSNR between two renders, dB.

@@ -3,14 +3,20 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Numeric scheme of a network's weights.
+/// Numeric scheme of a network's weights. With the `clap` feature it is a
+/// `clap::ValueEnum` spelt by its bits (`32`, `16`, `8`), as `nerf export
+/// --bits` takes it.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Scheme {
     /// f32 weights and biases; rendered by the f32 path.
+    #[cfg_attr(feature = "clap", value(name = "32"))]
     F32,
     /// int16 weights with per-output-channel scales; i64 accumulation.
+    #[cfg_attr(feature = "clap", value(name = "16"))]
     I16,
     /// int8 weights with per-output-channel scales; i32 accumulation.
+    #[cfg_attr(feature = "clap", value(name = "8"))]
     I8,
 }
 

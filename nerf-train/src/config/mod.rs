@@ -6,150 +6,35 @@ use nerf_infer::features::{geometric_resolutions, FeatureGrid, MAX_FEATURES, MAX
 use nerf_infer::format::{Encoding, Samples, Topology};
 use serde::{Deserialize, Serialize};
 
+pub mod json;
 mod presets;
-pub use presets::Preset;
+mod sections;
 mod validate;
+pub use presets::Preset;
+pub use sections::{FeatureConfig, GridConfig, LossConfig, ModelConfig, OptimiserConfig, SamplingConfig};
 
 /// Most rays per batch (and per chunk) a configuration may ask for.
 pub const MAX_BATCH_RAYS: usize = 1 << 20;
 
-/// Everything that defines a training run except the data.
+/// Everything that defines a training run except the data, by section.
+/// A `--config` file writes it nested (`{"sampling": {"n_coarse": 64}}`)
+/// or flat (`{"n_coarse": 64}`, each field by its flat name,
+/// [`json::FLAT_NAMES`]): [`Self::overlay`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrainConfig {
-    /// Frequencies `L` of the position encoding (0 = no encoding, raw xyz).
-    pub pos_freqs: u8,
-    /// Frequencies `L` of the direction encoding.
-    pub dir_freqs: u8,
-    /// Include the raw coordinate in γ (always on when `pos_freqs = 0`).
-    pub include_input: bool,
-    /// Trunk layers.
-    pub depth: u8,
-    /// Trunk width.
-    pub width: u16,
-    /// Trunk layers (≥ 1) that also take γ(x) as input (the paper: `[5]`).
-    pub skips: Vec<u8>,
-    /// View-dependent colour branch (the paper: on).
-    pub view_dependent: bool,
-    /// Width of the view layer (the paper: 128).
-    pub view_width: u16,
-    /// Coarse samples per ray `N_c` (2..=1024; 2..=256 with a fine network).
-    pub n_coarse: u16,
-    /// Fine samples per ray `N_f` (0: one network, no hierarchical sampling).
-    pub n_fine: u16,
-    /// Rays per optimisation step.
-    pub batch_rays: usize,
-    /// Rays per parallel work item (memory vs. scheduling granularity).
-    pub chunk_rays: usize,
-    /// Initial Adam learning rate.
-    pub lr: f32,
-    /// Final learning rate as a fraction of `lr`; the rate decays
-    /// exponentially over the run (the paper: 5e-4 → 5e-5 over 250k steps).
-    pub lr_final_ratio: f32,
-    /// Steps over which the exponential decay reaches `lr_final_ratio`
-    /// (0: the length of the run, from `--iters` or `--minutes`).
-    pub lr_decay_steps: usize,
-    /// Adam β₁.
-    pub beta1: f32,
-    /// Adam β₂.
-    pub beta2: f32,
-    /// Adam ε (the paper: 1e-7).
-    pub eps: f32,
-    /// Occupancy grid cells per axis (0: no grid). With a grid the run has
-    /// one network (`n_fine = 0`) whose `n_coarse` stratified samples are
-    /// kept only in occupied cells, in training and in the exported model.
-    pub grid_res: u16,
-    /// Steps before the first grid update (until then every cell counts as
-    /// occupied).
-    pub grid_warmup: usize,
-    /// Steps between grid updates.
-    pub grid_every: usize,
-    /// A cell stays occupied while its density would make a sample of the
-    /// default step (bounds diagonal / `n_coarse`) at least this opaque.
-    pub grid_alpha: f32,
-    /// Levels of the learned feature grid in front of the trunk (0: none;
-    /// 1..=16). Needs one network (`n_fine = 0`).
-    pub feature_levels: u8,
-    /// Values per level (1..=8; `levels × width` ≤ 32).
-    pub feature_width: u8,
-    /// Table entries per level: `2^feature_log2_table` (1..=22).
-    pub feature_log2_table: u8,
-    /// Coarsest level's cells per axis.
-    pub feature_min_res: u16,
-    /// Finest level's cells per axis (levels in between: geometric).
-    pub feature_max_res: u16,
-    /// Share of the rays, in `[0, 1]`, through photos with an alpha
-    /// channel (a Blender-layout dataset, `transforms_{split}.json`) that
-    /// train on a random background colour, as instant-ngp does with all of
-    /// them: the photo's pixel and the render are both composited on it, so
-    /// density left in empty space costs loss instead of hiding against a
-    /// white background. The other rays, and photos without alpha, train
-    /// on the scene's background.
-    pub random_background: f32,
-    /// Each training ray through a uniformly random point of its pixel
-    /// instead of the pixel's centre (instant-ngp's practice). Off in every
-    /// preset: `eval` and `render` trace pixel centres, and on lego the
-    /// field fitted to jittered rays scores lower on the held-out views
-    /// (docs/EXPERIMENTS.md).
-    pub pixel_jitter: bool,
-    /// Weight λ of the distortion loss (mip-NeRF 360, eq. 15; 0: off),
-    /// added to the mean squared colour error as `λ · mean over rays of
-    /// Σᵢⱼ wᵢwⱼ|sᵢ − sⱼ| + ⅓ Σᵢ wᵢ²Δsᵢ`, `s` the ray's normalised
-    /// coordinate (even in `t` within the bounds, in `1/t` beyond them in an
-    /// unbounded scene): it pulls each ray's weight into one short stretch,
-    /// clearing the fog and floaters a capture with surroundings grows.
-    pub distortion: f32,
-    /// Decoupled weight decay λ of the feature grid's table (AdamW; 0:
-    /// off): each step scales every table value by `1 − lr·λ` before
-    /// Adam's update, so entries that rays stop asking for fade to zero.
-    pub feature_decay: f32,
-    /// Weight μ of an L1 penalty on the optical depth (0: off), added to
-    /// the mean squared colour error as `μ · mean over rays of Σᵢ
-    /// max(σᵢ, 0)·δᵢ` (the ray's last, unbounded interval left out): density
-    /// that no photo needs (inside solids, below surfaces the cameras never
-    /// see from the side) fades, where the colour loss keeps what a photo shows.
-    pub density_l1: f32,
-    /// With a feature grid, outside forward-facing scenes: each sample's
-    /// features are the mean of the grid's values at three points spread
-    /// across its pixel's footprint (`nerf_infer::format::Footprint`; three
-    /// lookups per sample instead of one), so a field fitted to pixels that
-    /// average what they cover renders other views' pixels as averages too.
-    pub footprint: bool,
-    /// With `footprint`: the share of the run (`progress`, steps or
-    /// minutes, in `[0, 1)`) trained on lines before the footprint starts.
-    /// The first steps, with many samples per ray before the occupancy
-    /// grid has emptied space, cost the most, and what the footprint
-    /// refines (detail across a pixel) is not there yet.
-    pub footprint_from: f32,
-    /// Decay per step (`[0, 1)`; 0: off) of the moving average of the
-    /// parameters that the run's model takes instead of its last step's
-    /// (`Trainer::averaged`): `a ← β·a + (1 − β)·p` after each step, with
-    /// `β = min(ema_decay, (1 + n)/(10 + n))` at step `n`, so that a short
-    /// run averages its last tenth or so, a long one its last `1/(1 − β)`
-    /// steps.
-    pub ema_decay: f32,
-    /// Cells per axis (`0..=128`; 0: none) of the proposal grid that places
-    /// the network's samples ([`crate::proposal`]): `n_coarse` stratified
-    /// samples composite it, and the network is evaluated at `n_main`
-    /// samples drawn from its weights and the last stratified one (minus
-    /// those in empty occupancy cells). `nerf train` turns it on at
-    /// [`Self::PROPOSAL_RES`] for unbounded and forward-facing scenes
-    /// unless the configuration names it; object scenes keep the
-    /// occupancy grid's stratified samples.
-    pub proposal_res: u16,
-    /// With a proposal grid: the network's samples per ray drawn from its
-    /// weights (`1..=255`; 32 in every preset), besides the last
-    /// stratified one.
-    pub n_main: u16,
-    /// With a proposal grid: the learning rate of its log-densities (Adam,
-    /// decaying as `lr` does).
-    pub proposal_lr: f32,
-    /// Fit a colour correction per training photo beside the model
-    /// ([`crate::appearance`]: `A·c + b` on each pixel's composited colour)
-    /// for photos that differ in exposure or white balance; the model and
-    /// the held-out scores use the field's own colour, the photos' mean.
-    /// Off in every preset.
-    pub appearance: bool,
+    /// The network.
+    pub model: ModelConfig,
+    /// The learned feature grid.
+    pub features: FeatureConfig,
+    /// Rays and samples.
+    pub sampling: SamplingConfig,
+    /// The occupancy grid.
+    pub grid: GridConfig,
+    /// The optimiser.
+    pub optimiser: OptimiserConfig,
+    /// The loss.
+    pub loss: LossConfig,
 }
 
 /// The default preset's ([`Preset::default`]): what `nerf train` trains
@@ -174,24 +59,24 @@ impl TrainConfig {
     /// The encoding this config trains.
     pub fn encoding(&self) -> Encoding {
         Encoding {
-            pos_freqs: self.pos_freqs,
-            dir_freqs: self.dir_freqs,
-            include_input: self.include_input || self.pos_freqs == 0,
+            pos_freqs: self.model.pos_freqs,
+            dir_freqs: self.model.dir_freqs,
+            include_input: self.model.include_input || self.model.pos_freqs == 0,
             raw_frac_bits: 12,
-            grid_dim: self.feature_levels * self.feature_width,
+            grid_dim: self.features.levels * self.features.width,
         }
     }
 
     /// The feature grid's shape (empty table), if the config has one.
     pub fn feature_grid(&self) -> Option<FeatureGrid<'static>> {
-        (self.feature_levels > 0).then(|| FeatureGrid {
-            width: self.feature_width,
-            log2_table: self.feature_log2_table,
+        (self.features.levels > 0).then(|| FeatureGrid {
+            width: self.features.width,
+            log2_table: self.features.log2_table,
             frac_bits: 0,
             resolutions: geometric_resolutions(
-                self.feature_levels as usize,
-                self.feature_min_res,
-                self.feature_max_res,
+                self.features.levels as usize,
+                self.features.min_res,
+                self.features.max_res,
             ),
             table: &[],
             narrow: None,
@@ -206,32 +91,32 @@ impl TrainConfig {
     /// The network shape this config trains.
     pub fn topology(&self) -> Topology {
         Topology {
-            depth: self.depth,
-            width: self.width,
-            skip_mask: self.skips.iter().fold(0u16, |m, &s| m | 1u16.checked_shl(s as u32).unwrap_or(0)),
-            view_dependent: self.view_dependent,
-            view_width: if self.view_dependent { self.view_width } else { 0 },
+            depth: self.model.depth,
+            width: self.model.width,
+            skip_mask: self.model.skips.iter().fold(0u16, |m, &s| m | 1u16.checked_shl(s as u32).unwrap_or(0)),
+            view_dependent: self.model.view_dependent,
+            view_width: if self.model.view_dependent { self.model.view_width } else { 0 },
         }
     }
 
     /// Default sample counts recorded in the model.
     pub fn samples(&self) -> Samples {
-        let fine = if self.proposal_res > 0 { self.n_main } else { self.n_fine };
-        Samples { coarse: self.n_coarse, fine }
+        let fine = if self.sampling.proposal_res > 0 { self.sampling.n_main } else { self.sampling.n_fine };
+        Samples { coarse: self.sampling.n_coarse, fine }
     }
 
     /// The proposal grid's cells per axis that `nerf train` gives unbounded
-    /// and forward-facing scenes ([`Self::proposal_res`]).
+    /// and forward-facing scenes ([`SamplingConfig::proposal_res`]).
     pub const PROPOSAL_RES: u16 = 64;
 
     /// The stratified samples per ray compositing the proposal grid where
-    /// `nerf train` turns it on ([`Self::n_coarse`], unless the
+    /// `nerf train` turns it on ([`SamplingConfig::n_coarse`], unless the
     /// configuration names it): 128, with the presets' 32 network samples
-    /// ([`Self::n_main`]). Measured against 192 and 48 on bird and fox in
+    /// ([`SamplingConfig::n_main`]). Measured against 192 and 48 on bird and fox in
     /// docs/RESULTS.md, "Configurations compared on a capture".
     pub const PROPOSAL_COARSE: u16 = 128;
 
-    /// The distortion loss's weight ([`Self::distortion`]) where `nerf
+    /// The distortion loss's weight ([`LossConfig::distortion`]) where `nerf
     /// train` turns the proposal grid on, in unbounded and forward-facing
     /// scenes (unless the configuration names it): 0.001, measured against
     /// 0 on bird, fox and the built-in room and forward-facing capture in

@@ -9,45 +9,48 @@ impl TrainConfig {
     /// samples, 4096 rays per batch, lr 5e-4 decaying 10× over 250k steps.
     pub fn paper() -> Self {
         Self {
-            pos_freqs: 10,
-            dir_freqs: 4,
-            include_input: true,
-            depth: 8,
-            width: 256,
-            skips: vec![5],
-            view_dependent: true,
-            view_width: 128,
-            n_coarse: 64,
-            n_fine: 128,
-            batch_rays: 4096,
-            chunk_rays: 32,
-            lr: 5e-4,
-            lr_final_ratio: 0.1,
-            lr_decay_steps: 250_000,
-            beta1: 0.9,
-            beta2: 0.999,
-            eps: 1e-7,
-            grid_res: 0,
-            grid_warmup: 256,
-            grid_every: 16,
-            grid_alpha: 0.01,
-            feature_levels: 0,
-            feature_width: 2,
-            feature_log2_table: 15,
-            feature_min_res: 16,
-            feature_max_res: 256,
-            random_background: 0.0,
-            pixel_jitter: false,
-            distortion: 0.0,
-            feature_decay: 0.0,
-            density_l1: 0.0,
-            footprint: false,
-            footprint_from: 0.0,
-            ema_decay: 0.0,
-            proposal_res: 0,
-            n_main: 32,
-            proposal_lr: 0.05,
-            appearance: false,
+            model: ModelConfig {
+                pos_freqs: 10,
+                dir_freqs: 4,
+                include_input: true,
+                depth: 8,
+                width: 256,
+                skips: vec![5],
+                view_dependent: true,
+                view_width: 128,
+            },
+            features: FeatureConfig {
+                levels: 0,
+                width: 2,
+                log2_table: 15,
+                min_res: 16,
+                max_res: 256,
+                footprint: false,
+                footprint_from: 0.0,
+            },
+            sampling: SamplingConfig {
+                n_coarse: 64,
+                n_fine: 128,
+                n_main: 32,
+                proposal_res: 0,
+                batch_rays: 4096,
+                chunk_rays: 32,
+                random_background: 0.0,
+                pixel_jitter: false,
+            },
+            grid: GridConfig { res: 0, warmup: 256, every: 16, alpha: 0.01 },
+            optimiser: OptimiserConfig {
+                lr: 5e-4,
+                lr_final_ratio: 0.1,
+                lr_decay_steps: 250_000,
+                beta1: 0.9,
+                beta2: 0.999,
+                eps: 1e-7,
+                proposal_lr: 0.05,
+                feature_decay: 0.0,
+                ema_decay: 0.0,
+            },
+            loss: LossConfig { distortion: 0.0, density_l1: 0.0, appearance: false },
         }
     }
 
@@ -56,19 +59,20 @@ impl TrainConfig {
     /// steps in minutes on a workstation where the paper preset manages
     /// tens (docs/RESULTS.md).
     pub fn fast() -> Self {
+        let paper = Self::paper();
         Self {
-            pos_freqs: 8,
-            dir_freqs: 2,
-            depth: 4,
-            width: 64,
-            skips: vec![],
-            view_width: 32,
-            n_coarse: 48,
-            n_fine: 48,
-            batch_rays: 1024,
-            lr: 5e-3,
-            lr_decay_steps: 0,
-            ..Self::paper()
+            model: ModelConfig {
+                pos_freqs: 8,
+                dir_freqs: 2,
+                depth: 4,
+                width: 64,
+                skips: vec![],
+                view_width: 32,
+                ..paper.model
+            },
+            sampling: SamplingConfig { n_coarse: 48, n_fine: 48, batch_rays: 1024, ..paper.sampling },
+            optimiser: OptimiserConfig { lr: 5e-3, lr_decay_steps: 0, ..paper.optimiser },
+            ..paper
         }
     }
 
@@ -76,7 +80,12 @@ impl TrainConfig {
     /// network: one 4×64 network, 192 stratified samples per ray of which
     /// only those in occupied cells are evaluated.
     pub fn grid() -> Self {
-        Self { n_coarse: 192, n_fine: 0, grid_res: 64, ..Self::fast() }
+        let fast = Self::fast();
+        Self {
+            sampling: SamplingConfig { n_coarse: 192, n_fine: 0, ..fast.sampling },
+            grid: GridConfig { res: 64, ..fast.grid },
+            ..fast
+        }
     }
 
     /// The grid preset with a learned feature grid (instant-ngp's
@@ -85,40 +94,34 @@ impl TrainConfig {
     /// and a 2×64 network; instant-ngp's optimiser settings (lr 1e-2,
     /// β₂ 0.99, ε 1e-15); the occupancy grid first updated at step 64 and
     /// every 64 steps, a cell kept while a default step through it would be
-    /// at least 3 % opaque (`grid_alpha` 0.03: the same int8 PSNR as 0.01
+    /// at least 3 % opaque (`grid.alpha` 0.03: the same int8 PSNR as 0.01
     /// at half the samples per ray on lego, more PSNR on fox), and a tenth
     /// of the rays through photos with alpha on a random background
-    /// (`random_background` 0.1: no haze left in empty space, fewer
+    /// (`sampling.random_background` 0.1: no haze left in empty space, fewer
     /// samples per ray). The learning rate decays 10× over the run (100×
     /// gains on long runs and loses on short ones). The second half of the
-    /// run reads the grid across each pixel's footprint (`footprint`,
-    /// `footprint_from` 0.5: better in 10 minutes, worse in one). The
+    /// run reads the grid across each pixel's footprint (`features.footprint`,
+    /// `features.footprint_from` 0.5: better in 10 minutes, worse in one). The
     /// model takes the average of the parameters over about the last
-    /// thousand steps (`ema_decay` 0.999). Each choice's measurement is in
+    /// thousand steps (`optimiser.ema_decay` 0.999). Each choice's measurement is in
     /// docs/EXPERIMENTS.md.
     pub fn features() -> Self {
+        let grid = Self::grid();
         Self {
-            depth: 2,
-            width: 64,
-            view_width: 64,
-            pos_freqs: 0,
-            dir_freqs: 4,
-            lr: 1e-2,
-            beta2: 0.99,
-            eps: 1e-15,
-            grid_warmup: 64,
-            grid_every: 64,
-            grid_alpha: 0.03,
-            random_background: 0.1,
-            feature_levels: 8,
-            feature_width: 2,
-            feature_log2_table: 15,
-            feature_min_res: 16,
-            feature_max_res: 256,
-            footprint: true,
-            footprint_from: 0.5,
-            ema_decay: 0.999,
-            ..Self::grid()
+            model: ModelConfig { depth: 2, width: 64, view_width: 64, pos_freqs: 0, dir_freqs: 4, ..grid.model },
+            features: FeatureConfig {
+                levels: 8,
+                width: 2,
+                log2_table: 15,
+                min_res: 16,
+                max_res: 256,
+                footprint: true,
+                footprint_from: 0.5,
+            },
+            sampling: SamplingConfig { random_background: 0.1, ..grid.sampling },
+            grid: GridConfig { warmup: 64, every: 64, alpha: 0.03, ..grid.grid },
+            optimiser: OptimiserConfig { lr: 1e-2, beta2: 0.99, eps: 1e-15, ema_decay: 0.999, ..grid.optimiser },
+            ..grid
         }
     }
 
@@ -130,25 +133,25 @@ impl TrainConfig {
 
     /// Sizes the feature grid to photos that resolve `cells` per axis
     /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
-    /// when `cells` is above `feature_max_res`, the finest level becomes
+    /// when `cells` is above `features.max_res`, the finest level becomes
     /// `cells` (at most 4096) and the table gains a power of two of
     /// entries per doubling of it (at most 2^[`Self::FITTED_LOG2_TABLE`]).
     /// A grid already as fine, a grid of one level (whose only level is
-    /// `feature_min_res`) or no grid is left alone; returns whether
+    /// `features.min_res`) or no grid is left alone; returns whether
     /// anything changed. The finest levels share each entry among more
     /// cells than before (8× the cells, 2× the entries per doubling): more
     /// cells without more entries lose PSNR on lego at 800×800, with them
     /// gain it (docs/EXPERIMENTS.md).
     pub fn fit_features_to(&mut self, cells: u32) -> bool {
         let cells = cells.min(MAX_RES as u32);
-        let max = self.feature_max_res as u32;
-        if self.feature_levels < 2 || cells <= max {
+        let max = self.features.max_res as u32;
+        if self.features.levels < 2 || cells <= max {
             return false;
         }
         let doublings = cells.div_ceil(max.max(1)).next_power_of_two().trailing_zeros() as u8;
-        self.feature_max_res = cells as u16;
-        self.feature_log2_table =
-            self.feature_log2_table.max((self.feature_log2_table + doublings).min(Self::FITTED_LOG2_TABLE));
+        self.features.max_res = cells as u16;
+        self.features.log2_table =
+            self.features.log2_table.max((self.features.log2_table + doublings).min(Self::FITTED_LOG2_TABLE));
         true
     }
 
@@ -166,10 +169,10 @@ impl TrainConfig {
     /// (docs/EXPERIMENTS.md).
     pub fn fit_samples_to(&mut self, cells: u32) -> bool {
         let fitted = (cells / Self::FITTED_CELLS_PER_SAMPLE).min(nerf_infer::format::MAX_MARCH as u32) as u16;
-        if self.grid_res == 0 || self.n_fine > 0 || fitted <= self.n_coarse {
+        if self.grid.res == 0 || self.sampling.n_fine > 0 || fitted <= self.sampling.n_coarse {
             return false;
         }
-        self.n_coarse = fitted;
+        self.sampling.n_coarse = fitted;
         true
     }
 }

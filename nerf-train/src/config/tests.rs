@@ -7,19 +7,19 @@ fn fitted_samples_only_ever_grow_and_only_in_one_pass_marches_over_a_grid() {
     let mut c = TrainConfig::features();
     // lego at 100×100 resolves 256 cells: the preset's 192 samples stay
     assert!(!c.fit_samples_to(256));
-    assert_eq!(c.n_coarse, 192);
+    assert_eq!(c.sampling.n_coarse, 192);
     // at 800×800, 2048 cells: one sample per four cells
     assert!(c.fit_samples_to(2048));
-    assert_eq!(c.n_coarse, 512);
+    assert_eq!(c.sampling.n_coarse, 512);
     assert!(c.validate().is_ok());
     assert!(!c.fit_samples_to(1024));
-    assert_eq!(c.n_coarse, 512);
+    assert_eq!(c.sampling.n_coarse, 512);
     // at most the march's capacity
     assert!(c.fit_samples_to(1 << 20));
-    assert_eq!(c.n_coarse as usize, nerf_infer::format::MAX_MARCH);
+    assert_eq!(c.sampling.n_coarse as usize, nerf_infer::format::MAX_MARCH);
     assert!(c.validate().is_ok());
     // no occupancy grid, or a fine pass: left alone
-    for c in [TrainConfig::fast(), TrainConfig { grid_res: 0, ..TrainConfig::features() }] {
+    for c in [TrainConfig::fast(), TrainConfig::features().with(|c| c.grid.res = 0)] {
         let mut fitted = c.clone();
         assert!(!fitted.fit_samples_to(4096));
         assert_eq!(fitted, c);
@@ -29,7 +29,12 @@ fn fitted_samples_only_ever_grow_and_only_in_one_pass_marches_over_a_grid() {
 #[test]
 fn the_regularisers_weights_must_be_finite_and_not_negative() {
     let c = TrainConfig::features();
-    let with = |feature_decay: f32, density_l1: f32| TrainConfig { feature_decay, density_l1, ..c.clone() };
+    let with = |feature_decay: f32, density_l1: f32| {
+        c.clone().with(|c| {
+            c.optimiser.feature_decay = feature_decay;
+            c.loss.density_l1 = density_l1;
+        })
+    };
     assert!(with(0.0, 0.0).validate().is_ok());
     assert!(with(0.1, 1e-5).validate().is_ok());
     // lr 1e-2: a decay of 100 scales the table by 0 each step, above it by less than 0
@@ -42,20 +47,20 @@ fn the_regularisers_weights_must_be_finite_and_not_negative() {
 
 #[test]
 fn the_footprint_starts_at_a_share_of_the_run_in_0_to_1() {
-    let with = |footprint_from: f32| TrainConfig { footprint_from, ..TrainConfig::features() };
+    let with = |footprint_from: f32| TrainConfig::features().with(|c| c.features.footprint_from = footprint_from);
     assert!(with(0.0).validate().is_ok() && with(0.5).validate().is_ok());
     for v in [-0.1, 1.0, f32::NAN] {
         assert!(with(v).validate().unwrap_err().to_string().contains("footprint_from"), "{v}");
     }
     // a jittered ray across its pixel, read again across its footprint
-    let jittered = TrainConfig { pixel_jitter: true, ..TrainConfig::features() };
+    let jittered = TrainConfig::features().with(|c| c.sampling.pixel_jitter = true);
     assert!(jittered.validate().unwrap_err().to_string().contains("pixel_jitter"));
-    assert!(TrainConfig { footprint: false, ..jittered }.validate().is_ok());
+    assert!(jittered.with(|c| c.features.footprint = false).validate().is_ok());
 }
 
 #[test]
 fn the_parameters_average_decays_in_0_to_1() {
-    let with = |ema_decay: f32| TrainConfig { ema_decay, ..TrainConfig::features() };
+    let with = |ema_decay: f32| TrainConfig::features().with(|c| c.optimiser.ema_decay = ema_decay);
     assert!(with(0.0).validate().is_ok() && with(0.999).validate().is_ok());
     for v in [-0.1, 1.0, 2.0, f32::NAN] {
         assert!(with(v).validate().unwrap_err().to_string().contains("ema_decay"), "{v}");
@@ -67,22 +72,22 @@ fn fitting_the_feature_grid_only_ever_refines_it() {
     // 256 cells in 2^15 entries: 2048 cells are three doublings, three more powers of two of entries
     let mut c = TrainConfig::features();
     assert!(c.fit_features_to(2048));
-    assert_eq!((c.feature_max_res, c.feature_log2_table), (2048, 18));
+    assert_eq!((c.features.max_res, c.features.log2_table), (2048, 18));
     assert!(c.validate().is_ok());
     // a grid as fine as the photos, or finer, is left alone
     for cells in [2048, 1024, 1] {
         assert!(!c.fit_features_to(cells));
-        assert_eq!((c.feature_max_res, c.feature_log2_table), (2048, 18));
+        assert_eq!((c.features.max_res, c.features.log2_table), (2048, 18));
     }
     // at most MAX_RES cells and 2^19 entries; a table already larger keeps its size
     let mut c = TrainConfig::features();
     assert!(c.fit_features_to(1 << 20));
-    assert_eq!((c.feature_max_res, c.feature_log2_table), (MAX_RES, TrainConfig::FITTED_LOG2_TABLE));
-    let mut c = TrainConfig { feature_log2_table: 21, ..TrainConfig::features() };
+    assert_eq!((c.features.max_res, c.features.log2_table), (MAX_RES, TrainConfig::FITTED_LOG2_TABLE));
+    let mut c = TrainConfig::features().with(|c| c.features.log2_table = 21);
     assert!(c.fit_features_to(512));
-    assert_eq!((c.feature_max_res, c.feature_log2_table), (512, 21));
+    assert_eq!((c.features.max_res, c.features.log2_table), (512, 21));
     // a configuration without a feature grid, or with one level (at feature_min_res), has nothing to fit
-    for c in [TrainConfig::grid(), TrainConfig { feature_levels: 1, ..TrainConfig::features() }] {
+    for c in [TrainConfig::grid(), TrainConfig::features().with(|c| c.features.levels = 1)] {
         let mut fitted = c.clone();
         assert!(!fitted.fit_features_to(4096));
         assert_eq!(fitted, c);
@@ -92,10 +97,63 @@ fn fitting_the_feature_grid_only_ever_refines_it() {
 #[test]
 fn a_one_pass_march_takes_up_to_1024_samples_and_a_two_pass_one_256() {
     use nerf_infer::format::{MAX_COARSE, MAX_MARCH};
-    let one = TrainConfig { n_coarse: MAX_MARCH as u16, n_fine: 0, ..TrainConfig::fast() };
+    let one = TrainConfig::fast().with(|c| {
+        c.sampling.n_coarse = MAX_MARCH as u16;
+        c.sampling.n_fine = 0;
+    });
     assert!(one.validate().is_ok());
-    assert!(TrainConfig { n_coarse: MAX_MARCH as u16 + 1, ..one }.validate().is_err());
-    let two = TrainConfig { n_coarse: MAX_COARSE as u16, n_fine: 24, ..TrainConfig::fast() };
+    assert!(one.with(|c| c.sampling.n_coarse = MAX_MARCH as u16 + 1).validate().is_err());
+    let two = TrainConfig::fast().with(|c| {
+        c.sampling.n_coarse = MAX_COARSE as u16;
+        c.sampling.n_fine = 24;
+    });
     assert!(two.validate().is_ok());
-    assert!(TrainConfig { n_coarse: MAX_COARSE as u16 + 1, ..two }.validate().is_err());
+    assert!(two.with(|c| c.sampling.n_coarse = MAX_COARSE as u16 + 1).validate().is_err());
+}
+
+#[test]
+fn a_config_file_may_name_fields_nested_or_by_their_flat_names() {
+    use serde_json::json;
+    let base = TrainConfig::features();
+    let nested = base.overlay(&json!({"sampling": {"n_coarse": 64}, "grid": {"res": 32}})).unwrap();
+    let flat = base.overlay(&json!({"n_coarse": 64, "grid_res": 32})).unwrap();
+    let mixed = base.overlay(&json!({"sampling": {"n_coarse": 64}, "grid_res": 32})).unwrap();
+    assert_eq!(
+        nested,
+        base.clone().with(|c| {
+            c.sampling.n_coarse = 64;
+            c.grid.res = 32;
+        })
+    );
+    assert_eq!(flat, nested);
+    assert_eq!(mixed, nested);
+    assert_eq!(nested.differing_fields(&base), ["sampling.n_coarse", "grid.res"]);
+    assert!(json::names(&json!({"feature_max_res": 512}), "features", "max_res"));
+    assert!(!json::names(&json!({"features": {"levels": 4}}), "features", "max_res"));
+    // refused, naming what is wrong
+    for (over, says) in [
+        (json!({"n_coarse": 64, "sampling": {"n_coarse": 48}}), "sampling.n_coarse` is given twice"),
+        (json!({"n_coarses": 64}), "unknown field `n_coarses`"),
+        (json!({"sampling": {"grid_res": 64}}), "unknown field `grid_res`"),
+        (json!({"sampling": 3}), "`sampling` must be an object"),
+        (json!({"sampling": {"n_coarse": "many"}}), "invalid type"),
+        (json!([1, 2]), "expected a JSON object"),
+    ] {
+        let e = base.overlay(&over).unwrap_err().to_string();
+        assert!(e.contains(says), "{over}: {e}");
+    }
+}
+
+#[test]
+fn every_field_has_one_flat_name_that_reads_back_to_it() {
+    let base = TrainConfig::paper();
+    let value = serde_json::to_value(&base).unwrap();
+    let fields: usize = json::SECTIONS.iter().map(|s| value[s].as_object().unwrap().len()).sum();
+    assert_eq!(fields, json::FLAT_NAMES.len());
+    for (flat, section, field) in json::FLAT_NAMES {
+        let v = &value[section][field];
+        assert!(!v.is_null(), "{flat}: no field {section}.{field}");
+        let changed = TrainConfig::features().overlay(&serde_json::json!({ flat: v })).unwrap();
+        assert_eq!(serde_json::to_value(&changed).unwrap()[section][field], *v, "{flat}");
+    }
 }

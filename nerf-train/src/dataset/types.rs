@@ -66,7 +66,7 @@ pub struct View {
     /// with an alpha channel in a Blender-layout dataset
     /// (`transforms_{split}.json`); empty otherwise.
     /// Training composites such pixels on a random background
-    /// ([`crate::config::TrainConfig::random_background`]).
+    /// ([`crate::config::SamplingConfig::random_background`]).
     pub alpha: Vec<f32>,
     /// The photo's lens distortion ([`Lens::Pinhole`] for rendered data):
     /// [`View::ray`] bends each pixel's ray by it.

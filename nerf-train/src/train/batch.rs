@@ -13,7 +13,7 @@ pub struct Sample {
     pub rgb: [f32; 3],
     /// Background colour of this ray in `[0, 1]`: the scene's
     /// (white or black), or a random colour for a pixel with an alpha channel
-    /// ([`TrainConfig::random_background`]).
+    /// ([`SamplingConfig::random_background`](crate::config::SamplingConfig::random_background)).
     pub bg: [f32; 3],
     /// The index of the photo the pixel is from among the dataset's
     /// views (for its [`crate::appearance`] correction).
@@ -24,12 +24,12 @@ pub struct Sample {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Draw {
     /// Share of the pixels with an alpha channel, in `[0, 1]`, recomposited
-    /// on a random background colour ([`TrainConfig::random_background`]).
+    /// on a random background colour ([`SamplingConfig::random_background`](crate::config::SamplingConfig::random_background)).
     pub random_background: f32,
     /// Each ray through a uniformly random point of its pixel instead of
-    /// its centre ([`TrainConfig::pixel_jitter`]).
+    /// its centre ([`SamplingConfig::pixel_jitter`](crate::config::SamplingConfig::pixel_jitter)).
     pub jitter: bool,
-    /// Each ray with its pixel's footprint ([`TrainConfig::footprint`]),
+    /// Each ray with its pixel's footprint ([`FeatureConfig::footprint`](crate::config::FeatureConfig::footprint)),
     /// turned about the ray by a random angle.
     pub footprint: bool,
 }
@@ -42,9 +42,11 @@ impl Draw {
     /// the run done, in `[0, 1]`).
     pub fn of(cfg: &TrainConfig, progress: f64) -> Self {
         Self {
-            random_background: cfg.random_background,
-            jitter: cfg.pixel_jitter,
-            footprint: cfg.footprint && cfg.feature_levels > 0 && progress >= cfg.footprint_from as f64,
+            random_background: cfg.sampling.random_background,
+            jitter: cfg.sampling.pixel_jitter,
+            footprint: cfg.features.footprint
+                && cfg.features.levels > 0
+                && progress >= cfg.features.footprint_from as f64,
         }
     }
 }

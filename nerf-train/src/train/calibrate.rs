@@ -26,8 +26,8 @@ impl Trainer {
     /// ever active (for pruning).
     pub fn calibrate(&self, batch: &[Sample]) -> Calibration {
         let net = self.mlp();
-        let nc = self.cfg.n_coarse as usize;
-        let nf = self.cfg.n_fine as usize;
+        let nc = self.cfg.sampling.n_coarse as usize;
+        let nf = self.cfg.sampling.n_fine as usize;
         let (pc, pf) = self.params.split_at(net.n_params);
         let mut max_c = vec![0.0f32; net.slots.len()];
         let mut max_f = vec![0.0f32; net.slots.len()];
@@ -46,7 +46,7 @@ impl Trainer {
             }
             None => batch,
         };
-        for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
+        for (ci, rays) in batch.chunks(self.cfg.sampling.chunk_rays).enumerate() {
             self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
             if ws.pos.is_empty() {
                 continue;

@@ -11,7 +11,7 @@ use nerf_infer::Error as FormatError;
 pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 13;
+pub const CHECKPOINT_VERSION: u16 = 14;
 
 /// How many of a run's `params` parameters are a feature grid's table: the
 /// last ones (a run with a feature grid has one network), none without one.
@@ -52,15 +52,15 @@ impl Trainer {
         };
         let t: Self = postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
         let grid_ok = match &t.grid {
-            None => t.cfg.grid_res == 0,
-            Some(g) => g.res == t.cfg.grid_res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
+            None => t.cfg.grid.res == 0,
+            Some(g) => g.res == t.cfg.grid.res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
         };
         let proposal_ok = match &t.proposal {
-            None => t.cfg.proposal_res == 0,
+            None => t.cfg.sampling.proposal_res == 0,
             Some(p) => {
                 let n = (p.res as usize).pow(3);
                 p.res > 0
-                    && p.res == t.cfg.proposal_res
+                    && p.res == t.cfg.sampling.proposal_res
                     && p.log_sigma.len() == n
                     && p.adam.m.len() == n
                     && p.adam.v.len() == n
@@ -69,9 +69,9 @@ impl Trainer {
         };
         let appearance_ok = match &t.appearance {
             None => true,
-            Some(a) => t.cfg.appearance && a.is_consistent(),
+            Some(a) => t.cfg.loss.appearance && a.is_consistent(),
         };
-        let nets = if t.cfg.n_fine > 0 { 2 } else { 1 };
+        let nets = if t.cfg.sampling.n_fine > 0 { 2 } else { 1 };
         let sizes_ok = proposal_ok
             && appearance_ok
             && t.cfg.validate().is_ok()
@@ -81,7 +81,7 @@ impl Trainer {
             && t.params.len() == t.adam.m.len()
             && t.params.len() == t.adam.v.len()
             && t.adam.steps.len() == table_values(&t.mlp(), t.params.len())
-            && (t.ema.is_empty() || (t.cfg.ema_decay > 0.0 && t.ema.len() == t.params.len()));
+            && (t.ema.is_empty() || (t.cfg.optimiser.ema_decay > 0.0 && t.ema.len() == t.params.len()));
         match sizes_ok && grid_ok {
             true => Ok(t),
             false => {

@@ -2,17 +2,19 @@
 //! stratified coarse samples, hierarchical fine samples, loss = coarse MSE
 //! + fine MSE, hand-written backward, Adam with exponential decay.
 //!
-//! With an occupancy grid (`grid_res > 0`) the run has one network: each
+//! With an occupancy grid (`grid.res > 0`) the run has one network: each
 //! ray's stratified samples are kept only where the grid is occupied (the
 //! others weigh nothing), and the grid is refreshed from the network's
-//! density every `grid_every` steps.
+//! density every `grid.every` steps.
 //!
-//! Work is split into chunks of `chunk_rays` rays processed in parallel by
+//! Work is split into chunks of `sampling.chunk_rays` rays processed in parallel by
 //! rayon; each chunk draws its jitter from a hash of (seed, step, chunk), so
 //! a run is reproducible whatever the thread count.
 //!
 //! Files: this one holds the run's state ([`Trainer`]) and its working
-//! memory; `batch.rs` draws rays, `step.rs` takes a step,
+//! memory; `batch.rs` draws rays, `samples.rs` places their samples,
+//! `step.rs` takes a step, `loss.rs` is its loss and gradient, `pool.rs`
+//! keeps gradient buffers, `average.rs` the parameters' average,
 //! `proposal_pass.rs` trains the proposal grid, `calibrate.rs` measures
 //! activation ranges for export, `checkpoint.rs` writes and reads the
 //! state.
@@ -35,14 +37,20 @@ use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+mod average;
 mod batch;
 mod calibrate;
 mod checkpoint;
+mod loss;
+mod pool;
 mod proposal_pass;
+mod samples;
 mod step;
+use average::average_into;
 pub use batch::*;
 pub use calibrate::*;
 pub use checkpoint::*;
+use pool::GradPool;
 
 /// Statistics of one optimisation step.
 #[derive(Clone, Copy, Debug, Default)]
@@ -81,18 +89,6 @@ pub fn network_seed(seed: u64, k: usize) -> u64 {
     }
 }
 
-/// Folds `params` into their moving average `ema` with decay `b`:
-/// `ema ← b·ema + (1 − b)·params`, or a copy of `params` when `ema` does
-/// not hold as many (the first step).
-fn average_into(ema: &mut Vec<f32>, params: &[f32], b: f32) {
-    if ema.len() != params.len() {
-        ema.clear();
-        ema.extend_from_slice(params);
-        return;
-    }
-    ema.iter_mut().zip(params).for_each(|(a, &p)| *a += (1.0 - b) * (p - *a));
-}
-
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Trainer {
@@ -114,77 +110,30 @@ pub struct Trainer {
     pub seed: u64,
     /// Steps skipped for non-finite loss or gradients.
     pub skipped: u64,
-    /// Occupancy grid (runs with `grid_res > 0`).
+    /// Occupancy grid (runs with `grid.res > 0`).
     pub grid: Option<DensityGrid>,
     /// What the run trains on, as the command names it (the dataset's
     /// absolute path and the loading flags), so `--resume` can refuse other
     /// data; empty when the caller does not say.
     pub data: String,
     /// Mean angular size of the training views' pixels, radians, once a
-    /// step has trained with pixel footprints ([`TrainConfig::footprint`]);
+    /// step has trained with pixel footprints ([`FeatureConfig::footprint`](crate::config::FeatureConfig::footprint));
     /// 0 before (the exported model records it,
     /// `nerf_infer::format::Footprint`).
     pub pixel: f32,
-    /// With [`TrainConfig::ema_decay`]: the moving average of `params`
+    /// With [`OptimiserConfig::ema_decay`](crate::config::OptimiserConfig::ema_decay): the moving average of `params`
     /// (as long as they, from the first step that updates them), which the model takes
     /// ([`Trainer::averaged`]); empty otherwise.
     pub ema: Vec<f32>,
     /// The proposal grid placing the network's samples (runs with
-    /// `proposal_res > 0`).
+    /// `sampling.proposal_res > 0`).
     pub proposal: Option<ProposalGrid>,
     /// Each training photo's colour correction (runs with
-    /// [`TrainConfig::appearance`], from their first step).
+    /// [`LossConfig::appearance`](crate::config::LossConfig::appearance), from their first step).
     pub appearance: Option<Appearance>,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
-}
-
-/// Zeroed gradient buffers and chunks' grid-value gradients reused from
-/// step to step: a feature grid's table makes each gradient megabytes, a
-/// chunk's corners hundreds of kilobytes, and fresh ones cost page faults.
-#[derive(Default)]
-struct GradPool(std::sync::Mutex<Vec<Vec<f32>>>, std::sync::Mutex<Vec<GridGrad>>, std::sync::Mutex<PropGrads>);
-
-/// Each chunk's proposal-grid gradient, (cell, value) pairs, under the
-/// chunk's key (summed in key order: the same sum whatever the threads).
-type PropGrads = Vec<(u32, Vec<(u32, f32)>)>;
-
-impl Clone for GradPool {
-    fn clone(&self) -> Self {
-        Self::default()
-    }
-}
-
-impl std::fmt::Debug for GradPool {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("GradPool")
-    }
-}
-
-impl GradPool {
-    /// A zeroed buffer of `n` values.
-    fn take(&self, n: usize) -> Vec<f32> {
-        let found = |p: &mut Vec<Vec<f32>>| p.iter().position(|v| v.len() == n).map(|i| p.swap_remove(i));
-        self.0.lock().map(|mut p| found(&mut p)).unwrap_or(None).unwrap_or_else(|| vec![0.0; n])
-    }
-    /// Returns a buffer (zeroed here) for later steps.
-    fn give(&self, mut v: Vec<f32>) {
-        v.fill(0.0);
-        if let Ok(mut p) = self.0.lock() {
-            p.push(v);
-        }
-    }
-    /// A chunk's grid-value gradient whose buffers a forward pass may reuse.
-    fn take_grid(&self) -> GridGrad {
-        self.1.lock().map(|mut p| p.pop()).unwrap_or(None).unwrap_or_default()
-    }
-    /// Returns grid-value gradients for later chunks.
-    fn give_grids(&self, g: Vec<GridGrad>) {
-        if let Ok(mut p) = self.1.lock() {
-            p.extend(g);
-        }
-    }
 }
 
 /// Per-chunk working memory.
@@ -219,26 +168,8 @@ struct Workspace {
     dsig: Vec<f32>,
     drgb: Vec<f32>,
     /// The photos' colour corrections' gradient (runs with
-    /// [`TrainConfig::appearance`]; as [`Appearance::params`]).
+    /// [`LossConfig::appearance`](crate::config::LossConfig::appearance); as [`Appearance::params`]).
     dapp: Vec<f32>,
-}
-
-/// The losses beside the colour's: the distortion loss's weight and each
-/// sample's interval (see [`crate::volume::distortion`]), and the weight
-/// of the optical depth's L1 penalty ([`TrainConfig::density_l1`]); a
-/// weight 0 turns its loss off.
-struct Priors<'a> {
-    distortion: f32,
-    mid: &'a [f32],
-    width: &'a [f32],
-    density_l1: f32,
-}
-
-/// The photos' colour corrections and their gradient, which
-/// [`step::loss_gradients`] adds to.
-struct Corrections<'a> {
-    params: &'a [f32],
-    grad: &'a mut Vec<f32>,
 }
 
 impl Trainer {
@@ -250,12 +181,13 @@ impl Trainer {
             None => net.init(seed),
         };
         let mut params = init(network_seed(seed, 0));
-        if cfg.n_fine > 0 {
+        if cfg.sampling.n_fine > 0 {
             params.extend(init(network_seed(seed, 1)));
         }
         let adam = Adam::new(params.len(), table_values(&net, params.len()));
-        let grid = (cfg.grid_res > 0).then(|| DensityGrid::new(cfg.grid_res));
-        let proposal = (cfg.proposal_res > 0).then(|| ProposalGrid::new(cfg.proposal_res, UNBOUNDED_SIGMA_INIT));
+        let grid = (cfg.grid.res > 0).then(|| DensityGrid::new(cfg.grid.res));
+        let proposal =
+            (cfg.sampling.proposal_res > 0).then(|| ProposalGrid::new(cfg.sampling.proposal_res, UNBOUNDED_SIGMA_INIT));
         Self {
             cfg,
             scene,
@@ -277,12 +209,12 @@ impl Trainer {
     }
 
     /// The network's samples per ray before the occupancy grid's skipping:
-    /// `n_main` drawn from the proposal grid and its last stratified one,
-    /// else `n_coarse` stratified.
+    /// `sampling.n_main` drawn from the proposal grid and its last stratified one,
+    /// else `sampling.n_coarse` stratified.
     fn main_samples(&self) -> usize {
         match self.proposal {
-            Some(_) => self.cfg.n_main as usize + 1,
-            None => self.cfg.n_coarse as usize,
+            Some(_) => self.cfg.sampling.n_main as usize + 1,
+            None => self.cfg.sampling.n_coarse as usize,
         }
     }
 
@@ -299,23 +231,27 @@ impl Trainer {
     /// Fine parameters, if the run has a fine network.
     pub fn fine_params(&self) -> Option<&[f32]> {
         let n = self.mlp().n_params;
-        (self.cfg.n_fine > 0).then(|| &self.params[n..])
+        (self.cfg.sampling.n_fine > 0).then(|| &self.params[n..])
     }
 
     /// Learning rate at training progress `p ∈ [0, 1]` of the decay horizon.
     pub fn learning_rate(&self, progress: f64) -> f32 {
-        let p = if self.cfg.lr_decay_steps > 0 { self.step as f64 / self.cfg.lr_decay_steps as f64 } else { progress };
-        self.cfg.lr * (self.cfg.lr_final_ratio as f64).powf(p.clamp(0.0, 1.0)) as f32
+        let p = if self.cfg.optimiser.lr_decay_steps > 0 {
+            self.step as f64 / self.cfg.optimiser.lr_decay_steps as f64
+        } else {
+            progress
+        };
+        self.cfg.optimiser.lr * (self.cfg.optimiser.lr_final_ratio as f64).powf(p.clamp(0.0, 1.0)) as f32
     }
 
     /// Density σ threshold of the grid: the density at which a sample of
-    /// the default step (bounds diagonal / `n_coarse`, world units) has
-    /// opacity `grid_alpha`.
+    /// the default step (bounds diagonal / `sampling.n_coarse`, world units) has
+    /// opacity `grid.alpha`.
     pub fn grid_threshold(&self) -> f32 {
         let s = &self.scene;
         let diag = (0..3).map(|k| (s.bounds_max[k] - s.bounds_min[k]).powi(2)).sum::<f32>().sqrt();
-        let step = diag / self.cfg.n_coarse as f32;
-        -(1.0 - self.cfg.grid_alpha).ln() / step
+        let step = diag / self.cfg.sampling.n_coarse as f32;
+        -(1.0 - self.cfg.grid.alpha).ln() / step
     }
 
     /// The pixel footprint the run trains with and its model records: the
@@ -323,24 +259,7 @@ impl Trainer {
     /// it ([`Footprint::is_valid`]) and has a feature grid to read across
     /// it (forward-facing scenes' rays stay lines: their models record none).
     pub fn footprint(&self) -> Option<Footprint> {
-        Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.feature_levels > 0)
-    }
-
-    /// The run as its model takes it: with a parameters' average
-    /// ([`TrainConfig::ema_decay`]), a copy holding the average as its
-    /// parameters and its occupancy grid (once the run has refreshed it)
-    /// refreshed once more, from the average's density; otherwise the run
-    /// itself.
-    pub fn averaged(&self) -> std::borrow::Cow<'_, Trainer> {
-        if self.cfg.ema_decay <= 0.0 || self.ema.len() != self.params.len() {
-            return std::borrow::Cow::Borrowed(self);
-        }
-        let mut t = self.clone();
-        t.params.clone_from(&self.ema);
-        if t.grid.as_ref().is_some_and(|g| g.updates > 0) {
-            t.update_grid();
-        }
-        std::borrow::Cow::Owned(t)
+        Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.features.levels > 0)
     }
 
     /// Refreshes the occupancy grid from the network's current density.

@@ -5,7 +5,7 @@ use super::*;
 
 impl Trainer {
     /// One Adam step of the proposal grid (if the run has one) on the
-    /// chunks' gradients of the step, at learning rate `lr`.
+    /// chunks' gradients of the step, at learning rate `optimiser.lr`.
     pub(super) fn step_proposal(&mut self, lr: f32) {
         let Some(pg) = self.proposal.as_mut() else { return };
         let mut chunks = self.pool.2.lock().map(|mut g| std::mem::take(&mut *g)).unwrap_or_default();
@@ -16,7 +16,7 @@ impl Trainer {
         }
         if grad.iter().all(|g| g.is_finite()) {
             let c = &self.cfg;
-            pg.step(&grad, lr, c.beta1, c.beta2, c.eps);
+            pg.step(&grad, lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
         }
     }
 
@@ -51,7 +51,7 @@ impl Trainer {
         let nm = self.main_samples();
         let mut ws = Workspace::default();
         let (mut unbounded, mut opacity) = (0.0f64, 0.0f64);
-        for (ci, rays) in batch.chunks(self.cfg.chunk_rays).enumerate() {
+        for (ci, rays) in batch.chunks(self.cfg.sampling.chunk_rays).enumerate() {
             self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
             let mut acts = Acts::default();
             if !ws.pos.is_empty() {

@@ -3,64 +3,6 @@
 
 use super::*;
 
-/// Composites each ray's samples (`offs[i]..offs[i + 1]`, weights into
-/// `w`) on the ray's background, corrects the colour `C` by the ray's photo's
-/// correction if `corrections` holds them (adding their gradient to its
-/// `grad`), and writes the gradients of `scale · Σ (C − C_gt)²`
-/// (plus `scale · 3/2 · λ · L_dist` per ray for the distortion weight λ, and
-/// `scale · 3/2 · μ ·` [`optical_depth`](crate::volume::optical_depth) for the density weight μ) with respect to
-/// the raw densities and colours into `dsig` and `drgb`; returns the summed
-/// squared error over rays and channels.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn loss_gradients(
-    rays: &[Sample],
-    offs: &[usize],
-    scale: f32,
-    acts: &Acts,
-    delta: &[f32],
-    priors: Priors<'_>,
-    mut corrections: Option<Corrections<'_>>,
-    w: &mut [f32],
-    dw: &mut Vec<f32>,
-    dsig: &mut Vec<f32>,
-    drgb: &mut Vec<f32>,
-) -> f64 {
-    let n = offs[rays.len()];
-    dsig.resize(n, 0.0);
-    drgb.resize(n * 3, 0.0);
-    if let Some(c) = corrections.as_mut() {
-        c.grad.resize(c.params.len(), 0.0);
-    }
-    let mut sq = 0.0f64;
-    for (i, r) in rays.iter().enumerate() {
-        let (s, gt, bg) = (offs[i]..offs[i + 1], r.rgb, r.bg);
-        let c = 3 * s.start..3 * s.end;
-        let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[c.clone()]);
-        let col = composite(sig, rgb, &delta[s.clone()], bg, &mut w[s.clone()]);
-        // the photo's colour correction, if the run fits one
-        let photo = r.view as usize * appearance::PER_PHOTO..(r.view as usize + 1) * appearance::PER_PHOTO;
-        let y = corrections.as_ref().map_or(col, |k| appearance::apply(&k.params[photo.clone()], col));
-        let dy: [f32; 3] = std::array::from_fn(|k| scale * (y[k] - gt[k]));
-        let dc = match corrections.as_mut() {
-            Some(k) => appearance::apply_back(&k.params[photo.clone()], col, dy, &mut k.grad[photo]),
-            None => dy,
-        };
-        sq += (0..3).map(|k| ((y[k] - gt[k]) as f64).powi(2)).sum::<f64>();
-        dw.clear();
-        // the colour loss is a mean over rays and channels, the priors means over rays
-        if priors.distortion > 0.0 {
-            dw.resize(s.len(), 0.0);
-            let (mid, width) = (&priors.mid[s.clone()], &priors.width[s.clone()]);
-            distortion(mid, width, &w[s.clone()], 1.5 * scale * priors.distortion, dw);
-        }
-        composite_back(sig, rgb, &delta[s.clone()], bg, &w[s.clone()], dc, dw, &mut dsig[s.clone()], &mut drgb[c]);
-        if priors.density_l1 > 0.0 {
-            optical_depth_back(sig, &delta[s.clone()], 1.5 * scale * priors.density_l1, &mut dsig[s]);
-        }
-    }
-    sq
-}
-
 impl Trainer {
     /// One optimisation step on a batch drawn from `data`; `progress` is
     /// the fraction of the run done (for the learning-rate decay).
@@ -68,13 +10,13 @@ impl Trainer {
         let c = &self.cfg;
         let mut times = StepTimes::default();
         if self.grid.is_some()
-            && self.step as usize >= c.grid_warmup
-            && (self.step as usize).is_multiple_of(c.grid_every)
+            && self.step as usize >= c.grid.warmup
+            && (self.step as usize).is_multiple_of(c.grid.every)
         {
             timed(&mut times.grid, || self.update_grid());
         }
         let mut rng = Rng::new(self.seed ^ (self.step.wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        let (n, mut how) = (self.cfg.batch_rays, Draw::of(&self.cfg, progress));
+        let (n, mut how) = (self.cfg.sampling.batch_rays, Draw::of(&self.cfg, progress));
         if how.footprint && self.pixel == 0.0 {
             self.pixel = data.pixel_angle();
         }
@@ -82,7 +24,7 @@ impl Trainer {
         how.footprint &= self.footprint().is_some();
         let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
-        if self.cfg.appearance {
+        if self.cfg.loss.appearance {
             let photos = data.views.len();
             let a = self.appearance.get_or_insert_with(|| Appearance::new(photos));
             if a.photos() != photos {
@@ -91,7 +33,7 @@ impl Trainer {
         }
         let (grad, sq_c, sq_f, samples, mut photos) = self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
-        let mse_f = if self.cfg.n_fine > 0 { sq_f / n } else { sq_c / n };
+        let mse_f = if self.cfg.sampling.n_fine > 0 { sq_f / n } else { sq_c / n };
         let loss = (sq_c + sq_f) / n;
         let mut stats = StepStats {
             loss: loss as f32,
@@ -108,16 +50,26 @@ impl Trainer {
             let lr = self.learning_rate(progress);
             let c = &self.cfg;
             let (p, adam) = (&mut self.params, &mut self.adam);
-            timed(&mut stats.times.adam, || adam.update(p, &grad, lr, c.beta1, c.beta2, c.eps, c.feature_decay));
-            if c.ema_decay > 0.0 {
-                let b = c.ema_decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
+            timed(&mut stats.times.adam, || {
+                adam.update(
+                    p,
+                    &grad,
+                    lr,
+                    c.optimiser.beta1,
+                    c.optimiser.beta2,
+                    c.optimiser.eps,
+                    c.optimiser.feature_decay,
+                )
+            });
+            if c.optimiser.ema_decay > 0.0 {
+                let b = c.optimiser.ema_decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
                 timed(&mut stats.times.adam, || average_into(&mut self.ema, p, b));
             }
-            let lr_p = c.proposal_lr * lr / c.lr;
+            let lr_p = c.optimiser.proposal_lr * lr / c.optimiser.lr;
             timed(&mut stats.times.adam, || self.step_proposal(lr_p));
             if let Some(a) = self.appearance.as_mut().filter(|_| !photos.is_empty()) {
                 let c = &self.cfg;
-                a.update(&mut photos, appearance::LR_SHARE * lr, c.beta1, c.beta2, c.eps);
+                a.update(&mut photos, appearance::LR_SHARE * lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
             }
         }
         if let Ok(mut g) = self.pool.2.lock() {
@@ -143,7 +95,7 @@ impl Trainer {
 
     /// [`Trainer::gradients`], adding the time of its stages to `times`
     /// (`chunks` and its split, `scatter`), and the photos' colour
-    /// corrections' gradient (empty without [`TrainConfig::appearance`]).
+    /// corrections' gradient (empty without [`LossConfig::appearance`](crate::config::LossConfig::appearance)).
     pub(super) fn gradients_timed(
         &self,
         batch: &[Sample],
@@ -160,7 +112,7 @@ impl Trainer {
         // the parameters each thread accumulates: all but a feature grid's table
         let dense = if net.features.is_some() { net.table } else { np };
         let scale = 2.0 / (3.0 * batch.len() as f32);
-        let chunk = self.cfg.chunk_rays;
+        let chunk = self.cfg.sampling.chunk_rays;
         // a few accumulators per thread, for balance
         let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
         type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes, Vec<f32>);
@@ -212,74 +164,6 @@ impl Trainer {
         (grad, sq_c, sq_f, samples, photos)
     }
 
-    /// Stratified samples of every ray of a chunk (jitter key per ray from
-    /// `key`), kept where the grid is occupied: fills `t_c` (all `n_coarse`
-    /// per ray) and `pos`, `delta`, `offs`, `dirs` (per kept sample with a
-    /// grid, per ray without).
-    pub(super) fn coarse_samples(&self, rays: &[Sample], key: impl Fn(usize) -> u32, ws: &mut Workspace) {
-        let nc = self.main_samples();
-        let intervals = self.cfg.distortion > 0.0;
-        let grid = self.grid.as_ref().map(|g| g.view());
-        ws.t_c.resize(rays.len() * nc, 0.0);
-        ws.pos.clear();
-        ws.foot.clear();
-        ws.dirs.clear();
-        ws.delta.clear();
-        ws.s_mid.clear();
-        ws.s_width.clear();
-        ws.offs.clear();
-        ws.offs.push(0);
-        ws.kept.clear();
-        if self.proposal.is_some() {
-            ws.props.resize_with(rays.len(), Default::default);
-        }
-        // with footprints, every sample has its K points (a ray without one: its sample K times)
-        const K: usize = nerf_infer::camera::FOOTPRINT_POINTS;
-        let any_foot = rays.iter().any(|s| s.ray.foot.is_some());
-        for (i, Sample { ray, .. }) in rays.iter().enumerate() {
-            let t = &mut ws.t_c[i * nc..(i + 1) * nc];
-            match &self.proposal {
-                Some(pg) => pg.place(ray, key(i), self.cfg.n_coarse as usize, t, &mut ws.props[i]),
-                None => ray.stratified(Some(key(i)), t),
-            }
-            match grid {
-                None => {
-                    ws.kept.extend(0..nc as u32);
-                    for &ti in t.iter() {
-                        let p = ray.at(ti).to_array();
-                        ws.pos.push(p);
-                        if any_foot {
-                            ws.foot.extend(ray.foot_at(ti).unwrap_or([p; K]));
-                        }
-                    }
-                    push_deltas(t, ray.dir_len, &mut ws.delta);
-                    if intervals {
-                        (0..nc).for_each(|j| push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width));
-                    }
-                    ws.dirs.push(ray.viewdir.to_array());
-                }
-                Some(g) => {
-                    for j in 0..nc {
-                        let p = ray.at(t[j]).to_array();
-                        if g.at_f32(p) {
-                            ws.kept.push(j as u32);
-                            ws.pos.push(p);
-                            if any_foot {
-                                ws.foot.extend(ray.foot_at(t[j]).unwrap_or([p; K]));
-                            }
-                            ws.delta.push(if j + 1 < nc { (t[j + 1] - t[j]) * ray.dir_len } else { LAST_DELTA });
-                            if intervals {
-                                push_interval(ray, t, j, &mut ws.s_mid, &mut ws.s_width);
-                            }
-                            ws.dirs.push(ray.viewdir.to_array());
-                        }
-                    }
-                }
-            }
-            ws.offs.push(ws.pos.len());
-        }
-    }
-
     /// Forward and backward of one chunk; accumulates into `g` and returns
     /// the squared errors (coarse, fine) summed over rays and channels, the
     /// number of network evaluations and, with a feature grid, the grid
@@ -298,8 +182,8 @@ impl Trainer {
         t: &mut StepTimes,
     ) -> (f64, f64, usize, Option<GridGrad>) {
         let r = rays.len();
-        let nc = self.cfg.n_coarse as usize;
-        let nf = self.cfg.n_fine as usize;
+        let nc = self.cfg.sampling.n_coarse as usize;
+        let nf = self.cfg.sampling.n_fine as usize;
         let np = net.n_params;
         let (pc, pf) = self.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np.min(g.len()));
@@ -354,7 +238,7 @@ impl Trainer {
             merge_sorted(&ws.t_c[s], &ws.t_f, all);
             ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
             push_deltas(all, ray.dir_len, &mut ws.delta);
-            if self.cfg.distortion > 0.0 {
+            if self.cfg.loss.distortion > 0.0 {
                 (0..na).for_each(|j| push_interval(ray, all, j, &mut ws.s_mid, &mut ws.s_width));
             }
             ws.offs.push(ws.pos.len());
@@ -365,17 +249,5 @@ impl Trainer {
         let sq_f = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, true));
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)
-    }
-
-    /// [`loss_gradients`] of a chunk's pass (the coarse or only pass's
-    /// samples in `ws`, or with `fine` the fine pass's), with the run's
-    /// losses beside the colour's and, with [`TrainConfig::appearance`],
-    /// the photos' colour corrections, their gradient summed into `ws.dapp`.
-    fn colour_loss(&self, rays: &[Sample], scale: f32, ws: &mut Workspace, fine: bool) -> f64 {
-        let c = &self.cfg;
-        let priors = Priors { distortion: c.distortion, mid: &ws.s_mid, width: &ws.s_width, density_l1: c.density_l1 };
-        let corr = self.appearance.as_ref().map(|a| Corrections { params: &a.params, grad: &mut ws.dapp });
-        let (acts, w) = if fine { (&ws.acts_f, &mut ws.w_f) } else { (&ws.acts_c, &mut ws.w_c) };
-        loss_gradients(rays, &ws.offs, scale, acts, &ws.delta, priors, corr, w, &mut ws.dw, &mut ws.dsig, &mut ws.drgb)
     }
 }

@@ -6,11 +6,7 @@ use super::*;
 /// The fixed-point model file's size for configuration `cfg` on `scene`:
 /// a model of that shape with random weights, exported as `nerf fit`
 /// exports a trained one (an upper bound: training can only prune).
-pub(super) fn model_bytes(
-    cfg: &TrainConfig,
-    scene: nerf_infer::format::Scene,
-    bits: FixedBits,
-) -> Result<usize, String> {
+pub(super) fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: Scheme) -> Result<usize, String> {
     let mut twin = random_model(cfg, scene, 0, 1.0);
     // the records a trained model may carry, at their largest (varints): the size is then an upper bound
     twin.meta.iterations = u32::MAX;
@@ -36,7 +32,7 @@ pub(super) fn model_bytes(
     }
     let f = twin.to_bytes().map_err(|e| e.to_string())?;
     let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
-    let q = quantise(&m, WeightBits::from(bits).scheme())?;
+    let q = quantise(&m, bits)?;
     Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
 }
 
@@ -50,18 +46,18 @@ pub(super) fn model_bytes(
 pub(super) fn fit_budget(
     cfg: &TrainConfig,
     scene: nerf_infer::format::Scene,
-    bits: FixedBits,
+    bits: Scheme,
     max: usize,
 ) -> Result<Result<(TrainConfig, Vec<String>, usize), usize>, String> {
     let mut c = cfg.clone();
     let mut bytes = model_bytes(&c, scene, bits)?;
     for (table_floor, grid_floor) in [(TABLE_FLOOR_LOG2, 32), (8, 16)] {
-        while bytes > max && c.feature_levels > 0 && c.feature_log2_table > table_floor {
-            c.feature_log2_table -= 1;
+        while bytes > max && c.features.levels > 0 && c.features.log2_table > table_floor {
+            c.features.log2_table -= 1;
             bytes = model_bytes(&c, scene, bits)?;
         }
-        while bytes > max && c.grid_res > grid_floor {
-            c.grid_res /= 2;
+        while bytes > max && c.grid.res > grid_floor {
+            c.grid.res /= 2;
             bytes = model_bytes(&c, scene, bits)?;
         }
     }
@@ -69,14 +65,14 @@ pub(super) fn fit_budget(
         return Ok(Err(bytes));
     }
     let mut gave = Vec::new();
-    if c.feature_log2_table != cfg.feature_log2_table {
+    if c.features.log2_table != cfg.features.log2_table {
         gave.push(format!(
             "feature table 2^{} -> 2^{} entries per level",
-            cfg.feature_log2_table, c.feature_log2_table
+            cfg.features.log2_table, c.features.log2_table
         ));
     }
-    if c.grid_res != cfg.grid_res {
-        gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid_res, c.grid_res));
+    if c.grid.res != cfg.grid.res {
+        gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid.res, c.grid.res));
     }
     Ok(Ok((c, gave, bytes)))
 }

@@ -19,8 +19,9 @@
 //! accurate candidate that fits is kept; with it, the fastest that reaches
 //! the target. What each candidate gave up to fit is printed and tabled.
 
-use super::{create_dir, eval, num_in, train, write_atomic, CaptureArgs, CmdResult, FixedBits, WeightBits};
+use super::{create_dir, eval, fixed_scheme, num_in, train, write_atomic, CaptureArgs, CmdResult};
 use nerf_infer::camera::FOOTPRINT_POINTS;
+use nerf_infer::Scheme;
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::Split;
 use nerf_train::export::{quantise, random_model, OwnedModel};
@@ -50,8 +51,8 @@ pub struct Args {
     #[arg(long, default_value_t = 10.0, value_name = "0.001..=100000.0", value_parser = num_in(0.001f64, 100_000.0))]
     minutes: f64,
     /// Weight bits of the fixed-point model that is scored and timed.
-    #[arg(long, value_enum, default_value_t = FixedBits::I8)]
-    bits: FixedBits,
+    #[arg(long, value_name = "16|8", value_parser = fixed_scheme(), default_value = "8")]
+    bits: Scheme,
     /// Early ray termination (transmittance threshold) of the scored render.
     #[arg(long, default_value_t = 1e-3, value_name = "0.0..=0.5", value_parser = num_in(0.0f32, 0.5))]
     early_stop: f32,
@@ -76,13 +77,43 @@ pub struct Args {
 pub fn candidates() -> Vec<(&'static str, TrainConfig)> {
     let g = TrainConfig::grid();
     let mut c = vec![
-        ("2x32-noview", TrainConfig { depth: 2, width: 32, pos_freqs: 6, view_dependent: false, ..g.clone() }),
-        ("3x32", TrainConfig { depth: 3, width: 32, ..g.clone() }),
-        ("3x64", TrainConfig { depth: 3, ..g.clone() }),
+        (
+            "2x32-noview",
+            g.clone().with(|c| {
+                c.model.depth = 2;
+                c.model.width = 32;
+                c.model.pos_freqs = 6;
+                c.model.view_dependent = false;
+            }),
+        ),
+        (
+            "3x32",
+            g.clone().with(|c| {
+                c.model.depth = 3;
+                c.model.width = 32;
+            }),
+        ),
+        ("3x64", g.clone().with(|c| c.model.depth = 3)),
         ("4x64", g.clone()),
         ("features", TrainConfig::features()),
-        ("features-2x32", TrainConfig { width: 32, view_width: 32, footprint: false, ..TrainConfig::features() }),
-        ("6x96", TrainConfig { depth: 6, width: 96, view_width: 32, pos_freqs: 10, dir_freqs: 4, ..g }),
+        (
+            "features-2x32",
+            TrainConfig::features().with(|c| {
+                c.model.width = 32;
+                c.model.view_width = 32;
+                c.features.footprint = false;
+            }),
+        ),
+        (
+            "6x96",
+            g.with(|c| {
+                c.model.depth = 6;
+                c.model.width = 96;
+                c.model.view_width = 32;
+                c.model.pos_freqs = 10;
+                c.model.dir_freqs = 4;
+            }),
+        ),
     ];
     c.sort_by_key(|(_, cfg)| cost(cfg));
     c
@@ -105,8 +136,8 @@ pub const FEATURE_LEVEL_MACS: usize = 500;
 /// at [`FEATURE_LEVEL_MACS`] each, once per point read (the
 /// [`FOOTPRINT_POINTS`] of a pixel footprint, else one).
 pub fn cost(cfg: &TrainConfig) -> usize {
-    let points = if cfg.footprint { FOOTPRINT_POINTS } else { 1 };
-    macs(cfg) + cfg.feature_levels as usize * FEATURE_LEVEL_MACS * points
+    let points = if cfg.features.footprint { FOOTPRINT_POINTS } else { 1 };
+    macs(cfg) + cfg.features.levels as usize * FEATURE_LEVEL_MACS * points
 }
 
 /// One tried candidate.
@@ -168,7 +199,7 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
     let f32_path = dir.join("model.nerf");
     let bytes = super::read_model(&f32_path)?;
     let m = super::decode(&f32_path, &bytes)?;
-    let scheme = WeightBits::from(a.bits).scheme();
+    let scheme = a.bits;
     let q = quantise(&m, scheme).and_then(|q| q.to_bytes().map_err(|e| nerf_train::Error::Export(e.to_string())));
     let q = q.map_err(|e| format!("{}: {e}", f32_path.display()))?;
     let fixed_path = dir.join("model_fixed.nerf");
@@ -260,7 +291,7 @@ fn report(a: &Args, row: &Row) {
         "fit: {} at {} samples: int{} {:.2} dB (f32 {:.2} dB), {:.1} µs/ray, {:.1} samples/ray evaluated",
         row.name,
         row.coarse,
-        WeightBits::from(a.bits).bits(),
+        a.bits.bits(),
         row.psnr_fixed,
         row.psnr_f32,
         row.us_per_ray,
@@ -316,7 +347,7 @@ pub fn run(a: Args) -> CmdResult {
                 }
             },
         };
-        let least = cost_per_ray(&cfg, cfg.n_coarse.div_ceil(3));
+        let least = cost_per_ray(&cfg, cfg.sampling.n_coarse.div_ceil(3));
         if let Some(best) = reached.iter().map(|r| r.3).min() {
             if least >= best {
                 out!("fit: not training {name}: even at a third of its samples it costs more per ray ({least} vs {best})");
@@ -396,15 +427,15 @@ mod tests {
     fn a_byte_budget_coarsens_the_occupancy_grid_before_the_feature_table_goes_below_its_floor() {
         let f = TrainConfig::features();
         // 64 KiB: a 2^10 table (32 KiB) and a 32^3 grid (4 KiB) fit, a 64^3 grid (32 KiB) beside it does not
-        let (c, gave, bytes) = fit_budget(&f, lego_scene(), FixedBits::I8, 65_536).unwrap().unwrap();
-        assert_eq!((c.feature_log2_table, c.grid_res), (TABLE_FLOOR_LOG2, 32), "{gave:?}");
+        let (c, gave, bytes) = fit_budget(&f, lego_scene(), Scheme::I8, 65_536).unwrap().unwrap();
+        assert_eq!((c.features.log2_table, c.grid.res), (TABLE_FLOOR_LOG2, 32), "{gave:?}");
         assert!(bytes <= 65_536);
         assert_eq!(gave, ["feature table 2^15 -> 2^10 entries per level", "occupancy grid 64^3 -> 32^3"]);
         // a roomy budget gives up nothing; a tight one goes below the floor; the layers alone exceed 4 000 B
-        let (c, gave, _) = fit_budget(&f, lego_scene(), FixedBits::I8, 1 << 20).unwrap().unwrap();
-        assert_eq!((c.feature_log2_table, c.grid_res, gave.len()), (15, 64, 0));
-        let (c, _, bytes) = fit_budget(&f, lego_scene(), FixedBits::I8, 40_000).unwrap().unwrap();
-        assert!(c.feature_log2_table < TABLE_FLOOR_LOG2 && c.grid_res == 32 && bytes <= 40_000, "{c:?}");
-        assert!(fit_budget(&f, lego_scene(), FixedBits::I8, 4_000).unwrap().is_err());
+        let (c, gave, _) = fit_budget(&f, lego_scene(), Scheme::I8, 1 << 20).unwrap().unwrap();
+        assert_eq!((c.features.log2_table, c.grid.res, gave.len()), (15, 64, 0));
+        let (c, _, bytes) = fit_budget(&f, lego_scene(), Scheme::I8, 40_000).unwrap().unwrap();
+        assert!(c.features.log2_table < TABLE_FLOOR_LOG2 && c.grid.res == 32 && bytes <= 40_000, "{c:?}");
+        assert!(fit_budget(&f, lego_scene(), Scheme::I8, 4_000).unwrap().is_err());
     }
 }

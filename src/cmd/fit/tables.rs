@@ -2,8 +2,8 @@
 
 use super::*;
 
-pub(super) fn tables(rows: &[Row], bits: FixedBits) -> (String, String) {
-    let bits = WeightBits::from(bits).bits();
+pub(super) fn tables(rows: &[Row], bits: Scheme) -> (String, String) {
+    let bits = bits.bits();
     let mut csv = String::from(
         "name,macs_per_sample,steps,psnr_f32,psnr_fixed,us_per_ray,samples_per_ray,model_bytes,cost_per_sample,coarse_samples,gave_up\n",
     );

@@ -37,9 +37,10 @@ pub struct Args {
     /// Named configuration [default: features]
     #[arg(long, value_enum)]
     pub(crate) preset: Option<Preset>,
-    /// Configuration as JSON: fields of the preset (`features` without `--preset`) to override; see docs/CLI.md.
-    /// A feature grid is sized to the photos of an object scene unless the file names `feature_max_res` or
-    /// `feature_log2_table`, and so are the samples per ray unless it names `n_coarse`.
+    /// Configuration as JSON: fields of the preset (`features` without `--preset`) to override, by section
+    /// (`{"sampling": {"n_coarse": 64}}`) or by flat name (`{"n_coarse": 64}`); see docs/CLI.md.
+    /// A feature grid is sized to the photos of an object scene unless the file names `features.max_res` or
+    /// `features.log2_table`, and so are the samples per ray unless it names `sampling.n_coarse`.
     #[arg(long)]
     pub(crate) config: Option<PathBuf>,
     /// Train until this many steps in total.
@@ -86,19 +87,19 @@ struct NewRun {
     /// The preset with the file's fields on top.
     cfg: TrainConfig,
     /// Size the feature grid to the photos ([`TrainConfig::fit_features_to`]):
-    /// unless `--config` names `feature_max_res` or `feature_log2_table`.
+    /// unless `--config` names `features.max_res` or `features.log2_table`.
     fit_features: bool,
     /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]),
     /// or to [`TrainConfig::PROPOSAL_COARSE`] where a proposal grid is
-    /// turned on: unless `--config` names `n_coarse`.
+    /// turned on: unless `--config` names `sampling.n_coarse`.
     fit_samples: bool,
     /// Place the network's samples with a proposal grid in unbounded and
-    /// forward-facing scenes ([`TrainConfig::proposal_res`]): unless
-    /// `--config` names `proposal_res`.
+    /// forward-facing scenes ([`SamplingConfig::proposal_res`](nerf_train::config::SamplingConfig::proposal_res)): unless
+    /// `--config` names `sampling.proposal_res`.
     fit_proposal: bool,
     /// Turn the distortion loss on ([`TrainConfig::PROPOSAL_DISTORTION`])
     /// where the proposal grid is turned on (unbounded and forward-facing
-    /// scenes): unless `--config` names `distortion`.
+    /// scenes): unless `--config` names `loss.distortion`.
     fit_distortion: bool,
 }
 
@@ -110,15 +111,15 @@ impl NewRun {
         let mut cfg = self.cfg.clone();
         let open = data.scene.unbounded.is_some() || data.scene.ndc.is_some();
         // one network over an occupancy grid: the presets whose stratified samples the proposal replaces
-        if self.fit_proposal && open && cfg.proposal_res == 0 && cfg.n_fine == 0 && cfg.grid_res > 0 {
+        if self.fit_proposal && open && cfg.sampling.proposal_res == 0 && cfg.sampling.n_fine == 0 && cfg.grid.res > 0 {
             // only a configuration the grid can serve (n_coarse 3..=256, n_main 1..=255) gets it
-            let mut with = TrainConfig { proposal_res: TrainConfig::PROPOSAL_RES, ..cfg.clone() };
+            let mut with = cfg.clone().with(|c| c.sampling.proposal_res = TrainConfig::PROPOSAL_RES);
             if self.fit_samples {
                 // the grid composited at fewer stratified samples than the occupancy grid's
-                with.n_coarse = TrainConfig::PROPOSAL_COARSE;
+                with.sampling.n_coarse = TrainConfig::PROPOSAL_COARSE;
             }
             if self.fit_distortion {
-                with.distortion = TrainConfig::PROPOSAL_DISTORTION;
+                with.loss.distortion = TrainConfig::PROPOSAL_DISTORTION;
             }
             if with.validate().is_ok() {
                 cfg = with;
@@ -145,19 +146,13 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
             let bad = |e: &dyn std::fmt::Display| format!("{}: invalid configuration: {e}", path.display());
             let text = nerf_train::userfile::read_user_text(path, nerf_train::userfile::MAX_JSON, "--config")?;
             let over: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&e))?;
-            let serde_json::Value::Object(over) = over else {
-                return Err(bad(&"expected a JSON object of configuration fields"));
-            };
-            fit_features = !over.contains_key("feature_max_res") && !over.contains_key("feature_log2_table");
-            fit_samples = !over.contains_key("n_coarse");
-            fit_proposal = !over.contains_key("proposal_res");
-            fit_distortion = !over.contains_key("distortion");
+            let names = |section, field| nerf_train::config::json::names(&over, section, field);
+            fit_features = !names("features", "max_res") && !names("features", "log2_table");
+            fit_samples = !names("sampling", "n_coarse");
+            fit_proposal = !names("sampling", "proposal_res");
+            fit_distortion = !names("loss", "distortion");
             // the preset's fields, then the file's on top of them
-            let mut merged = serde_json::to_value(&base).map_err(|e| bad(&e))?;
-            if let Some(m) = merged.as_object_mut() {
-                m.extend(over);
-            }
-            serde_json::from_value(merged).map_err(|e| bad(&e))?
+            base.overlay(&over).map_err(|e| bad(&e))?
         }
     };
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
@@ -276,32 +271,34 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
         let downscale = a.capture.downscale.unwrap_or(1);
         let data = load(downscale)?;
         let cfg = run.for_data(&data);
-        if cfg.feature_max_res != run.cfg.feature_max_res {
+        if cfg.features.max_res != run.cfg.features.max_res {
             eprintln!(
                 "feature grid sized to the photos: finest level {} cells per axis (was {}), 2^{} table entries per \
-                 level (was 2^{}); set feature_max_res or feature_log2_table with --config to choose",
-                cfg.feature_max_res, run.cfg.feature_max_res, cfg.feature_log2_table, run.cfg.feature_log2_table
+                 level (was 2^{}); set features.max_res or features.log2_table with --config to choose",
+                cfg.features.max_res, run.cfg.features.max_res, cfg.features.log2_table, run.cfg.features.log2_table
             );
         }
-        if cfg.proposal_res != run.cfg.proposal_res {
+        if cfg.sampling.proposal_res != run.cfg.sampling.proposal_res {
             eprintln!(
                 "{} scene: the network's {} samples per ray placed by a {}³ proposal grid composited at {} \
-                 stratified samples{}; set proposal_res 0 with --config for the occupancy grid's {} stratified samples",
+                 stratified samples{}; set sampling.proposal_res 0 with --config for the occupancy grid's {} stratified samples",
                 if data.scene.ndc.is_some() { "forward-facing" } else { "unbounded" },
-                cfg.n_main,
-                cfg.proposal_res,
-                cfg.n_coarse,
-                match cfg.distortion != run.cfg.distortion {
-                    true => format!(", the distortion loss at {} (set distortion with --config)", cfg.distortion),
+                cfg.sampling.n_main,
+                cfg.sampling.proposal_res,
+                cfg.sampling.n_coarse,
+                match cfg.loss.distortion != run.cfg.loss.distortion {
+                    true => format!(", the distortion loss at {} (set loss.distortion with --config)", cfg.loss.distortion),
                     false => String::new(),
                 },
-                run.cfg.n_coarse
+                run.cfg.sampling.n_coarse
             );
         }
-        if cfg.n_coarse != run.cfg.n_coarse && cfg.proposal_res == run.cfg.proposal_res {
+        if cfg.sampling.n_coarse != run.cfg.sampling.n_coarse
+            && cfg.sampling.proposal_res == run.cfg.sampling.proposal_res
+        {
             eprintln!(
-                "samples per ray set for the photos: {} (was {}); set n_coarse with --config to choose",
-                cfg.n_coarse, run.cfg.n_coarse
+                "samples per ray set for the photos: {} (was {}); set sampling.n_coarse with --config to choose",
+                cfg.sampling.n_coarse, run.cfg.sampling.n_coarse
             );
         }
         let mut tr = Trainer::new(cfg, data.scene, downscale, a.seed);

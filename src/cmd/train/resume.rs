@@ -27,15 +27,7 @@ pub(super) fn check_resume_config(a: &Args, tr: &Trainer, data: &Dataset) -> Cmd
     if a.preset.is_some() || a.config.is_some() {
         let cfg = load_config(a)?.for_data(data);
         if cfg != tr.cfg {
-            let (now, was) =
-                (serde_json::to_value(&cfg).unwrap_or_default(), serde_json::to_value(&tr.cfg).unwrap_or_default());
-            let differ: Vec<String> = now
-                .as_object()
-                .into_iter()
-                .flatten()
-                .filter(|(k, v)| was.get(k.as_str()) != Some(v))
-                .map(|(k, _)| k.clone())
-                .collect();
+            let differ = cfg.differing_fields(&tr.cfg);
             return Err(format!(
                 "--preset/--config differ from the checkpoint's configuration in {}: resume without them, or \
                  start over with --force",

@@ -1,0 +1,135 @@
+//! The configuration as JSON: a `--config` file's fields over a preset's,
+//! written nested (by section) or flat (each field by its flat name:
+//! [`FLAT_NAMES`]), or both.
+
+use super::TrainConfig;
+use crate::error::Error;
+use serde_json::{Map, Value};
+
+/// The sections of [`TrainConfig`], as a `--config` file names them.
+pub const SECTIONS: [&str; 6] = ["model", "features", "sampling", "grid", "optimiser", "loss"];
+
+/// Each field's flat name (a `--config` file without sections), its
+/// section and its name there.
+pub const FLAT_NAMES: [(&str, &str, &str); 39] = [
+    ("pos_freqs", "model", "pos_freqs"),
+    ("dir_freqs", "model", "dir_freqs"),
+    ("include_input", "model", "include_input"),
+    ("depth", "model", "depth"),
+    ("width", "model", "width"),
+    ("skips", "model", "skips"),
+    ("view_dependent", "model", "view_dependent"),
+    ("view_width", "model", "view_width"),
+    ("feature_levels", "features", "levels"),
+    ("feature_width", "features", "width"),
+    ("feature_log2_table", "features", "log2_table"),
+    ("feature_min_res", "features", "min_res"),
+    ("feature_max_res", "features", "max_res"),
+    ("footprint", "features", "footprint"),
+    ("footprint_from", "features", "footprint_from"),
+    ("n_coarse", "sampling", "n_coarse"),
+    ("n_fine", "sampling", "n_fine"),
+    ("n_main", "sampling", "n_main"),
+    ("proposal_res", "sampling", "proposal_res"),
+    ("batch_rays", "sampling", "batch_rays"),
+    ("chunk_rays", "sampling", "chunk_rays"),
+    ("random_background", "sampling", "random_background"),
+    ("pixel_jitter", "sampling", "pixel_jitter"),
+    ("grid_res", "grid", "res"),
+    ("grid_warmup", "grid", "warmup"),
+    ("grid_every", "grid", "every"),
+    ("grid_alpha", "grid", "alpha"),
+    ("lr", "optimiser", "lr"),
+    ("lr_final_ratio", "optimiser", "lr_final_ratio"),
+    ("lr_decay_steps", "optimiser", "lr_decay_steps"),
+    ("beta1", "optimiser", "beta1"),
+    ("beta2", "optimiser", "beta2"),
+    ("eps", "optimiser", "eps"),
+    ("proposal_lr", "optimiser", "proposal_lr"),
+    ("feature_decay", "optimiser", "feature_decay"),
+    ("ema_decay", "optimiser", "ema_decay"),
+    ("distortion", "loss", "distortion"),
+    ("density_l1", "loss", "density_l1"),
+    ("appearance", "loss", "appearance"),
+];
+
+impl TrainConfig {
+    /// This configuration changed by `edit`: `TrainConfig::fast().with(|c|
+    /// c.sampling.n_fine = 0)`.
+    pub fn with(mut self, edit: impl FnOnce(&mut Self)) -> Self {
+        edit(&mut self);
+        self
+    }
+
+    /// This configuration with the fields of `over` (a JSON object, nested,
+    /// flat or both; [`nested`]) in place of its own. Fails with
+    /// [`Error::Config`] naming an unknown section or field, a field named
+    /// twice, or a value of the wrong type; the result is not validated.
+    pub fn overlay(&self, over: &Value) -> Result<TrainConfig, Error> {
+        let over = nested(over)?;
+        let mut merged = serde_json::to_value(self).map_err(|e| Error::Config(e.to_string()))?;
+        for (section, fields) in over {
+            let Value::Object(fields) = fields else {
+                return Err(Error::Config(format!("`{section}` must be an object of fields")));
+            };
+            if let Some(Value::Object(into)) = merged.get_mut(section.as_str()) {
+                into.extend(fields);
+            }
+        }
+        serde_json::from_value(merged).map_err(|e| Error::Config(e.to_string()))
+    }
+
+    /// The fields, as `section.field`, whose values differ between this
+    /// configuration and `other`.
+    pub fn differing_fields(&self, other: &TrainConfig) -> Vec<String> {
+        let (a, b) = (serde_json::to_value(self).unwrap_or_default(), serde_json::to_value(other).unwrap_or_default());
+        let mut differ = Vec::new();
+        for section in SECTIONS {
+            for (field, v) in a.get(section).and_then(Value::as_object).into_iter().flatten() {
+                if b.get(section).and_then(|s| s.get(field)) != Some(v) {
+                    differ.push(format!("{section}.{field}"));
+                }
+            }
+        }
+        differ
+    }
+}
+
+/// Whether a `--config` object names `section.field`, nested or flat.
+pub fn names(over: &Value, section: &str, field: &str) -> bool {
+    nested(over).is_ok_and(|m| m.get(section).and_then(|s| s.get(field)).is_some())
+}
+
+/// A `--config` object with its flat names ([`FLAT_NAMES`]) moved into
+/// their sections. Fails with [`Error::Config`] on a value that is not an
+/// object, a name that is neither a section nor a flat name, or a field
+/// given both ways.
+pub fn nested(over: &Value) -> Result<Map<String, Value>, Error> {
+    let Value::Object(over) = over else {
+        return Err(Error::Config("expected a JSON object of configuration sections or fields".into()));
+    };
+    let mut out = Map::new();
+    let mut flat = Vec::new();
+    for (key, value) in over {
+        if SECTIONS.contains(&key.as_str()) {
+            out.insert(key.clone(), value.clone());
+        } else if let Some(&(_, section, field)) = FLAT_NAMES.iter().find(|(flat, ..)| flat == key) {
+            flat.push((section, field, value));
+        } else {
+            return Err(Error::Config(format!(
+                "unknown field `{key}`: expected a section ({}) or a field's flat name",
+                SECTIONS.join(", ")
+            )));
+        }
+    }
+    for (section, field, value) in flat {
+        let into = out.entry(section).or_insert_with(|| Value::Object(Map::new()));
+        let Value::Object(into) = into else {
+            return Err(Error::Config(format!("`{section}` must be an object of fields")));
+        };
+        if into.insert(field.to_string(), value.clone()).is_some() {
+            return Err(Error::Config(format!("`{section}.{field}` is given twice, nested and flat")));
+        }
+    }
+    Ok(out)
+}

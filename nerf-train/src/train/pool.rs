@@ -1,0 +1,55 @@
+//! Gradient buffers reused from step to step.
+
+use super::*;
+
+/// Zeroed gradient buffers and chunks' grid-value gradients reused from
+/// step to step: a feature grid's table makes each gradient megabytes, a
+/// chunk's corners hundreds of kilobytes, and fresh ones cost page faults.
+#[derive(Default)]
+pub(super) struct GradPool(
+    std::sync::Mutex<Vec<Vec<f32>>>,
+    std::sync::Mutex<Vec<GridGrad>>,
+    /// Each chunk's proposal-grid gradient.
+    pub(super) std::sync::Mutex<PropGrads>,
+);
+
+/// Each chunk's proposal-grid gradient, (cell, value) pairs, under the
+/// chunk's key (summed in key order: the same sum whatever the threads).
+pub(super) type PropGrads = Vec<(u32, Vec<(u32, f32)>)>;
+
+impl Clone for GradPool {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for GradPool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("GradPool")
+    }
+}
+
+impl GradPool {
+    /// A zeroed buffer of `n` values.
+    pub(super) fn take(&self, n: usize) -> Vec<f32> {
+        let found = |p: &mut Vec<Vec<f32>>| p.iter().position(|v| v.len() == n).map(|i| p.swap_remove(i));
+        self.0.lock().map(|mut p| found(&mut p)).unwrap_or(None).unwrap_or_else(|| vec![0.0; n])
+    }
+    /// Returns a buffer (zeroed here) for later steps.
+    pub(super) fn give(&self, mut v: Vec<f32>) {
+        v.fill(0.0);
+        if let Ok(mut p) = self.0.lock() {
+            p.push(v);
+        }
+    }
+    /// A chunk's grid-value gradient whose buffers a forward pass may reuse.
+    pub(super) fn take_grid(&self) -> GridGrad {
+        self.1.lock().map(|mut p| p.pop()).unwrap_or(None).unwrap_or_default()
+    }
+    /// Returns grid-value gradients for later chunks.
+    pub(super) fn give_grids(&self, g: Vec<GridGrad>) {
+        if let Ok(mut p) = self.1.lock() {
+            p.extend(g);
+        }
+    }
+}
