@@ -23,6 +23,7 @@ steps=(
   "int8-loss|15|scripts/int8_loss.sh ROOT 3"
   "table-bits|12|scripts/table_bits.sh ROOT 10"
   "captures|40|scripts/captures.sh ROOT 5"
+  "baseline-rerun|30|scripts/baseline_rerun.sh ROOT 5"
   "lens|12|scripts/lens.sh ROOT 1000 0 && scripts/lens.sh ROOT 1000 1"
   "scene360|5|scripts/scene360.sh 2"
   "proposal|70|BASELINE=1 scripts/proposal.sh ROOT 5"

@@ -236,7 +236,35 @@ equal steps, seeds 0 and 1: minutes are the training time) and `scripts/scene360
 than the treatment's, scored by `nerf eval --split val` on the held-out
 photos (every 8th image) at 1/8 size.
 
-{TREATMENTS}""", t if rs else missing("captures"))
+{TREATMENTS}{baseline_rerun()}""", t if rs else missing("captures"))
+
+
+# the commit whose default the proposal sampling's quality target is measured against
+BASELINE_COMMIT = "0cf40ca"
+
+
+def baseline_rerun():
+    """The default against BASELINE_COMMIT's, rerun on the same day and CPU:
+    per capture, the latest baseline `features` row and the row that
+    follows it (the same day and CPU)."""
+    pending, paired = {}, {}
+    for r in rows("captures.csv"):
+        if r["treatment"] != "features":
+            continue
+        if r["commit"] == BASELINE_COMMIT:
+            pending[r["capture"]] = r
+        elif (b := pending.pop(r["capture"], None)) and (b["date"], b["cpu"]) == (r["date"], r["cpu"]):
+            paired[r["capture"]] = (b, r)
+    pairs = list(paired.values())
+    if not pairs:
+        return ""
+    lines = [f"  - {r['capture']}: {b['psnr']} dB ({thousands(b['steps'])} steps) at {BASELINE_COMMIT}, "
+             f"{r['psnr']} dB ({thousands(r['steps'])} steps) at {r['commit']}, "
+             f"{float(r['psnr']) - float(b['psnr']):+.2f} dB; {r['date']}, {cpu(r)}, {r['cores']} cores"
+             for b, r in pairs]
+    return ("\n- The default against " + BASELINE_COMMIT + "'s (the occupancy grid's samples in unbounded\n"
+            "  scenes), 5 minutes each, back to back on one machine (`scripts/baseline_rerun.sh DATA_ROOT 5`):\n"
+            + "\n".join(lines))
 
 
 def proposal_section():
