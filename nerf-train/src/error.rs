@@ -4,8 +4,8 @@
 //! may return the error that stage wraps ([`DataError`], [`ParseError`],
 //! [`MeshError`], each converting into [`Error`] with `?`); the low-level
 //! file writers (`atomic`, the COLMAP and `.npy` writers) return
-//! `std::io::Result`, which their callers wrap with the file's path in
-//! [`Error::Io`] ([`Error::io`]).
+//! `std::io::Result`; a caller names the file, in its stage's error or in
+//! [`Error::Io`] ([`Error::io`], as the plot writer does).
 
 use std::fmt;
 use std::path::{Path, PathBuf};

@@ -13,8 +13,6 @@
 //! network's, by its own Adam (the occupancy grid's cells, sparse: cells no
 //! ray crossed keep their moments). Exported as 8-bit codes
 //! ([`nerf_infer::proposal`]).
-//!
-//! [`SamplingConfig::proposal_res`](crate::config::SamplingConfig::proposal_res): crate::config::SamplingConfig::proposal_res
 
 use crate::adam::Adam;
 use crate::interlevel::interlevel;
@@ -93,8 +91,8 @@ impl ProposalGrid {
     }
 
     /// Fills `out` with the sorted `t` of the network's samples of `ray`
-    /// (`sampling.n_main` drawn from the proposal's weights, then the last of
-    /// `sampling.n_coarse` stratified samples, jittered by `key`), and `prop` with
+    /// (`out.len() − 1` drawn from the proposal's weights, then the last of
+    /// `n_coarse` stratified samples, jittered by `key`), and `prop` with
     /// the proposal's samples for [`ProposalGrid::backward`].
     pub fn place(&self, ray: &Ray, key: u32, n_coarse: usize, out: &mut [f32], prop: &mut RayProposal) {
         let n_main = out.len() - 1;

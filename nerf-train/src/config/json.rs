@@ -64,7 +64,8 @@ impl TrainConfig {
     /// This configuration with the fields of `over` (a JSON object, nested,
     /// flat or both; [`nested`]) in place of its own. Fails with
     /// [`Error::Config`] naming an unknown section or field, a field named
-    /// twice, or a value of the wrong type; the result is not validated.
+    /// twice, or a field's value of the wrong type (`section.field: why`);
+    /// the result is not validated.
     pub fn overlay(&self, over: &Value) -> Result<TrainConfig, Error> {
         let over = nested(over)?;
         let mut merged = serde_json::to_value(self).map_err(|e| Error::Config(e.to_string()))?;
@@ -72,8 +73,16 @@ impl TrainConfig {
             let Value::Object(fields) = fields else {
                 return Err(Error::Config(format!("`{section}` must be an object of fields")));
             };
-            if let Some(Value::Object(into)) = merged.get_mut(section.as_str()) {
-                into.extend(fields);
+            let Some(Value::Object(into)) = merged.get_mut(section.as_str()) else {
+                return Err(Error::Config(format!("unknown section `{section}`")));
+            };
+            // each field against this configuration's section, so that a refusal names it
+            for (field, value) in fields {
+                let mut one = into.clone();
+                one.insert(field.clone(), value);
+                check_section(&section, Value::Object(one.clone()))
+                    .map_err(|e| Error::Config(format!("`{section}.{field}`: {e}")))?;
+                *into = one;
             }
         }
         serde_json::from_value(merged).map_err(|e| Error::Config(e.to_string()))
@@ -92,6 +101,21 @@ impl TrainConfig {
             }
         }
         differ
+    }
+}
+
+/// Reads `value` as the section `section` of [`TrainConfig`].
+fn check_section(section: &str, value: Value) -> Result<(), serde_json::Error> {
+    use super::sections::*;
+    use serde::de::Error as _;
+    match section {
+        "model" => serde_json::from_value::<ModelConfig>(value).map(drop),
+        "features" => serde_json::from_value::<FeatureConfig>(value).map(drop),
+        "sampling" => serde_json::from_value::<SamplingConfig>(value).map(drop),
+        "grid" => serde_json::from_value::<GridConfig>(value).map(drop),
+        "optimiser" => serde_json::from_value::<OptimiserConfig>(value).map(drop),
+        "loss" => serde_json::from_value::<LossConfig>(value).map(drop),
+        other => Err(serde_json::Error::custom(format!("unknown section `{other}`"))),
     }
 }
 
@@ -116,8 +140,12 @@ pub fn nested(over: &Value) -> Result<Map<String, Value>, Error> {
         } else if let Some(&(_, section, field)) = FLAT_NAMES.iter().find(|(flat, ..)| flat == key) {
             flat.push((section, field, value));
         } else {
+            let within = FLAT_NAMES.iter().find(|(_, _, field)| field == key);
+            let hint = within.map_or(String::new(), |(flat, section, field)| {
+                format!(" (the field `{field}` of `{section}` is `{{\"{section}\": {{\"{field}\": …}}}}` or `{flat}`)")
+            });
             return Err(Error::Config(format!(
-                "unknown field `{key}`: expected a section ({}) or a field's flat name",
+                "unknown field `{key}`: expected a section ({}) or a field's flat name{hint}",
                 SECTIONS.join(", ")
             )));
         }

@@ -38,8 +38,9 @@ pub struct TrainConfig {
 }
 
 /// The default preset's ([`Preset::default`]): what `nerf train` trains
-/// without `--preset`, and where a configuration file's missing fields
-/// come from.
+/// without `--preset`, and the fields a serialised configuration leaves
+/// out when it is read on its own (a `--config` file's missing fields keep
+/// the chosen preset's: [`Self::overlay`]).
 impl Default for TrainConfig {
     fn default() -> Self {
         Preset::default().config()

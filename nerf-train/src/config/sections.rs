@@ -1,7 +1,8 @@
 //! The configuration's sections, one per part of a run: the network, the
 //! feature grid, the rays and samples, the occupancy grid, the optimiser
-//! and the loss. Each section's missing fields (in a `--config` file) come
-//! from the default preset's.
+//! and the loss. A section read on its own takes the fields it leaves out
+//! from the default preset; a `--config` file's sections keep the chosen
+//! preset's ([`TrainConfig::overlay`]).
 
 use serde::{Deserialize, Serialize};
 

@@ -86,7 +86,7 @@ fn fitting_the_feature_grid_only_ever_refines_it() {
     let mut c = TrainConfig::features().with(|c| c.features.log2_table = 21);
     assert!(c.fit_features_to(512));
     assert_eq!((c.features.max_res, c.features.log2_table), (512, 21));
-    // a configuration without a feature grid, or with one level (at feature_min_res), has nothing to fit
+    // a configuration without a feature grid, or with one level (at features.min_res), has nothing to fit
     for c in [TrainConfig::grid(), TrainConfig::features().with(|c| c.features.levels = 1)] {
         let mut fitted = c.clone();
         assert!(!fitted.fit_features_to(4096));
@@ -134,9 +134,11 @@ fn a_config_file_may_name_fields_nested_or_by_their_flat_names() {
     for (over, says) in [
         (json!({"n_coarse": 64, "sampling": {"n_coarse": 48}}), "sampling.n_coarse` is given twice"),
         (json!({"n_coarses": 64}), "unknown field `n_coarses`"),
-        (json!({"sampling": {"grid_res": 64}}), "unknown field `grid_res`"),
+        (json!({"sampling": {"grid_res": 64}}), "`sampling.grid_res`: unknown field `grid_res`"),
         (json!({"sampling": 3}), "`sampling` must be an object"),
-        (json!({"sampling": {"n_coarse": "many"}}), "invalid type"),
+        (json!({"sampling": {"n_coarse": "many"}}), "`sampling.n_coarse`: invalid type"),
+        (json!({"grid_alpha": "dense"}), "`grid.alpha`: invalid type"),
+        (json!({"levels": 4}), "`{\"features\": {\"levels\": …}}` or `feature_levels`"),
         (json!([1, 2]), "expected a JSON object"),
     ] {
         let e = base.overlay(&over).unwrap_err().to_string();
@@ -146,14 +148,24 @@ fn a_config_file_may_name_fields_nested_or_by_their_flat_names() {
 
 #[test]
 fn every_field_has_one_flat_name_that_reads_back_to_it() {
-    let base = TrainConfig::paper();
+    let base = TrainConfig::features();
     let value = serde_json::to_value(&base).unwrap();
     let fields: usize = json::SECTIONS.iter().map(|s| value[s].as_object().unwrap().len()).sum();
     assert_eq!(fields, json::FLAT_NAMES.len());
+    let mut seen = std::collections::HashSet::new();
     for (flat, section, field) in json::FLAT_NAMES {
-        let v = &value[section][field];
-        assert!(!v.is_null(), "{flat}: no field {section}.{field}");
-        let changed = TrainConfig::features().overlay(&serde_json::json!({ flat: v })).unwrap();
-        assert_eq!(serde_json::to_value(&changed).unwrap()[section][field], *v, "{flat}");
+        assert!(seen.insert((section, field)), "{flat}: {section}.{field} has two flat names");
+        // a value other than the base's, of the field's type
+        let other = match &value[section][field] {
+            serde_json::Value::Bool(b) => serde_json::json!(!b),
+            serde_json::Value::Array(_) => serde_json::json!([1]),
+            serde_json::Value::Number(n) => match n.as_u64() {
+                Some(n) => serde_json::json!(n + 1),
+                None => serde_json::json!(n.as_f64().unwrap() + 0.5),
+            },
+            v => panic!("{flat}: no field {section}.{field} ({v})"),
+        };
+        let changed = base.overlay(&serde_json::json!({ flat: other })).unwrap();
+        assert_eq!(changed.differing_fields(&base), [format!("{section}.{field}")], "{flat}");
     }
 }

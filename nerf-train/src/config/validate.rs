@@ -133,7 +133,7 @@ impl TrainConfig {
             || !(0.0..1.0).contains(&self.optimiser.beta2)
         {
             return Err(Error::Config(
-                "optimiser.lr, lr_final_ratio and eps must be positive and beta1, beta2 in [0, 1)".into(),
+                "optimiser.lr, optimiser.lr_final_ratio and optimiser.eps must be positive, optimiser.beta1 and optimiser.beta2 in [0, 1)".into(),
             ));
         }
         Ok(())

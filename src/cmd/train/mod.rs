@@ -112,7 +112,7 @@ impl NewRun {
         let open = data.scene.unbounded.is_some() || data.scene.ndc.is_some();
         // one network over an occupancy grid: the presets whose stratified samples the proposal replaces
         if self.fit_proposal && open && cfg.sampling.proposal_res == 0 && cfg.sampling.n_fine == 0 && cfg.grid.res > 0 {
-            // only a configuration the grid can serve (n_coarse 3..=256, n_main 1..=255) gets it
+            // only a configuration the grid can serve (sampling.n_coarse 3..=256, sampling.n_main 1..=255) gets it
             let mut with = cfg.clone().with(|c| c.sampling.proposal_res = TrainConfig::PROPOSAL_RES);
             if self.fit_samples {
                 // the grid composited at fewer stratified samples than the occupancy grid's
