@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The default against 0cf40ca's (the occupancy grid's stratified samples in
-# unbounded scenes, before the proposal grid), back to back on one machine:
+# The default against 0cf40ca's (whose default gives unbounded scenes the
+# occupancy grid's stratified samples), back to back on one machine:
 # for bird and then fox, 0cf40ca's build and the working tree's each run
 # `scripts/captures.sh DATA_ROOT MINUTES 'CAPTURE features'` (the default
 # preset, 1/8 size), appending to docs/captures.csv; RESULTS.md ("Real

@@ -325,7 +325,7 @@ fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() 
         nerf_infer::format::Scene { unbounded: Some(nerf_infer::format::Unbounded { linear_until: 2.0 }), ..bounded };
     let diagonal = 2.2 * 3f32.sqrt();
     // the default (one network) and `fast` (coarse and fine)
-    for cfg in [nerf_train::config::TrainConfig::default_preset(), nerf_train::config::TrainConfig::fast()] {
+    for cfg in [nerf_train::config::TrainConfig::default(), nerf_train::config::TrainConfig::fast()] {
         let nets = 1 + (cfg.sampling.n_fine > 0) as usize;
         for seed in 0..4 {
             let even = initial_densities(&cfg, unbounded, seed);

@@ -125,12 +125,6 @@ impl TrainConfig {
         }
     }
 
-    /// The configuration `nerf train` uses without `--preset`:
-    /// [`Preset::default`]'s.
-    pub fn default_preset() -> Self {
-        Preset::default().config()
-    }
-
     /// Sizes the feature grid to photos that resolve `cells` per axis
     /// ([`Dataset::resolvable_cells`](crate::dataset::Dataset::resolvable_cells)):
     /// when `cells` is above `features.max_res`, the finest level becomes

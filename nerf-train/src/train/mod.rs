@@ -172,6 +172,19 @@ struct Workspace {
     dapp: Vec<f32>,
 }
 
+impl Workspace {
+    /// Empties the per-sample buffers (`pos`, `delta`, the distortion's
+    /// intervals) and starts `offs` at 0, for a pass to fill.
+    fn start_samples(&mut self) {
+        self.pos.clear();
+        self.delta.clear();
+        self.s_mid.clear();
+        self.s_width.clear();
+        self.offs.clear();
+        self.offs.push(0);
+    }
+}
+
 impl Trainer {
     /// A new run with freshly initialised networks.
     pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {

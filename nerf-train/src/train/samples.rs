@@ -13,14 +13,9 @@ impl Trainer {
         let intervals = self.cfg.loss.distortion > 0.0;
         let grid = self.grid.as_ref().map(|g| g.view());
         ws.t_c.resize(rays.len() * nc, 0.0);
-        ws.pos.clear();
+        ws.start_samples();
         ws.foot.clear();
         ws.dirs.clear();
-        ws.delta.clear();
-        ws.s_mid.clear();
-        ws.s_width.clear();
-        ws.offs.clear();
-        ws.offs.push(0);
         ws.kept.clear();
         if self.proposal.is_some() {
             ws.props.resize_with(rays.len(), Default::default);

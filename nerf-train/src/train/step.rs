@@ -218,12 +218,7 @@ impl Trainer {
         ws.cdf.resize(nc, 0.0);
         ws.t_all.resize(r * na, 0.0);
         ws.w_f.resize(r * na, 0.0);
-        ws.pos.clear();
-        ws.delta.clear();
-        ws.s_mid.clear();
-        ws.s_width.clear();
-        ws.offs.clear();
-        ws.offs.push(0);
+        ws.start_samples();
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let s = i * nc..(i + 1) * nc;
             let rk = hash32(key ^ crate::rng::stream::FINE_SAMPLES ^ (i as u32).wrapping_mul(0x27D4_EB2F));
