@@ -129,6 +129,17 @@ fn scene_train_resume_eval_export_info_render() {
     // 4 coarse + (4 + 8) fine per ray that meets the scene bounds
     let few_spr = r["samples_per_ray"].as_f64().unwrap();
     assert!(few_spr > 4.0 && few_spr <= 16.0 && few_spr < spr, "{few_spr}");
+    // --fine sets the default importance samples, and rendering follows it: 4 coarse + (4 + 2) fine at most
+    let fewer = d.join("fewer.nerf");
+    ok(&["export", s(&model), "--bits", "8", "--coarse", "4", "--fine", "2", "--out", s(&fewer)]);
+    assert!(ok(&["info", s(&fewer)]).contains("samples: 4 coarse + 2 fine"));
+    let r: serde_json::Value =
+        serde_json::from_str(&ok(&["eval", s(&fewer), "--data", s(&data), "--split", "test"])).unwrap();
+    let fewer_spr = r["samples_per_ray"].as_f64().unwrap();
+    assert!(fewer_spr > 0.0 && fewer_spr <= 10.0 && fewer_spr < few_spr, "{fewer_spr}");
+    let o = support::cli::nerf(&["export", s(&model), "--bits", "8", "--fine", "0", "--out", s(&d.join("x.nerf"))]);
+    let e = String::from_utf8(o.stderr).unwrap();
+    assert!(!o.status.success() && e.contains("'0' for '--fine") && e.contains("1..=256"), "{e}");
     let o = support::cli::nerf(&["export", s(&model), "--bits", "8", "--coarse", "1", "--out", s(&d.join("x.nerf"))]);
     let e = String::from_utf8(o.stderr).unwrap();
     assert!(!o.status.success() && e.contains("'1' for '--coarse") && e.contains("2..=1024"), "{e}");
@@ -374,6 +385,10 @@ fn export_stores_the_feature_table_as_8_or_4_bit_codebook_indices() {
     let e =
         fails(&["export", s(&d.join("t4.nerf")), "--bits", "8", "--table-bits", "4", "--out", s(&d.join("x.nerf"))]);
     assert!(e.contains("already quantised") || e.contains("already narrow"), "{e}");
+    // one network and no proposal grid: no samples after the coarse pass to set
+    let e = fails(&["export", s(&model), "--bits", "8", "--fine", "8", "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains(s(&model)) && e.contains("--fine 8") && e.contains("neither a fine network"), "{e}");
+    assert!(!d.join("x.nerf").exists());
 }
 
 #[test]

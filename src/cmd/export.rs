@@ -46,6 +46,13 @@ pub struct Args {
     /// with `nerf eval --coarse`).
     #[arg(long, value_name = "2..=1024", value_parser = clap::value_parser!(u16).range(2..=1024))]
     pub(crate) coarse: Option<u16>,
+    /// Set the model's default network samples per ray after the coarse
+    /// pass: with a proposal grid, the samples drawn from its weights
+    /// (1..=255); with a fine network, its importance samples (1..=256).
+    /// Fewer samples, less time per ray, some PSNR (measure with `nerf eval
+    /// --fine`; docs/RESULTS.md has the curve for bird and fox).
+    #[arg(long, value_name = "1..=256", value_parser = clap::value_parser!(u16).range(1..=256))]
+    pub(crate) fine: Option<u16>,
     /// Output file.
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -77,6 +84,7 @@ impl Args {
             grid_res: None,
             int8_layers: Vec::new(),
             coarse: None,
+            fine: None,
             out,
         }
     }
@@ -134,6 +142,15 @@ pub fn run(a: Args) -> CmdResult {
     }
     if let Some(n) = a.coarse {
         owned.samples.coarse = n;
+    }
+    if let Some(n) = a.fine {
+        if owned.fine.is_none() && owned.proposal.is_none() {
+            return Err(format!(
+                "{}: --fine {n}: the model has neither a fine network nor a proposal grid (set --coarse)",
+                a.model.display()
+            ));
+        }
+        owned.samples.fine = n;
     }
     let out = owned.to_bytes().map_err(|e| format!("{}: {e}", a.out.display()))?;
     write_atomic(&a.out, &out)?;

@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# The network's samples per ray in training (`sampling.n_main`, where the
+# proposal grid places them) against PSNR, step time and ray cost: bird and
+# fox at 1/8 size and the built-in room (64x64, as scripts/proposal.sh makes
+# it) trained MINUTES at each count with no other flag, and lego at 1/8
+# size once at the default (it has no proposal grid), back to back. Each
+# model is scored on its held-out views in f32, exported with --bits 8 and
+# rendered on one core with early termination 1e-3 (the fastest of three);
+# where valgrind is installed, the int8 render's instructions per ray are
+# counted by callgrind (as scripts/ray_instructions.sh does, at 1/16 size
+# for the photo captures to keep it short, full size for the room).
+# Appends rows to docs/main_samples.csv: date, commit, CPU, cores, capture,
+# n_main, minutes, steps, ms per step, PSNR f32, PSNR int8, network
+# evaluations per ray, µs per ray of the int8 render, instructions per ray.
+#
+#   scripts/main_samples.sh [DATA_ROOT] [MINUTES] [COUNTS...]   (default counts: 16 32)
+set -euo pipefail
+root=$(realpath "${1:-../shared/data}")
+minutes=${2:-5}
+shift $(($# < 2 ? $# : 2))
+counts=("$@")
+[ ${#counts[@]} -gt 0 ] || counts=(16 32)
+. "$(dirname "$0")/lib.sh"
+out_csv=docs/main_samples.csv
+[ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,n_main,minutes,steps,ms_per_step,psnr,psnr_int8,\
+evaluations_per_ray,us_per_ray_int8,instructions_per_ray" > "$out_csv"
+if command -v valgrind >/dev/null; then
+  # valgrind cannot run AVX-512: the counting binary is built for x86-64-v3 (AVX2)
+  RUSTFLAGS="-C target-cpu=x86-64-v3" cargo build --release --quiet --bin nerf --target-dir target/v3
+  bin_v3=target/v3/release/nerf
+fi
+"$bin" scene --out "$work/scene" --size 64 >&2
+run() { # name n_main data downscale count_downscale flags...
+  local name=$1 n=$2 data=$3 ds=$4 cds=$5; shift 5
+  local out="$work/$name-$n"
+  echo "== $name n_main $n" >&2
+  "$bin" train --data "$data" --downscale "$ds" --minutes "$minutes" --out "$out" "$@" >&2
+  "$bin" eval "$out/model.nerf" --data "$data" --split val > "$out/eval.json"
+  "$bin" export "$out/model.nerf" --bits 8 --out "$out/int8.nerf" >&2
+  "$bin" eval "$out/int8.nerf" --data "$data" --split val --threads 1 --repeat 3 --early-stop 1e-3 \
+    > "$out/int8.json"
+  local ir=0 rays=1
+  if [ -n "${bin_v3:-}" ]; then
+    valgrind --tool=callgrind --callgrind-out-file="$out/cg" --toggle-collect='*render_view*' "$bin_v3" eval \
+      "$out/int8.nerf" --data "$data" --split val --downscale "$cds" --threads 1 --early-stop 1e-3 \
+      > "$out/count.json" 2>/dev/null
+    ir=$(callgrind_annotate "$out/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ && !n {gsub(",", "", $1); print $1; n = 1}')
+    rays=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["rays"])' "$out/count.json")
+  fi
+  python3 - "$stamp" "$name" "$n" "$minutes" "$(steps "$out")" "$out" "$ir" "$rays" >> "$out_csv" <<'PY'
+import json, sys
+stamp, name, n, minutes, steps, out, ir, rays = sys.argv[1:]
+f = json.load(open(f"{out}/eval.json"))
+q = json.load(open(f"{out}/int8.json"))
+ms = float(minutes) * 60000 / int(steps)
+count = str(int(ir) // int(rays)) if int(ir) > 0 else ""
+print(f"{stamp},{name},{n},{minutes},{steps},{ms:.1f},{f['psnr']:.2f},{q['psnr']:.2f},"
+      f"{q['samples_per_ray']:.2f},{q['us_per_ray']:.2f},{count}")
+PY
+  tail -1 "$out_csv" >&2
+}
+run lego - "$root/lego" 8 16
+for n in "${counts[@]}"; do
+  echo "{\"sampling\": {\"n_main\": $n}}" > "$work/n_main_$n.json"
+  run bird "$n" "$root/bird" 8 16 --config "$work/n_main_$n.json"
+  run fox "$n" "$root/fox" 8 16 --config "$work/n_main_$n.json"
+  run room "$n" "$work/scene/room" 1 1 --config "$work/n_main_$n.json"
+done
