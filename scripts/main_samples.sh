@@ -2,7 +2,8 @@
 # The network's samples per ray in training (`sampling.n_main`, where the
 # proposal grid places them) against PSNR, step time and ray cost: bird and
 # fox at 1/8 size and the built-in room (64x64, as scripts/proposal.sh makes
-# it) trained MINUTES at each count with no other flag, and lego at 1/8
+# it) trained MINUTES at each count with no other flag (the model set to
+# render at the same count), and lego at 1/8
 # size once at the default (it has no proposal grid), back to back. Each
 # model is scored on its held-out views in f32, exported with --bits 8 and
 # rendered on one core with early termination 1e-3 (the fastest of three);
@@ -12,8 +13,14 @@
 # Appends rows to docs/main_samples.csv: date, commit, CPU, cores, capture,
 # n_main, minutes, steps, ms per step, PSNR f32, PSNR int8, network
 # evaluations per ray, µs per ray of the int8 render, instructions per ray.
+# Then the int8 models trained at the last count are rendered at each of
+# RENDER's network samples (default "16 20") and at their own:
+# scripts/proposal_samples.sh (docs/proposal_samples.csv), and, where
+# valgrind is installed, scripts/ray_instructions.sh on lego's model, on
+# theirs and on their `nerf export --fine N` copies, named "CAPTURE --fine N"
+# (docs/ray_instructions.csv).
 #
-#   scripts/main_samples.sh [DATA_ROOT] [MINUTES] [COUNTS...]   (default counts: 16 32)
+#   [RENDER="16 20"] scripts/main_samples.sh [DATA_ROOT] [MINUTES] [COUNTS...]   (default counts: 16 32)
 set -euo pipefail
 root=$(realpath "${1:-../shared/data}")
 minutes=${2:-5}
@@ -61,8 +68,23 @@ PY
 }
 run lego - "$root/lego" 8 16
 for n in "${counts[@]}"; do
-  echo "{\"sampling\": {\"n_main\": $n}}" > "$work/n_main_$n.json"
+  # each model renders at its own count (n_main_render 0), not at nerf train's render default
+  echo "{\"sampling\": {\"n_main\": $n, \"n_main_render\": 0}}" > "$work/n_main_$n.json"
   run bird "$n" "$root/bird" 8 16 --config "$work/n_main_$n.json"
   run fox "$n" "$root/fox" 8 16 --config "$work/n_main_$n.json"
   run room "$n" "$work/scene/room" 1 1 --config "$work/n_main_$n.json"
+done
+last=${counts[-1]}
+read -r -a render <<< "${RENDER:-16 20}"
+for cap in bird fox room; do
+  case $cap in room) data=$work/scene/room ds=1 ;; *) data=$root/$cap ds=8 ;; esac
+  model=$work/$cap-$last/int8.nerf
+  NERF_BIN="$bin" NERF_COMMIT="$commit" scripts/proposal_samples.sh "$model" "$data" "$cap" "${render[@]}" "$last"
+  [ -n "${bin_v3:-}" ] || continue
+  [ "$cap" != bird ] || NERF_BIN="$bin" NERF_COMMIT="$commit" NERF_BIN_V3="$bin_v3" scripts/ray_instructions.sh lego "$work/lego--/int8.nerf" "$root/lego" 8
+  for f in "${render[@]}"; do
+    "$bin" export "$work/$cap-$last/model.nerf" --bits 8 --fine "$f" --out "$work/$cap-fine-$f.nerf" >&2
+    NERF_BIN="$bin" NERF_COMMIT="$commit" NERF_BIN_V3="$bin_v3" scripts/ray_instructions.sh "$cap --fine $f" "$work/$cap-fine-$f.nerf" "$data" "$ds"
+  done
+  NERF_BIN="$bin" NERF_COMMIT="$commit" NERF_BIN_V3="$bin_v3" scripts/ray_instructions.sh "$cap" "$model" "$data" "$ds"
 done

@@ -295,8 +295,12 @@ samples. The default composites the proposal grid at 128 stratified
 samples, evaluates the network at 32 and, from 0a4ff61 on, adds the
 distortion loss at 0.001 in unbounded scenes (`capture-5m` in
 "Configurations compared on a capture" measures the loss): the rows of
-3e04c50 are of that default; older rows, where no newer one replaces
-them, are of aee59e8's default, 192 and 48 samples. Lego's steps in
+3e04c50 are of that default, rendered at the 32 network samples they
+were trained with; older rows, where no newer one replaces them, are of
+aee59e8's default, 192 and 48 samples. Models trained by a commit with
+`sampling.n_main_render` render at 16 network samples unless told
+otherwise; "The network's samples per ray with a proposal grid" and
+"Instructions per ray of the real captures" below measure that. Lego's steps in
 these runs (""" + lego_steps + """) differ with the machine and its load on
 one CPU model, so compare rows of one commit; "Instructions per ray"
 below gives the ray-cost ratio as a count that does not move with the
@@ -318,13 +322,16 @@ def proposal_samples_section():
     return ("The network's samples per ray with a proposal grid", "proposal", """`scripts/proposal_samples.sh
 MODEL DATA CAPTURE` (run by `scripts/proposal.sh` on its bird and fox
 models, trained with 192 stratified and 48 network samples in the rows of
-aee59e8, with the default's 128 and 32 in those of 6f7ebdc): the
+aee59e8, with 128 and 32 in those of 6f7ebdc and 3e04c50; in the rows of
+a67d798, by `scripts/main_samples.sh` on its models trained at 32): the
 int8 export rendered on the held-out views with S stratified samples
 compositing the proposal grid and N network samples drawn from its weights
 (`nerf eval --coarse S --fine N`), one core, early termination 10⁻³, the
 fastest of three. The network's samples are placed where the grid's weight
 is, so early termination cuts few of them: the time follows the counts,
-and the grid's pass at the stratified samples is part of every row's.""", t if rs else missing("proposal"))
+and the grid's pass at the stratified samples is part of every row's.
+A model that `nerf train` gives a proposal grid renders at 16 unless
+told otherwise (`sampling.n_main_render`).""", t if rs else missing("proposal"))
 
 
 def main_samples_section():
@@ -362,7 +369,7 @@ model trained at its count.""", t if rs else missing("main-samples"))
 def ray_instructions_section():
     rs = latest(rows("ray_instructions.csv"), "capture", "scheme")
     order = {"lego": 0, "bird": 1, "fox": 2, "room": 3}
-    rs.sort(key=lambda r: (order.get(r["capture"], 4), r["scheme"]))
+    rs.sort(key=lambda r: (order.get(r["capture"].split()[0], 4), r["capture"], r["scheme"]))
     lego = {(r["commit"], r["scheme"]): r for r in rs if r["capture"] == "lego"}
 
     def ratio(r):
@@ -382,7 +389,11 @@ photos; the room's 64×64 views whole), one thread, early termination
 cannot run AVX-512). Unlike µs per ray, the count does not move with the
 machine's load, so "× lego" (lego's row of the same commit) is the
 stable form of the ray-cost ratio; it leaves out what the count cannot
-see, such as cache misses in a larger model.""", t if rs else missing("proposal"))
+see, such as cache misses in a larger model. Rows named "CAPTURE --fine
+N" count the capture's model exported to render at N network samples
+(`nerf export MODEL --bits 8 --fine N`; 16 is what `nerf train` sets for
+a capture with a proposal grid), by `scripts/main_samples.sh` on its
+models trained at 32.""", t if rs else missing("proposal"))
 
 
 def capture_ab_section():
@@ -632,10 +643,19 @@ def readme_rows():
         b, f = p["bird", "default"], p["fox", "default"]
         lg = p.get(("lego", "default"))
         lego_us = f" (lego {lg['us_per_ray_int8']} in the same run)" if lg and lg["commit"] == b["commit"] else ""
-        out.append(("bird / fox with the proposal grid (the default for unbounded captures), 5 min at 1/8 size",
+        out.append(("bird / fox with the proposal grid, trained and rendered at 32 network samples, 5 min at 1/8 size",
                     f"{b['psnr']} / {f['psnr']} dB f32, {b['psnr_int8']} / {f['psnr_int8']} dB int8 "
                     f"({thousands(b['steps'])} / {thousands(f['steps'])} steps), "
                     f"{b['us_per_ray_int8']} / {f['us_per_ray_int8']} µs per ray" + lego_us, "Real captures at the default"))
+    ri = {r["capture"]: r for r in latest(rows("ray_instructions.csv"), "capture", "scheme") if r["scheme"] == "I8"}
+    caps = [c for c in ("bird", "fox", "room") if f"{c} --fine 16" in ri]
+    lg = ri.get("lego")
+    if caps and lg and all(ri[f"{c} --fine 16"]["commit"] == lg["commit"] for c in caps):
+        ratios = " / ".join(f"{int(ri[f'{c} --fine 16']['instructions_per_ray']) / int(lg['instructions_per_ray']):.2f}×"
+                            for c in caps)
+        psnr = " / ".join(f"{ri[f'{c} --fine 16']['psnr']} dB" for c in caps)
+        out.append((f"{' / '.join(caps)} int8 at the render default with a proposal grid (16 network samples)",
+                    f"{ratios} lego's instructions per ray, {psnr}", "Instructions per ray of the real captures"))
     m = [r for r in latest(rows("mesh.csv"), "resolution") if r["resolution"] == "256"]
     if m:
         out.append(("lego mesh, 256³ lattice", f"{'closed' if m[0]['closed'] == 'True' else 'open'}, silhouette IoU "

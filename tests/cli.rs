@@ -409,12 +409,27 @@ fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
         let err = String::from_utf8_lossy(&o.stderr).into_owned();
         assert!(o.status.success(), "{err}");
         let t = nerf_train::train::Trainer::from_bytes(&std::fs::read(run.join("checkpoint.bin")).unwrap()).unwrap();
+        let bytes = std::fs::read(run.join("model.nerf")).unwrap();
+        let (m, c) = (nerf_infer::format::Model::from_bytes(&bytes).unwrap().samples, t.cfg.samples());
+        assert_eq!((m.coarse, m.fine), (c.coarse, c.fine), "the model records its configuration's samples");
         (t.cfg.sampling.proposal_res, t.cfg.loss.distortion, err)
     };
     // the room (unbounded): the proposal grid and the distortion loss, said on the terminal
     let (res, distortion, err) = train("room", "{}", "room", &[]);
     assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, TrainConfig::PROPOSAL_DISTORTION));
     assert!(err.contains("the distortion loss at 0.001"), "{err}");
+    // trained at 32 network samples, rendered at 16 by default, said on the terminal
+    let render = |run: &str| {
+        let m = std::fs::read(d.join(run).join("model.nerf")).unwrap();
+        let fine = nerf_infer::format::Model::from_bytes(&m).unwrap().samples.fine;
+        fine
+    };
+    assert_eq!(render("room"), TrainConfig::PROPOSAL_RENDER_MAIN);
+    assert!(err.contains("the model renders at 16 unless told otherwise"), "{err}");
+    let (res, _, _) = train("room", r#"{"sampling": {"n_main_render": 24}}"#, "room-render", &[]);
+    assert_eq!((res, render("room-render")), (TrainConfig::PROPOSAL_RES, 24));
+    let (res, _, _) = train("room", r#"{"sampling": {"n_main_render": 0}}"#, "room-render-all", &[]);
+    assert_eq!((res, render("room-render-all")), (TrainConfig::PROPOSAL_RES, 32));
     // a configuration that names the weight keeps it
     let (res, distortion, err) = train("room", r#"{"distortion": 0}"#, "room-chosen", &[]);
     assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, 0.0));

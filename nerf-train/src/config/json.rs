@@ -11,7 +11,7 @@ pub const SECTIONS: [&str; 6] = ["model", "features", "sampling", "grid", "optim
 
 /// Each field's flat name (a `--config` file without sections), its
 /// section and its name there.
-pub const FLAT_NAMES: [(&str, &str, &str); 39] = [
+pub const FLAT_NAMES: [(&str, &str, &str); 40] = [
     ("pos_freqs", "model", "pos_freqs"),
     ("dir_freqs", "model", "dir_freqs"),
     ("include_input", "model", "include_input"),
@@ -30,6 +30,7 @@ pub const FLAT_NAMES: [(&str, &str, &str); 39] = [
     ("n_coarse", "sampling", "n_coarse"),
     ("n_fine", "sampling", "n_fine"),
     ("n_main", "sampling", "n_main"),
+    ("n_main_render", "sampling", "n_main_render"),
     ("proposal_res", "sampling", "proposal_res"),
     ("batch_rays", "sampling", "batch_rays"),
     ("chunk_rays", "sampling", "chunk_rays"),

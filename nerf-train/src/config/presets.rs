@@ -32,6 +32,7 @@ impl TrainConfig {
                 n_coarse: 64,
                 n_fine: 128,
                 n_main: 32,
+                n_main_render: 0,
                 proposal_res: 0,
                 batch_rays: 4096,
                 chunk_rays: 32,

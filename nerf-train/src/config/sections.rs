@@ -101,6 +101,13 @@ pub struct SamplingConfig {
     /// weights (`1..=255`; 32 in every preset), besides the last
     /// stratified one.
     pub n_main: u16,
+    /// With a proposal grid: the network's samples per ray the model
+    /// renders with unless told otherwise, written to its sample counts
+    /// (`0..=255`; 0: [`Self::n_main`], as in every preset). Fewer than
+    /// `n_main` trades PSNR for time per ray; `nerf train` sets
+    /// [`TrainConfig::PROPOSAL_RENDER_MAIN`] where it turns the proposal grid
+    /// on, unless the configuration names it.
+    pub n_main_render: u16,
 }
 
 /// The occupancy grid that keeps samples only in occupied cells, and its

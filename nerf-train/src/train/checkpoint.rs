@@ -11,7 +11,7 @@ use nerf_infer::Error as FormatError;
 pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 14;
+pub const CHECKPOINT_VERSION: u16 = 15;
 
 /// How many of a run's `params` parameters are a feature grid's table: the
 /// last ones (a run with a feature grid has one network), none without one.

@@ -101,6 +101,10 @@ struct NewRun {
     /// where the proposal grid is turned on (unbounded and forward-facing
     /// scenes): unless `--config` names `loss.distortion`.
     fit_distortion: bool,
+    /// Render the model at [`TrainConfig::PROPOSAL_RENDER_MAIN`] network
+    /// samples by default where the proposal grid is turned on: unless
+    /// `--config` names `sampling.n_main_render`.
+    fit_render: bool,
 }
 
 impl NewRun {
@@ -121,6 +125,9 @@ impl NewRun {
             if self.fit_distortion {
                 with.loss.distortion = TrainConfig::PROPOSAL_DISTORTION;
             }
+            if self.fit_render {
+                with.sampling.n_main_render = TrainConfig::PROPOSAL_RENDER_MAIN;
+            }
             if with.validate().is_ok() {
                 cfg = with;
             }
@@ -139,7 +146,8 @@ impl NewRun {
 
 fn load_config(a: &Args) -> Result<NewRun, String> {
     let base = a.preset.unwrap_or_default().config();
-    let (mut fit_features, mut fit_samples, mut fit_proposal, mut fit_distortion) = (true, true, true, true);
+    let (mut fit_features, mut fit_samples, mut fit_proposal, mut fit_distortion, mut fit_render) =
+        (true, true, true, true, true);
     let cfg = match &a.config {
         None => base,
         Some(path) => {
@@ -151,12 +159,13 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
             fit_samples = !names("sampling", "n_coarse");
             fit_proposal = !names("sampling", "proposal_res");
             fit_distortion = !names("loss", "distortion");
+            fit_render = !names("sampling", "n_main_render");
             // the preset's fields, then the file's on top of them
             base.overlay(&over).map_err(|e| bad(&e))?
         }
     };
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    Ok(NewRun { cfg, fit_features, fit_samples, fit_proposal, fit_distortion })
+    Ok(NewRun { cfg, fit_features, fit_samples, fit_proposal, fit_distortion, fit_render })
 }
 
 /// The validation views, or none if the dataset has no such split.
@@ -240,7 +249,14 @@ pub fn run(a: Args) -> CmdResult {
 /// `--preset` and `--config`).
 pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    let run = NewRun { cfg, fit_features: false, fit_samples: false, fit_proposal: true, fit_distortion: true };
+    let run = NewRun {
+        cfg,
+        fit_features: false,
+        fit_samples: false,
+        fit_proposal: true,
+        fit_distortion: true,
+        fit_render: true,
+    };
     with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
 
@@ -280,10 +296,12 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
         }
         if cfg.sampling.proposal_res != run.cfg.sampling.proposal_res {
             eprintln!(
-                "{} scene: the network's {} samples per ray placed by a {}³ proposal grid composited at {} \
+                "{} scene: the network's {} samples per ray (the model renders at {} unless told otherwise; set \
+                 sampling.n_main_render with --config) placed by a {}³ proposal grid composited at {} \
                  stratified samples{}; set sampling.proposal_res 0 with --config for the occupancy grid's {} stratified samples",
                 if data.scene.ndc.is_some() { "forward-facing" } else { "unbounded" },
                 cfg.sampling.n_main,
+                cfg.samples().fine,
                 cfg.sampling.proposal_res,
                 cfg.sampling.n_coarse,
                 match cfg.loss.distortion != run.cfg.loss.distortion {
