@@ -14,13 +14,14 @@
 # n_main, minutes, steps, ms per step, PSNR f32, PSNR int8, network
 # evaluations per ray, µs per ray of the int8 render, instructions per ray.
 # Then the int8 models trained at the last count are rendered at each of
-# RENDER's network samples (default "16 20") and at their own:
+# RENDER's network samples (default "16 20 24") and at their own:
 # scripts/proposal_samples.sh (docs/proposal_samples.csv), and, where
-# valgrind is installed, scripts/ray_instructions.sh on lego's model, on
-# theirs and on their `nerf export --fine N` copies, named "CAPTURE --fine N"
-# (docs/ray_instructions.csv).
+# valgrind is installed, scripts/ray_instructions.sh on lego's model and on
+# their `nerf export --fine N` copies, named "CAPTURE --fine N"
+# (docs/ray_instructions.csv). NERF_BIN and NERF_BIN_V3 (with NERF_COMMIT)
+# name prebuilt binaries, as for the scripts it runs.
 #
-#   [RENDER="16 20"] scripts/main_samples.sh [DATA_ROOT] [MINUTES] [COUNTS...]   (default counts: 16 32)
+#   [RENDER="16 20 24"] scripts/main_samples.sh [DATA_ROOT] [MINUTES] [COUNTS...]   (default counts: 16 32)
 set -euo pipefail
 root=$(realpath "${1:-../shared/data}")
 minutes=${2:-5}
@@ -31,7 +32,9 @@ counts=("$@")
 out_csv=docs/main_samples.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,n_main,minutes,steps,ms_per_step,psnr,psnr_int8,\
 evaluations_per_ray,us_per_ray_int8,instructions_per_ray" > "$out_csv"
-if command -v valgrind >/dev/null; then
+if [ -n "${NERF_BIN_V3:-}" ]; then
+  bin_v3=$(realpath "$NERF_BIN_V3")
+elif command -v valgrind >/dev/null; then
   # valgrind cannot run AVX-512: the counting binary is built for x86-64-v3 (AVX2)
   RUSTFLAGS="-C target-cpu=x86-64-v3" cargo build --release --quiet --bin nerf --target-dir target/v3
   bin_v3=target/v3/release/nerf
@@ -75,16 +78,15 @@ for n in "${counts[@]}"; do
   run room "$n" "$work/scene/room" 1 1 --config "$work/n_main_$n.json"
 done
 last=${counts[-1]}
-read -r -a render <<< "${RENDER:-16 20}"
+read -r -a render <<< "${RENDER:-16 20 24}"
 for cap in bird fox room; do
   case $cap in room) data=$work/scene/room ds=1 ;; *) data=$root/$cap ds=8 ;; esac
   model=$work/$cap-$last/int8.nerf
   NERF_BIN="$bin" NERF_COMMIT="$commit" scripts/proposal_samples.sh "$model" "$data" "$cap" "${render[@]}" "$last"
   [ -n "${bin_v3:-}" ] || continue
   [ "$cap" != bird ] || NERF_BIN="$bin" NERF_COMMIT="$commit" NERF_BIN_V3="$bin_v3" scripts/ray_instructions.sh lego "$work/lego--/int8.nerf" "$root/lego" 8
-  for f in "${render[@]}"; do
+  for f in "${render[@]}" "$last"; do
     "$bin" export "$work/$cap-$last/model.nerf" --bits 8 --fine "$f" --out "$work/$cap-fine-$f.nerf" >&2
     NERF_BIN="$bin" NERF_COMMIT="$commit" NERF_BIN_V3="$bin_v3" scripts/ray_instructions.sh "$cap --fine $f" "$work/$cap-fine-$f.nerf" "$data" "$ds"
   done
-  NERF_BIN="$bin" NERF_COMMIT="$commit" NERF_BIN_V3="$bin_v3" scripts/ray_instructions.sh "$cap" "$model" "$data" "$ds"
 done

@@ -27,7 +27,7 @@ steps=(
   "lens|12|scripts/lens.sh ROOT 1000 0 && scripts/lens.sh ROOT 1000 1"
   "scene360|5|scripts/scene360.sh 2"
   "proposal|70|BASELINE=1 scripts/proposal.sh ROOT 5"
-  "main-samples|50|scripts/main_samples.sh ROOT 5 16 32"
+  "main-samples|65|scripts/main_samples.sh ROOT 5 16 32"
   "capture-ab|40|scripts/capture_ab.sh ROOT/fox 2500 '{}' '{\"appearance\": true}' '{\"distortion\": 0.001}' && scripts/capture_ab.sh ROOT/bird 2500 '{}' '{\"appearance\": true}' '{\"distortion\": 0.001}' && scripts/capture_ab.sh ROOT/bird 5m '{}' '{\"n_coarse\": 192, \"n_main\": 48}' && scripts/capture_ab.sh ROOT/fox 5m '{}' '{\"n_coarse\": 192, \"n_main\": 48}' && scripts/capture_ab.sh ROOT/lego 5m '{}'"
   "capture-ff|20|scripts/capture_ab.sh llff 3000 '{}' '{\"distortion\": 0.001}' && scripts/capture_ab.sh llff 5m '{}' '{\"distortion\": 0.001}'"
   "capture-5m|55|for c in ROOT/bird ROOT/fox; do scripts/capture_ab.sh \$c 5m '{}' '{\"distortion\": 0.001}' '{\"n_main\": 16}'; done && scripts/capture_ab.sh room 5m '{}' '{\"distortion\": 0.001}' '{\"n_coarse\": 192, \"n_main\": 48}'"

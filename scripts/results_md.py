@@ -292,12 +292,13 @@ no flag but `--data`, `--downscale 8` (the room at full size) and `--out`,
 back to back on one machine: unbounded captures get the proposal grid that
 places the network's samples, object scenes the occupancy grid's stratified
 samples. The default composites the proposal grid at 128 stratified
-samples, evaluates the network at 32 and, from 0a4ff61 on, adds the
+samples, trains the network at 32 (rendering at 32 up to 3e04c50, at 16
+with `sampling.n_main_render`) and, from 0a4ff61 on, adds the
 distortion loss at 0.001 in unbounded scenes (`capture-5m` in
 "Configurations compared on a capture" measures the loss): the rows of
 3e04c50 are of that default, rendered at the 32 network samples they
 were trained with; older rows, where no newer one replaces them, are of
-aee59e8's default, 192 and 48 samples. Models trained by a commit with
+aee59e8's default, 192 and 48 samples. Models with
 `sampling.n_main_render` render at 16 network samples unless told
 otherwise; "The network's samples per ray with a proposal grid" and
 "Instructions per ray of the real captures" below measure that. Lego's steps in
@@ -354,7 +355,9 @@ def main_samples_section():
                "× lego", "instructions/ray", "× lego", "<run"], body)
     return ("The network's samples per ray in training", "main-samples", """`scripts/main_samples.sh DATA_ROOT 5
 16 32`: bird and fox at 1/8 size and the built-in room (64×64) trained 5
-minutes with `--config '{"sampling": {"n_main": N}}'` and no other flag,
+minutes with `--config '{"sampling": {"n_main": N, "n_main_render": 0}}'`
+and no other flag (each model renders at its own count; ea34d60, which
+has no `n_main_render`, was given `n_main` alone, with the same effect),
 and lego at 1/8 size at the default (no proposal grid: `n_main` does not
 apply), back to back on one machine. PSNR on the held-out views in f32 and
 after `nerf export --bits 8`; the int8 render on one core with early
@@ -393,7 +396,7 @@ see, such as cache misses in a larger model. Rows named "CAPTURE --fine
 N" count the capture's model exported to render at N network samples
 (`nerf export MODEL --bits 8 --fine N`; 16 is what `nerf train` sets for
 a capture with a proposal grid), by `scripts/main_samples.sh` on its
-models trained at 32.""", t if rs else missing("proposal"))
+models trained at 32 (`RENDER="16 20 24"`).""", t if rs else missing("proposal"))
 
 
 def capture_ab_section():
@@ -643,7 +646,8 @@ def readme_rows():
         b, f = p["bird", "default"], p["fox", "default"]
         lg = p.get(("lego", "default"))
         lego_us = f" (lego {lg['us_per_ray_int8']} in the same run)" if lg and lg["commit"] == b["commit"] else ""
-        out.append(("bird / fox with the proposal grid, trained and rendered at 32 network samples, 5 min at 1/8 size",
+        out.append(("bird / fox with the proposal grid (`scripts/proposal.sh`), 5 min at 1/8 size, rendered at the "
+                    "model's default samples",
                     f"{b['psnr']} / {f['psnr']} dB f32, {b['psnr_int8']} / {f['psnr_int8']} dB int8 "
                     f"({thousands(b['steps'])} / {thousands(f['steps'])} steps), "
                     f"{b['us_per_ray_int8']} / {f['us_per_ray_int8']} µs per ray" + lego_us, "Real captures at the default"))

@@ -430,6 +430,20 @@ fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
     assert_eq!((res, render("room-render")), (TrainConfig::PROPOSAL_RES, 24));
     let (res, _, _) = train("room", r#"{"sampling": {"n_main_render": 0}}"#, "room-render-all", &[]);
     assert_eq!((res, render("room-render-all")), (TrainConfig::PROPOSAL_RES, 32));
+    // a chosen training count renders at itself
+    let (res, _, _) = train("room", r#"{"sampling": {"n_main": 8}}"#, "room-main", &[]);
+    assert_eq!((res, render("room-main")), (TrainConfig::PROPOSAL_RES, 8));
+    // out of range: refused by name, not trained without the grid
+    let bad = d.join("bad.json");
+    std::fs::write(&bad, r#"{"sampling": {"n_main_render": 300}}"#).unwrap();
+    let data = d.join("scene").join("room");
+    let e = fails(&["train", "--data", s(&data), "--config", s(&bad), "--iters", "1", "--out", s(&d.join("bad"))]);
+    assert!(e.contains("sampling.n_main_render must be 0..=255"), "{e}");
+    // a proposal grid's model takes at most 255 network samples
+    let m = d.join("room").join("model.nerf");
+    let e = fails(&["export", s(&m), "--bits", "8", "--fine", "256", "--out", s(&d.join("x.nerf"))]);
+    assert!(e.contains(s(&m)) && e.contains("--fine 256") && e.contains("1..=255"), "{e}");
+    assert!(!d.join("x.nerf").exists());
     // a configuration that names the weight keeps it
     let (res, distortion, err) = train("room", r#"{"distortion": 0}"#, "room-chosen", &[]);
     assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, 0.0));

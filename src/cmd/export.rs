@@ -50,7 +50,7 @@ pub struct Args {
     /// pass: with a proposal grid, the samples drawn from its weights
     /// (1..=255); with a fine network, its importance samples (1..=256).
     /// Fewer samples, less time per ray, some PSNR (measure with `nerf eval
-    /// --fine`; docs/RESULTS.md has the curve for bird and fox).
+    /// --fine`; docs/RESULTS.md has the curve for bird, fox and the room).
     #[arg(long, value_name = "1..=256", value_parser = clap::value_parser!(u16).range(1..=256))]
     pub(crate) fine: Option<u16>,
     /// Output file.
@@ -149,6 +149,9 @@ pub fn run(a: Args) -> CmdResult {
                 "{}: --fine {n}: the model has neither a fine network nor a proposal grid (set --coarse)",
                 a.model.display()
             ));
+        }
+        if owned.proposal.is_some() && n > 255 {
+            return Err(format!("{}: --fine {n}: a model with a proposal grid takes 1..=255", a.model.display()));
         }
         owned.samples.fine = n;
     }

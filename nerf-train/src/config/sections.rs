@@ -106,7 +106,7 @@ pub struct SamplingConfig {
     /// (`0..=255`; 0: [`Self::n_main`], as in every preset). Fewer than
     /// `n_main` trades PSNR for time per ray; `nerf train` sets
     /// [`TrainConfig::PROPOSAL_RENDER_MAIN`] where it turns the proposal grid
-    /// on, unless the configuration names it.
+    /// on, unless the configuration names it or `n_main`.
     pub n_main_render: u16,
 }
 

@@ -29,18 +29,16 @@ impl TrainConfig {
                     .into(),
             ));
         }
+        if self.sampling.n_main_render > 255 {
+            return Err(Error::Config("sampling.n_main_render must be 0..=255".into()));
+        }
         if self.sampling.proposal_res > 0 {
             if self.sampling.proposal_res > nerf_infer::proposal::MAX_PROPOSAL_RES || self.sampling.n_fine > 0 {
                 return Err(Error::Config("sampling.proposal_res must be 0..=128, and 0 with sampling.n_fine".into()));
             }
-            if !(1..=255).contains(&self.sampling.n_main)
-                || self.sampling.n_main_render > 255
-                || !(3..=256).contains(&self.sampling.n_coarse)
-            {
+            if !(1..=255).contains(&self.sampling.n_main) || !(3..=256).contains(&self.sampling.n_coarse) {
                 return Err(Error::Config(
-                    "with a proposal grid, sampling.n_main must be 1..=255, sampling.n_main_render 0..=255 and \
-                     sampling.n_coarse 3..=256"
-                        .into(),
+                    "with a proposal grid, sampling.n_main must be 1..=255 and sampling.n_coarse 3..=256".into(),
                 ));
             }
             if !(self.optimiser.proposal_lr.is_finite() && self.optimiser.proposal_lr > 0.0) {

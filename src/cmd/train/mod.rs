@@ -103,7 +103,8 @@ struct NewRun {
     fit_distortion: bool,
     /// Render the model at [`TrainConfig::PROPOSAL_RENDER_MAIN`] network
     /// samples by default where the proposal grid is turned on: unless
-    /// `--config` names `sampling.n_main_render`.
+    /// `--config` names `sampling.n_main_render` or `sampling.n_main` (a
+    /// chosen training count renders at itself).
     fit_render: bool,
 }
 
@@ -159,7 +160,7 @@ fn load_config(a: &Args) -> Result<NewRun, String> {
             fit_samples = !names("sampling", "n_coarse");
             fit_proposal = !names("sampling", "proposal_res");
             fit_distortion = !names("loss", "distortion");
-            fit_render = !names("sampling", "n_main_render");
+            fit_render = !names("sampling", "n_main_render") && !names("sampling", "n_main");
             // the preset's fields, then the file's on top of them
             base.overlay(&over).map_err(|e| bad(&e))?
         }
