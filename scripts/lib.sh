@@ -36,6 +36,17 @@ PY
   tail -1 "$csv" >&2
 }
 
+# render_instructions OUT BIN MODEL EVAL_FLAGS...: runs `BIN eval MODEL
+# EVAL_FLAGS...` under callgrind (OUT.cg), counting `render_view` and what
+# it calls; writes eval's JSON to OUT.json and prints the instruction total.
+render_instructions() {
+  local out=$1 b=$2; shift 2
+  valgrind --tool=callgrind --callgrind-out-file="$out.cg" --toggle-collect='*render_view*' "$b" eval "$@" \
+    > "$out.json" 2>/dev/null
+  # awk reads to the end (grep -m1 would stop the pipe early and fail it under pipefail)
+  callgrind_annotate "$out.cg" 2>/dev/null | awk '/PROGRAM TOTALS/ && !n {gsub(",", "", $1); print $1; n = 1}'
+}
+
 # side_by_side STEPS NAME_A DATA_A NAME_B DATA_B: trains both captures STEPS
 # steps at 1/8 size on one thread each at once (seed 0) into $work/NAME and
 # scores each on its held-out views ($work/NAME/eval.json); shows a failed

@@ -51,10 +51,8 @@ run() { # name n_main data downscale count_downscale flags...
     > "$out/int8.json"
   local ir=0 rays=1
   if [ -n "${bin_v3:-}" ]; then
-    valgrind --tool=callgrind --callgrind-out-file="$out/cg" --toggle-collect='*render_view*' "$bin_v3" eval \
-      "$out/int8.nerf" --data "$data" --split val --downscale "$cds" --threads 1 --early-stop 1e-3 \
-      > "$out/count.json" 2>/dev/null
-    ir=$(callgrind_annotate "$out/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ && !n {gsub(",", "", $1); print $1; n = 1}')
+    ir=$(render_instructions "$out/count" "$bin_v3" "$out/int8.nerf" --data "$data" --split val --downscale "$cds" \
+      --threads 1 --early-stop 1e-3)
     rays=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["rays"])' "$out/count.json")
   fi
   python3 - "$stamp" "$name" "$n" "$minutes" "$(steps "$out")" "$out" "$ir" "$rays" >> "$out_csv" <<'PY'

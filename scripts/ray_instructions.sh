@@ -28,10 +28,8 @@ fi
 out_csv=docs/ray_instructions.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,scheme,downscale,rays,evaluations_per_ray,\
 instructions_per_ray,psnr" > "$out_csv"
-valgrind --tool=callgrind --callgrind-out-file="$work/cg" --toggle-collect='*render_view*' "$bin" eval "$model" \
-  --data "$data" --split val --downscale "$ds" --threads 1 --early-stop 1e-3 > "$work/eval.json" 2>/dev/null
-# awk reads to the end (grep -m1 would stop the pipe early and fail it under pipefail)
-ir=$(callgrind_annotate "$work/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ && !n {gsub(",", "", $1); print $1; n = 1}')
+ir=$(render_instructions "$work/eval" "$bin" "$model" --data "$data" --split val --downscale "$ds" --threads 1 \
+  --early-stop 1e-3)
 python3 - "$stamp" "$name" "$ds" "$ir" "$work/eval.json" >> "$out_csv" <<'PY'
 import json, sys
 stamp, name, ds, ir, path = sys.argv[1:]

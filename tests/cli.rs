@@ -421,8 +421,7 @@ fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
     // trained at 32 network samples, rendered at 16 by default, said on the terminal
     let render = |run: &str| {
         let m = std::fs::read(d.join(run).join("model.nerf")).unwrap();
-        let fine = nerf_infer::format::Model::from_bytes(&m).unwrap().samples.fine;
-        fine
+        nerf_infer::format::Model::from_bytes(&m).map(|m| m.samples.fine).unwrap()
     };
     assert_eq!(render("room"), TrainConfig::PROPOSAL_RENDER_MAIN);
     assert!(err.contains("the model renders at 16 unless told otherwise"), "{err}");

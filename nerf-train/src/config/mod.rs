@@ -133,9 +133,10 @@ impl TrainConfig {
     /// The network samples per ray that a model renders with by default
     /// ([`SamplingConfig::n_main_render`]) where `nerf train` turns the
     /// proposal grid on (unless the configuration names it or
-    /// `sampling.n_main`): 16 of the 32 it trains with. On bird, fox and the built-in room a model trained at
-    /// 32 renders 0.23–0.28 dB lower at 16 in about 0.6 of the time, and a
-    /// model trained at 16 scores 0.6–2.2 dB lower than one trained at 32
+    /// `sampling.n_main`): 16 of the 32 it trains with. On bird, fox and the
+    /// built-in room a model trained at 32 renders 0.23–0.28 dB lower at 16
+    /// in about 0.6 of the time, and a model trained at 16 scores 0.6–2.2 dB
+    /// lower than one trained at 32
     /// (docs/RESULTS.md, "The network's samples per ray in training" and
     /// "The network's samples per ray with a proposal grid").
     pub const PROPOSAL_RENDER_MAIN: u16 = 16;
