@@ -26,6 +26,7 @@ pub mod metrics;
 pub mod mlp;
 pub mod path;
 pub mod plot;
+pub mod pose;
 pub mod proposal;
 pub mod rng;
 pub mod timing;

@@ -188,6 +188,13 @@ pub struct LossConfig {
     /// the held-out scores use the field's own colour, the photos' mean.
     /// Off in every preset.
     pub appearance: bool,
+    /// Fit a pose correction per training photo beside the model
+    /// ([`crate::pose`]: a turn about the camera's centre and a shift),
+    /// for captures whose poses are a little off; the held-out photos keep
+    /// their poses. Object and unbounded scenes (forward-facing scenes keep
+    /// their poses); the coarse or only network's samples drive it. Off in
+    /// every preset.
+    pub pose_refine: bool,
 }
 
 /// Each section's `Default`: the default preset's section.

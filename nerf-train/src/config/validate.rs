@@ -128,6 +128,9 @@ impl TrainConfig {
                 return Err(Error::Config("a feature grid needs one network (sampling.n_fine = 0)".into()));
             }
         }
+        if self.loss.pose_refine && self.sampling.n_fine > 0 {
+            return Err(Error::Config("loss.pose_refine needs one network (sampling.n_fine = 0)".into()));
+        }
         let pos = |v: f32| v.is_finite() && v > 0.0;
         if !pos(self.optimiser.lr)
             || !pos(self.optimiser.lr_final_ratio)

@@ -89,6 +89,13 @@ impl Mlp {
                     }
                 }
                 self.linear_back(p, g, si + 2, &a.denc, dd, w, &dray, r, None);
+                if a.denc_in.is_some() {
+                    // γ(d)'s rows of the view layer's weights: the directions' input gradient
+                    let sl = self.slots[si + 2];
+                    let wd = &p[sl.w + w * vw..sl.w + (w + dd) * vw];
+                    resize(&mut a.ddir_in, r * dd);
+                    matmul(r, dd, vw, &mut a.ddir_in, dd, false, View::rows(&dray, vw), View::t(wd, vw));
+                }
                 self.linear_back(p, g, si + 2, &a.feat, w, 0, &dview, s, Some(&mut dtmp));
                 self.bias_back(g, si + 2, &dview, s);
                 self.linear_back(p, g, si + 1, trunk, w, 0, &dtmp, s, Some(&mut dh));
@@ -115,6 +122,11 @@ impl Mlp {
         resize(&mut dgf, s * fd);
         resize(&mut dpart, s * fd);
         dgf.fill(0.0);
+        let mut denc_in = a.denc_in.take();
+        if let Some(v) = denc_in.as_mut() {
+            resize(v, s * gd);
+            v.fill(0.0);
+        }
         for i in (0..d).rev() {
             for (x, h) in dh.iter_mut().zip(&a.h[i]) {
                 if *h <= 0.0 {
@@ -124,6 +136,12 @@ impl Mlp {
             self.bias_back(g, i, &dh, s);
             if i == 0 || self.topo.is_skip(i) {
                 self.linear_back(p, g, i, &a.enc, gd, 0, &dh, s, None);
+                if let Some(v) = denc_in.as_mut() {
+                    // γ's rows of the layer's weights: the input gradient, summed over layers
+                    let sl = self.slots[i];
+                    let w = &p[sl.w..sl.w + gd * sl.dout];
+                    matmul(s, gd, sl.dout, v, gd, true, View::rows(&dh, sl.dout), View::t(w, sl.dout));
+                }
                 if fd > 0 {
                     self.linear_back(p, g, i, &a.gf, fd, gd, &dh, s, Some(&mut dpart));
                     dgf.iter_mut().zip(&dpart).for_each(|(a, b)| *a += b);
@@ -136,6 +154,7 @@ impl Mlp {
             self.linear_back(p, g, i, &a.h[i - 1], w, row0, &dh, s, Some(&mut dtmp));
             std::mem::swap(&mut dh, &mut dtmp);
         }
+        a.denc_in = denc_in;
         if a.k > 1 {
             // each footprint point's corners carry its share in their weights
             let mut spread = dpart;

@@ -29,6 +29,7 @@ use rayon::prelude::*;
 mod backward;
 mod forward;
 mod grid;
+mod position;
 
 /// Where one layer's tensors sit in the flat parameter vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -101,6 +102,19 @@ pub struct Acts {
     dtmp: Vec<f32>,
     dview: Vec<f32>,
     dray: Vec<f32>,
+    /// With [`Acts::keep_input_gradient`]: the backward pass's gradient of
+    /// γ(x) (`S × gamma_dim`), for [`Mlp::position_gradient`].
+    denc_in: Option<Vec<f32>>,
+    /// With it, the gradient of γ(d), the view directions' encoding (`R × dir_dim`).
+    ddir_in: Vec<f32>,
+}
+
+impl Acts {
+    /// Whether the next backward passes keep the gradient of the encoded
+    /// positions γ(x) ([`Mlp::position_gradient`] reads it); off by default.
+    pub fn keep_input_gradient(&mut self, on: bool) {
+        self.denc_in = on.then(|| self.denc_in.take().unwrap_or_default());
+    }
 }
 
 fn resize(v: &mut Vec<f32>, n: usize) {

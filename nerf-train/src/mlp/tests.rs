@@ -48,6 +48,7 @@ fn check_gradients_with(m: Mlp, footprint: bool) {
     let dc: Vec<f32> = (0..18).map(|i| (i % 5) as f32 - 2.0).collect();
     let mut g = vec![0.0; m.n_params];
     m.backward(&p, &mut a, &ds, &dc, &mut g);
+    check_position_gradient(&m, &p, &pos, &foot, &dirs, &ds, &dc);
     // the samples reach table entries of every level (the test must see them)
     if let Some(f) = &m.features {
         for l in 0..f.levels() {
@@ -77,6 +78,88 @@ fn check_gradients_with(m: Mlp, footprint: bool) {
         checked += 1;
     }
     assert!(kinks * 20 < checked, "{kinks} kinks of {checked}");
+}
+
+/// [`Mlp::position_gradient`] after a backward pass (of `ds`, `dc`)
+/// against finite differences of [`loss`] in each sample's position (γ,
+/// and the grid without a footprint) and each footprint point's (the
+/// grid), at `pos` and `foot` moved off the grid's faces (where the
+/// trilinear blend has a kink).
+#[allow(clippy::too_many_arguments)]
+fn check_position_gradient(
+    m: &Mlp,
+    p: &[f32],
+    pos: &[[f32; 3]],
+    foot: &[[f32; 3]],
+    dirs: &[[f32; 3]],
+    ds: &[f32],
+    dc: &[f32],
+) {
+    let off = |q: &[f32; 3]| [q[0] + 0.0123, q[1] + 0.0071, q[2] - 0.0047];
+    let pos: Vec<[f32; 3]> = pos.iter().map(off).collect();
+    let foot: Vec<[f32; 3]> = foot.iter().map(off).collect();
+    let (pos, foot) = (&pos[..], &foot[..]);
+    let mut a = Acts::default();
+    a.keep_input_gradient(true);
+    m.encode_footprint(p, pos, foot, &mut a);
+    m.forward_layers(p, dirs, true, &mut a);
+    m.backward(p, &mut a, ds, dc, &mut vec![0.0; m.n_params]);
+    let (mut gamma, mut grid) = (Vec::new(), Vec::new());
+    m.position_gradient(p, &a, pos, foot, &mut gamma, &mut grid);
+    let mut b = Acts::default();
+    let (mut checked, mut kinks) = (0, 0);
+    let mut compare = |f1: f64, f2: f64, want: f64, what: &str| {
+        let tol = 2e-2 * f1.abs().max(want.abs()).max(0.05);
+        if (f1 - f2).abs() > tol {
+            kinks += 1; // a ReLU switches, or a point crosses a cell's face, inside the step
+            return;
+        }
+        assert!((f1 - want).abs() <= tol, "{what}: fd {f1} vs analytic {want}");
+        checked += 1;
+    };
+    for i in 0..pos.len() {
+        for c in 0..3 {
+            let fd = |h: f32, b: &mut Acts| {
+                let (mut up, mut down) = (pos.to_vec(), pos.to_vec());
+                up[i][c] += h;
+                down[i][c] -= h;
+                (loss(m, p, &up, foot, dirs, b) - loss(m, p, &down, foot, dirs, b)) / (2.0 * h as f64)
+            };
+            let grid_part = if foot.is_empty() { grid.get(i).map_or(0.0, |g| g[c]) } else { 0.0 };
+            compare(
+                fd(1e-3, &mut b),
+                fd(5e-4, &mut b),
+                (gamma[i][c] + grid_part) as f64,
+                &format!("sample {i} axis {c}"),
+            );
+        }
+    }
+    for j in 0..foot.len() {
+        for c in 0..3 {
+            let fd = |h: f32, b: &mut Acts| {
+                let (mut up, mut down) = (foot.to_vec(), foot.to_vec());
+                up[j][c] += h;
+                down[j][c] -= h;
+                (loss(m, p, pos, &up, dirs, b) - loss(m, p, pos, &down, dirs, b)) / (2.0 * h as f64)
+            };
+            compare(fd(1e-3, &mut b), fd(5e-4, &mut b), grid[j][c] as f64, &format!("footprint point {j} axis {c}"));
+        }
+    }
+    let mut dgrad = Vec::new();
+    m.direction_gradient(&a, dirs, &mut dgrad);
+    assert_eq!(dgrad.len(), if m.topo.view_dependent { dirs.len() } else { 0 });
+    for (r, g) in dgrad.iter().enumerate() {
+        for c in 0..3 {
+            let fd = |h: f32, b: &mut Acts| {
+                let (mut up, mut down) = (dirs.to_vec(), dirs.to_vec());
+                up[r][c] += h;
+                down[r][c] -= h;
+                (loss(m, p, pos, foot, &up, b) - loss(m, p, pos, foot, &down, b)) / (2.0 * h as f64)
+            };
+            compare(fd(1e-3, &mut b), fd(5e-4, &mut b), g[c] as f64, &format!("direction {r} axis {c}"));
+        }
+    }
+    assert!(kinks * 10 < checked, "{kinks} kinks of {checked}");
 }
 
 #[test]

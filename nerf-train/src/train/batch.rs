@@ -72,6 +72,18 @@ impl Trainer {
     /// its ground truth recomposited on it (`rgb + (1 − alpha)·(bg − scene
     /// background)`); other pixels keep the scene's background.
     pub fn draw_batch(data: &Dataset, n: usize, how: Draw, rng: &mut Rng) -> Vec<Sample> {
+        Self::draw_with(data, n, how, rng, |_, o, d| (o, d))
+    }
+
+    /// [`Trainer::draw_batch`] with each world-space ray `(origin, dir)` of
+    /// view `v` replaced by `camera(v, origin, dir)` before it is prepared.
+    pub(super) fn draw_with(
+        data: &Dataset,
+        n: usize,
+        how: Draw,
+        rng: &mut Rng,
+        camera: impl Fn(usize, glam::Vec3, glam::Vec3) -> (glam::Vec3, glam::Vec3),
+    ) -> Vec<Sample> {
         let mut ends = Vec::with_capacity(data.views.len());
         let mut total = 0usize;
         for v in &data.views {
@@ -93,6 +105,7 @@ impl Trainer {
                 true => v.ray_at(x as f32 + rng.f32(), y as f32 + rng.f32()),
                 false => v.ray(x, y),
             };
+            let (o, d) = camera(vi, o, d);
             let Some(mut ray) = Ray::new(&data.scene, o, d) else { continue };
             if how.footprint {
                 ray = ray.with_footprint(&data.scene, v.camera.pixel_angle(), rng.f32() * std::f32::consts::TAU);

@@ -11,7 +11,7 @@ use nerf_infer::Error as FormatError;
 pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 15;
+pub const CHECKPOINT_VERSION: u16 = 16;
 
 /// How many of a run's `params` parameters are a feature grid's table: the
 /// last ones (a run with a feature grid has one network), none without one.
@@ -71,9 +71,14 @@ impl Trainer {
             None => true,
             Some(a) => t.cfg.loss.appearance && a.is_consistent(),
         };
+        let poses_ok = match &t.poses {
+            None => true,
+            Some(p) => t.cfg.loss.pose_refine && p.is_consistent(),
+        };
         let nets = if t.cfg.sampling.n_fine > 0 { 2 } else { 1 };
         let sizes_ok = proposal_ok
             && appearance_ok
+            && poses_ok
             && t.cfg.validate().is_ok()
             && t.pixel.is_finite()
             && t.pixel >= 0.0

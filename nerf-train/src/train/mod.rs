@@ -15,7 +15,8 @@
 //! memory; `batch.rs` draws rays, `samples.rs` places their samples,
 //! `step.rs` takes a step, `loss.rs` is its loss and gradient, `pool.rs`
 //! keeps gradient buffers, `average.rs` the parameters' average,
-//! `proposal_pass.rs` trains the proposal grid, `calibrate.rs` measures
+//! `proposal_pass.rs` trains the proposal grid, `pose_pass.rs` the
+//! cameras' pose corrections, `calibrate.rs` measures
 //! activation ranges for export, `checkpoint.rs` writes and reads the
 //! state.
 
@@ -25,6 +26,7 @@ use crate::config::TrainConfig;
 use crate::dataset::Dataset;
 use crate::grid::DensityGrid;
 use crate::mlp::{Acts, GridGrad, Mlp};
+use crate::pose::Poses;
 use crate::proposal::{ProposalGrid, RayProposal};
 use crate::rng::Rng;
 use crate::timing::{timed, StepTimes};
@@ -43,6 +45,7 @@ mod calibrate;
 mod checkpoint;
 mod loss;
 mod pool;
+mod pose_pass;
 mod proposal_pass;
 mod samples;
 mod step;
@@ -131,6 +134,9 @@ pub struct Trainer {
     /// Each training photo's colour correction (runs with
     /// [`LossConfig::appearance`](crate::config::LossConfig::appearance), from their first step).
     pub appearance: Option<Appearance>,
+    /// Each training photo's pose correction (runs that
+    /// [`Trainer::refines_poses`], from their first step).
+    pub poses: Option<Poses>,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
     #[serde(skip)]
     pool: GradPool,
@@ -170,6 +176,39 @@ struct Workspace {
     /// The photos' colour corrections' gradient (runs with
     /// [`LossConfig::appearance`](crate::config::LossConfig::appearance); as [`Appearance::params`]).
     dapp: Vec<f32>,
+    /// The photos' pose corrections' gradient (runs that
+    /// [`Trainer::refines_poses`]; as [`Poses::params`]).
+    dpose: Vec<f32>,
+    /// The loss's gradient with respect to each sample's position through
+    /// γ(x), and to each feature-grid point ([`Mlp::position_gradient`]).
+    dpos: Vec<[f32; 3]>,
+    dgrid: Vec<[f32; 3]>,
+    /// The loss's gradient with respect to each view direction ([`Mlp::direction_gradient`]).
+    ddir: Vec<[f32; 3]>,
+}
+
+/// The photos' corrections' gradients of a batch, each as its
+/// parameters: colour ([`Appearance::params`], empty without
+/// [`LossConfig::appearance`](crate::config::LossConfig::appearance)) and
+/// pose ([`Poses::params`], empty unless the run [`Trainer::refines_poses`]).
+#[derive(Clone, Debug, Default)]
+pub struct PerPhoto {
+    /// ∂L/∂ of the colour corrections.
+    pub appearance: Vec<f32>,
+    /// ∂L/∂ of the pose corrections.
+    pub pose: Vec<f32>,
+}
+
+impl PerPhoto {
+    /// Adds `other`'s gradients (the longer length kept).
+    fn add(&mut self, other: &Self) {
+        for (a, b) in [(&mut self.appearance, &other.appearance), (&mut self.pose, &other.pose)] {
+            if a.len() < b.len() {
+                a.resize(b.len(), 0.0);
+            }
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+        }
+    }
 }
 
 impl Workspace {
@@ -217,6 +256,7 @@ impl Trainer {
             ema: Vec::new(),
             proposal,
             appearance: None,
+            poses: None,
             pool: GradPool::default(),
         }
     }

@@ -2,6 +2,7 @@
 //! and differentiated in parallel, the gradients summed, Adam applied.
 
 use super::*;
+use crate::pose::Poses;
 
 impl Trainer {
     /// One optimisation step on a batch drawn from `data`; `progress` is
@@ -22,7 +23,14 @@ impl Trainer {
         }
         // pixels a model cannot record (wider than 0.1 rad) train as lines
         how.footprint &= self.footprint().is_some();
-        let batch = timed(&mut times.draw, || Self::draw_batch(data, n, how, &mut rng));
+        if self.refines_poses() {
+            let photos = data.views.len();
+            if self.poses.as_ref().is_none_or(|p| p.photos() != photos) {
+                self.poses = Some(Poses::new(photos));
+            }
+        }
+        let poses = self.poses.as_ref().filter(|_| self.refines_poses());
+        let batch = timed(&mut times.draw, || Self::draw_batch_posed(data, n, how, &mut rng, poses));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
         if self.cfg.loss.appearance {
             let photos = data.views.len();
@@ -31,7 +39,8 @@ impl Trainer {
                 *a = Appearance::new(photos);
             }
         }
-        let (grad, sq_c, sq_f, samples, mut photos) = self.gradients_timed(&batch, step_key, &mut times);
+        let (grad, sq_c, sq_f, samples, PerPhoto { appearance: mut photos, pose }) =
+            self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
         let mse_f = if self.cfg.sampling.n_fine > 0 { sq_f / n } else { sq_c / n };
         let loss = (sq_c + sq_f) / n;
@@ -71,6 +80,7 @@ impl Trainer {
                 let c = &self.cfg;
                 a.update(&mut photos, appearance::LR_SHARE * lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
             }
+            timed(&mut stats.times.adam, || self.step_poses(&pose, lr));
         }
         if let Ok(mut g) = self.pool.2.lock() {
             g.clear();
@@ -94,14 +104,14 @@ impl Trainer {
     }
 
     /// [`Trainer::gradients`], adding the time of its stages to `times`
-    /// (`chunks` and its split, `scatter`), and the photos' colour
-    /// corrections' gradient (empty without [`LossConfig::appearance`](crate::config::LossConfig::appearance)).
+    /// (`chunks` and its split, `scatter`), and the photos' corrections'
+    /// gradients ([`PerPhoto`]).
     pub(super) fn gradients_timed(
         &self,
         batch: &[Sample],
         step_key: u32,
         times: &mut StepTimes,
-    ) -> (Vec<f32>, f64, f64, usize, Vec<f32>) {
+    ) -> (Vec<f32>, f64, f64, usize, PerPhoto) {
         let start = std::time::Instant::now();
         // the proposal grid's gradient is this batch's alone
         if let Ok(mut g) = self.pool.2.lock() {
@@ -115,7 +125,7 @@ impl Trainer {
         let chunk = self.cfg.sampling.chunk_rays;
         // a few accumulators per thread, for balance
         let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
-        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes, Vec<f32>);
+        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes, PerPhoto);
         let (dense_grad, sq_c, sq_f, samples, mut grids, split, photos): Acc = batch
             .par_chunks(chunk)
             .with_min_len(min_len.max(1))
@@ -132,18 +142,15 @@ impl Trainer {
                     (g, c + a, f + b, n + k, grids, t, ws)
                 },
             )
-            .map(|(g, c, f, n, grids, t, ws)| (g, c, f, n, grids, t, ws.dapp))
+            .map(|(g, c, f, n, grids, t, ws)| (g, c, f, n, grids, t, PerPhoto { appearance: ws.dapp, pose: ws.dpose }))
             .reduce(
-                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new(), StepTimes::default(), Vec::new()),
+                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new(), StepTimes::default(), PerPhoto::default()),
                 |(mut g1, c1, f1, n1, mut r1, mut t1, mut p1), (g2, c2, f2, n2, r2, t2, p2)| {
                     g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
                     self.pool.give(g2);
                     r1.extend(r2);
                     t1.add(&t2);
-                    if p1.len() < p2.len() {
-                        p1.resize(p2.len(), 0.0);
-                    }
-                    p1.iter_mut().zip(&p2).for_each(|(a, b)| *a += b);
+                    p1.add(&p2);
                     (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1, p1)
                 },
             );
@@ -195,6 +202,7 @@ impl Trainer {
             timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
         }
         let sq_c = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, false));
+        ws.acts_c.keep_input_gradient(self.poses.is_some() && self.refines_poses());
         if let Some(pg) = &self.proposal {
             // the interlevel loss, a mean over the batch's rays as the colour loss is
             timed(&mut t.composite, || self.proposal_backward(pg, r, key, 1.5 * scale, ws));
@@ -202,11 +210,17 @@ impl Trainer {
         let mut grid = None;
         if n_c > 0 && net.features.is_some() {
             timed(&mut t.backward, || net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
+            if self.refines_poses() {
+                timed(&mut t.backward, || self.pose_backward(net, pc, rays, ws));
+            }
             let mut gg = self.pool.take_grid();
             net.swap_grid_grad(&mut ws.acts_c, &mut gg);
             grid = Some(gg);
         } else if n_c > 0 {
             timed(&mut t.backward, || net.backward(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
+            if self.refines_poses() {
+                timed(&mut t.backward, || self.pose_backward(net, pc, rays, ws));
+            }
         }
         if nf == 0 {
             return (sq_c, 0.0, n_c, grid);

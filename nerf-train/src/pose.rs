@@ -1,0 +1,169 @@
+//! Camera pose refinement: a small rotation and translation per training
+//! photo, fitted beside the model, for captures whose poses (COLMAP's, a
+//! phone's tracking) are a little off. Photo `k`'s camera is turned by the
+//! rotation vector `ω` (radians, about its own centre) and moved by `δ`
+//! (world units): a ray `(o, d)` of the photo becomes `(o + δ, R(ω)·d)`.
+//! The rays' gradient reaches the corrections through the sample
+//! positions ([`crate::mlp::Mlp::position_gradient`]); the view direction's
+//! part is left out. After each step the corrections are moved together
+//! so that their mean is zero ([`Poses::recentre`]): turning or moving
+//! every camera and the field with them would cost the colour loss nothing,
+//! and the held-out photos keep the poses they were loaded with
+//! ([`LossConfig::pose_refine`](crate::config::LossConfig::pose_refine)).
+
+use crate::adam::Adam;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+/// Values per photo: `ω` (x, y, z, radians), then `δ` (x, y, z, world units).
+pub const PER_PHOTO: usize = 6;
+
+/// The corrections' learning rate as a share of the network's
+/// ([`OptimiserConfig::lr`](crate::config::OptimiserConfig::lr)), following
+/// its decay: nerfacto's camera optimiser's 6·10⁻⁴ against its fields' 10⁻².
+pub const LR_SHARE: f32 = 0.06;
+
+/// Each training photo's pose correction and their optimiser state.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Poses {
+    /// [`PER_PHOTO`] values per photo, in the dataset's order of training views.
+    pub params: Vec<f32>,
+    /// Their Adam state.
+    pub adam: Adam,
+}
+
+impl Poses {
+    /// No correction for each of `photos` photos.
+    pub fn new(photos: usize) -> Self {
+        let params = vec![0.0; photos * PER_PHOTO];
+        let adam = Adam::new(params.len(), 0);
+        Self { params, adam }
+    }
+
+    /// Photos held.
+    pub fn photos(&self) -> usize {
+        self.params.len() / PER_PHOTO
+    }
+
+    /// Whether the state is whole: [`PER_PHOTO`] values per photo and the
+    /// optimiser's moments for each.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.params.len();
+        n.is_multiple_of(PER_PHOTO) && self.adam.m.len() == n && self.adam.v.len() == n && self.adam.steps.is_empty()
+    }
+
+    /// Photo `photo`'s rotation vector `ω` (radians) and translation `δ` (world units).
+    pub fn of(&self, photo: usize) -> (Vec3, Vec3) {
+        let p = &self.params[photo * PER_PHOTO..(photo + 1) * PER_PHOTO];
+        (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]))
+    }
+
+    /// The world-space ray `(origin, dir)` of photo `photo` as its
+    /// correction places it: `(origin + δ, R(ω)·dir)`.
+    pub fn apply(&self, photo: usize, origin: Vec3, dir: Vec3) -> (Vec3, Vec3) {
+        let (w, t) = self.of(photo);
+        (origin + t, rotate(w, dir))
+    }
+
+    /// One Adam step at learning rate `lr` on `grad` (as `params`), then
+    /// [`Poses::recentre`].
+    pub fn update(&mut self, grad: &[f32], lr: f32, beta1: f32, beta2: f32, eps: f32) {
+        self.adam.update(&mut self.params, grad, lr, beta1, beta2, eps, 0.0);
+        self.recentre();
+    }
+
+    /// Moves every correction by the same amount so that their mean is zero.
+    pub fn recentre(&mut self) {
+        let n = self.photos();
+        if n == 0 {
+            return;
+        }
+        let mut mean = [0.0f64; PER_PHOTO];
+        for p in self.params.chunks_exact(PER_PHOTO) {
+            mean.iter_mut().zip(p).for_each(|(m, &v)| *m += v as f64 / n as f64);
+        }
+        for p in self.params.chunks_exact_mut(PER_PHOTO) {
+            p.iter_mut().zip(&mean).for_each(|(v, m)| *v -= *m as f32);
+        }
+    }
+}
+
+/// `d` turned by the rotation vector `w` (radians; Rodrigues' formula).
+pub fn rotate(w: Vec3, d: Vec3) -> Vec3 {
+    let angle = w.length();
+    if angle < 1e-12 {
+        return d + w.cross(d);
+    }
+    let k = w / angle;
+    let (s, c) = angle.sin_cos();
+    d * c + k.cross(d) * s + k * k.dot(d) * (1.0 - c)
+}
+
+/// Adds to `dp` (one photo's [`PER_PHOTO`] values) the gradient of its
+/// correction from the gradient of the loss with respect to a corrected
+/// ray's world-space origin (`g_origin`) and direction (`g_dir`), `dir`
+/// being the corrected direction: `δ` takes `g_origin`, `ω` takes `dir ×
+/// g_dir` (the gradient of a further turn `R(ε)·R(ω)` at `ε = 0`, which is
+/// `ω`'s own at `ω = 0`).
+pub fn ray_back(dir: Vec3, g_origin: Vec3, g_dir: Vec3, dp: &mut [f32]) {
+    let gw = dir.cross(g_dir);
+    for (a, v) in dp[..3].iter_mut().zip(gw.to_array()) {
+        *a += v;
+    }
+    for (a, v) in dp[3..6].iter_mut().zip(g_origin.to_array()) {
+        *a += v;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rotation_keeps_length_and_turns_by_the_angle() {
+        let w = Vec3::new(0.1, -0.2, 0.3);
+        let d = Vec3::new(0.3, 0.5, -1.0);
+        let r = rotate(w, d);
+        assert!((r.length() - d.length()).abs() < 1e-6);
+        // about the axis itself nothing turns; a quarter turn about z maps x to y
+        assert!((rotate(w, w) - w).length() < 1e-7);
+        let q = rotate(Vec3::Z * std::f32::consts::FRAC_PI_2, Vec3::X);
+        assert!((q - Vec3::Y).length() < 1e-6, "{q}");
+    }
+
+    #[test]
+    fn ray_back_matches_finite_differences_at_no_correction() {
+        // L = a·o' + b·d' for the corrected ray of (o, d)
+        let (o, d) = (Vec3::new(0.2, -0.4, 1.0), Vec3::new(0.3, 0.5, -1.0));
+        let (a, b) = (Vec3::new(0.7, -0.1, 0.2), Vec3::new(-0.3, 0.9, 0.4));
+        let loss = |p: &Poses| {
+            let (o2, d2) = p.apply(0, o, d);
+            (a.dot(o2) + b.dot(d2)) as f64
+        };
+        let poses = Poses::new(1);
+        let mut dp = [0.0f32; PER_PHOTO];
+        ray_back(d, a, b, &mut dp);
+        let h = 1e-3;
+        for i in 0..PER_PHOTO {
+            let (mut p, mut m) = (poses.clone(), poses.clone());
+            p.params[i] += h;
+            m.params[i] -= h;
+            let fd = (loss(&p) - loss(&m)) / (2.0 * h as f64);
+            assert!((fd - dp[i] as f64).abs() < 1e-3, "value {i}: {fd} against {}", dp[i]);
+        }
+    }
+
+    #[test]
+    fn recentring_makes_the_mean_zero_and_keeps_the_differences() {
+        let mut poses = Poses::new(3);
+        poses.params.iter_mut().enumerate().for_each(|(i, v)| *v = 0.01 * i as f32);
+        let before = poses.params.clone();
+        poses.recentre();
+        for i in 0..PER_PHOTO {
+            let mean = (0..3).map(|k| poses.params[k * PER_PHOTO + i]).sum::<f32>() / 3.0;
+            assert!(mean.abs() < 1e-6, "value {i}: mean {mean}");
+            let d = |p: &[f32]| p[PER_PHOTO + i] - p[i];
+            assert!((d(&poses.params) - d(&before)).abs() < 1e-6);
+        }
+    }
+}
