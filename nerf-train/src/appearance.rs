@@ -80,18 +80,26 @@ impl Appearance {
     /// the identity: the field's own colour, which the model renders,
     /// stays the photos' mean appearance.
     pub fn recentre(&mut self) {
-        let n = self.photos();
-        if n == 0 {
-            return;
-        }
-        let mut mean = [0.0f64; PER_PHOTO];
-        for p in self.params.chunks_exact(PER_PHOTO) {
-            mean.iter_mut().zip(p).for_each(|(m, &v)| *m += v as f64 / n as f64);
-        }
-        for p in self.params.chunks_exact_mut(PER_PHOTO) {
-            for (i, v) in p.iter_mut().enumerate() {
-                *v -= (mean[i] - IDENTITY[i] as f64) as f32;
-            }
+        recentre_rows(&mut self.params, &IDENTITY);
+    }
+}
+
+/// Moves every row of `params` (rows of `target.len()` values, one per
+/// photo) by the same amount so that their mean is `target` (the mean
+/// taken in f64).
+pub fn recentre_rows(params: &mut [f32], target: &[f32]) {
+    let per = target.len();
+    let n = params.len() / per;
+    if n == 0 {
+        return;
+    }
+    let mut mean = vec![0.0f64; per];
+    for p in params.chunks_exact(per) {
+        mean.iter_mut().zip(p).for_each(|(m, &v)| *m += v as f64 / n as f64);
+    }
+    for p in params.chunks_exact_mut(per) {
+        for (i, v) in p.iter_mut().enumerate() {
+            *v -= (mean[i] - target[i] as f64) as f32;
         }
     }
 }

@@ -1,14 +1,15 @@
 //! Camera pose refinement: a small rotation and translation per training
-//! photo, fitted beside the model, for captures whose poses (COLMAP's, a
+//! photo, fitted beside the model at
+//! [`OptimiserConfig::pose_lr`](crate::config::OptimiserConfig::pose_lr), for captures whose poses (COLMAP's, a
 //! phone's tracking) are a little off. Photo `k`'s camera is turned by the
 //! rotation vector `ω` (radians, about its own centre) and moved by `δ`
 //! (world units): a ray `(o, d)` of the photo becomes `(o + δ, R(ω)·d)`.
 //! The rays' gradient reaches the corrections through the sample
-//! positions ([`crate::mlp::Mlp::position_gradient`]); the view direction's
-//! part is left out. After each step the corrections are moved together
-//! so that their mean is zero ([`Poses::recentre`]): turning or moving
-//! every camera and the field with them would cost the colour loss nothing,
-//! and the held-out photos keep the poses they were loaded with
+//! positions and view directions ([`crate::mlp::Mlp::position_gradient`],
+//! [`crate::mlp::Mlp::direction_gradient`]). After each step the shifts
+//! are moved together so that their mean is zero ([`Poses::recentre`]):
+//! moving every camera and the field with them would cost the colour loss
+//! nothing. The held-out photos keep the poses they were loaded with
 //! ([`LossConfig::pose_refine`](crate::config::LossConfig::pose_refine)).
 
 use crate::adam::Adam;
@@ -17,11 +18,6 @@ use serde::{Deserialize, Serialize};
 
 /// Values per photo: `ω` (x, y, z, radians), then `δ` (x, y, z, world units).
 pub const PER_PHOTO: usize = 6;
-
-/// The corrections' learning rate as a share of the network's
-/// ([`OptimiserConfig::lr`](crate::config::OptimiserConfig::lr)), following
-/// its decay: nerfacto's camera optimiser's 6·10⁻⁴ against its fields' 10⁻².
-pub const LR_SHARE: f32 = 0.06;
 
 /// Each training photo's pose correction and their optimiser state.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -72,18 +68,22 @@ impl Poses {
         self.recentre();
     }
 
-    /// Moves every correction by the same amount so that their mean is zero.
+    /// Moves every photo's shift by the same amount so that their mean is
+    /// zero: moving every camera and the field with them costs the colour
+    /// loss nothing. The turns are left alone: turning every camera by the
+    /// same amount about its own centre is not a motion of the whole scene
+    /// (that would also move their centres), so the mean turn is not free.
     pub fn recentre(&mut self) {
         let n = self.photos();
         if n == 0 {
             return;
         }
-        let mut mean = [0.0f64; PER_PHOTO];
+        let mut mean = [0.0f64; 3];
         for p in self.params.chunks_exact(PER_PHOTO) {
-            mean.iter_mut().zip(p).for_each(|(m, &v)| *m += v as f64 / n as f64);
+            mean.iter_mut().zip(&p[3..]).for_each(|(m, &v)| *m += v as f64 / n as f64);
         }
         for p in self.params.chunks_exact_mut(PER_PHOTO) {
-            p.iter_mut().zip(&mean).for_each(|(v, m)| *v -= *m as f32);
+            p[3..].iter_mut().zip(&mean).for_each(|(v, m)| *v -= *m as f32);
         }
     }
 }
@@ -154,13 +154,20 @@ mod tests {
     }
 
     #[test]
-    fn recentring_makes_the_mean_zero_and_keeps_the_differences() {
+    fn recentring_makes_the_mean_shift_zero_and_keeps_the_turns() {
         let mut poses = Poses::new(3);
         poses.params.iter_mut().enumerate().for_each(|(i, v)| *v = 0.01 * i as f32);
         let before = poses.params.clone();
         poses.recentre();
         for i in 0..PER_PHOTO {
             let mean = (0..3).map(|k| poses.params[k * PER_PHOTO + i]).sum::<f32>() / 3.0;
+            if i < 3 {
+                assert_eq!(
+                    (0..3).map(|k| poses.params[k * PER_PHOTO + i]).collect::<Vec<_>>(),
+                    [0.0, 0.06, 0.12].map(|v| v + 0.01 * i as f32)
+                );
+                continue;
+            }
             assert!(mean.abs() < 1e-6, "value {i}: mean {mean}");
             let d = |p: &[f32]| p[PER_PHOTO + i] - p[i];
             assert!((d(&poses.params) - d(&before)).abs() < 1e-6);

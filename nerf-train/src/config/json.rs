@@ -11,7 +11,7 @@ pub const SECTIONS: [&str; 6] = ["model", "features", "sampling", "grid", "optim
 
 /// Each field's flat name (a `--config` file without sections), its
 /// section and its name there.
-pub const FLAT_NAMES: [(&str, &str, &str); 41] = [
+pub const FLAT_NAMES: [(&str, &str, &str); 42] = [
     ("pos_freqs", "model", "pos_freqs"),
     ("dir_freqs", "model", "dir_freqs"),
     ("include_input", "model", "include_input"),
@@ -47,6 +47,7 @@ pub const FLAT_NAMES: [(&str, &str, &str); 41] = [
     ("beta2", "optimiser", "beta2"),
     ("eps", "optimiser", "eps"),
     ("proposal_lr", "optimiser", "proposal_lr"),
+    ("pose_lr", "optimiser", "pose_lr"),
     ("feature_decay", "optimiser", "feature_decay"),
     ("ema_decay", "optimiser", "ema_decay"),
     ("distortion", "loss", "distortion"),

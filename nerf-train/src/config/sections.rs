@@ -162,6 +162,10 @@ pub struct OptimiserConfig {
     /// With a proposal grid: the learning rate of its log-densities (Adam,
     /// decaying as `lr` does).
     pub proposal_lr: f32,
+    /// With [`LossConfig::pose_refine`]: the learning rate of the photos'
+    /// pose corrections (Adam, radians and world units, decaying as `lr`
+    /// does; nerfacto's camera optimiser's 6·10⁻⁴ in every preset).
+    pub pose_lr: f32,
 }
 
 /// What the loss adds to the mean squared colour error, and what it

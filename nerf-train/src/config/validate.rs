@@ -131,6 +131,12 @@ impl TrainConfig {
         if self.loss.pose_refine && self.sampling.n_fine > 0 {
             return Err(Error::Config("loss.pose_refine needs one network (sampling.n_fine = 0)".into()));
         }
+        if !(self.optimiser.pose_lr.is_finite() && self.optimiser.pose_lr >= 0.0) {
+            return Err(Error::Config(format!(
+                "optimiser.pose_lr must be finite and not negative, not {}",
+                self.optimiser.pose_lr
+            )));
+        }
         let pos = |v: f32| v.is_finite() && v > 0.0;
         if !pos(self.optimiser.lr)
             || !pos(self.optimiser.lr_final_ratio)

@@ -32,13 +32,14 @@ impl Trainer {
     }
 
     /// One Adam step of the pose corrections on the step's gradient `grad`
-    /// (as [`Poses::params`]) at the network's learning rate `lr` times
-    /// [`pose::LR_SHARE`].
+    /// (as [`Poses::params`]) at [`OptimiserConfig::pose_lr`](crate::config::OptimiserConfig::pose_lr),
+    /// decayed as the network's `lr` (this step's rate) is.
     pub(super) fn step_poses(&mut self, grad: &[f32], lr: f32) {
         let c = &self.cfg;
         let Some(p) = self.poses.as_mut().filter(|p| grad.len() == p.params.len()) else { return };
         if grad.iter().all(|g| g.is_finite()) {
-            p.update(grad, pose::LR_SHARE * lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
+            let lr = c.optimiser.pose_lr * lr / c.optimiser.lr;
+            p.update(grad, lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
         }
     }
 

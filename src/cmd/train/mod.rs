@@ -320,6 +320,9 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
                 cfg.sampling.n_coarse, run.cfg.sampling.n_coarse
             );
         }
+        if cfg.loss.pose_refine && data.scene.ndc.is_some() {
+            eprintln!("forward-facing scene: loss.pose_refine leaves the photos' poses as loaded (rays in NDC)");
+        }
         let mut tr = Trainer::new(cfg, data.scene, downscale, a.seed);
         tr.data = data_source(&a);
         (tr, data)
