@@ -48,7 +48,7 @@ impl TrainConfig {
                 beta2: 0.999,
                 eps: 1e-7,
                 proposal_lr: 0.05,
-                pose_lr: 6e-4,
+                pose_lr: 1e-4,
                 feature_decay: 0.0,
                 ema_decay: 0.0,
             },

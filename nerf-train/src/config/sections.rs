@@ -164,7 +164,8 @@ pub struct OptimiserConfig {
     pub proposal_lr: f32,
     /// With [`LossConfig::pose_refine`]: the learning rate of the photos'
     /// pose corrections (Adam, radians and world units, decaying as `lr`
-    /// does; nerfacto's camera optimiser's 6·10⁻⁴ in every preset).
+    /// does; 10⁻⁴ in every preset, where nerfacto's camera optimiser has
+    /// 6·10⁻⁴: on bird and fox 10⁻⁴ measured better, docs/EXPERIMENTS.md).
     pub pose_lr: f32,
 }
 
