@@ -20,4 +20,4 @@ cargo build --release --quiet -p nerf-train --example perturb_poses
 capture="$work/bird-off-$degrees-$shift_"
 target/release/examples/perturb_poses "$root/bird" "$capture" "$degrees" "$shift_"
 NERF_BIN="$bin" NERF_COMMIT="$commit" scripts/capture_ab.sh "$capture" "$steps_n" \
-  '{}' '{"pose_refine": true}' '{"pose_refine": true, "pose_lr": 6e-4}'
+  '{}' '{"pose_refine": true, "pose_lr": 1e-4}' '{"pose_refine": true, "pose_lr": 6e-4}'

@@ -437,7 +437,9 @@ def capture_ab_section():
                "corrected", "int8", "evaluated/ray", "µs/ray int8", "<run"], body)
     return ("Configurations compared on a capture", "capture-ab", """`scripts/capture_ab.sh DATA LENGTH
 CONFIG...` (the commands are `scripts/results.sh --list`'s `capture-ab`,
-`capture-5m` and `capture-ff`): the capture trained at 1/8 size (the
+`capture-5m`, `capture-ff` and `capture-pose`, whose `bird-off-0.5-0.01`
+is bird with its training photos' poses turned and moved at random,
+`scripts/pose_perturbed.sh`): the capture trained at 1/8 size (the
 built-in room, `room`, and forward-facing capture, `llff`: `nerf scene
 --size 64` at full size) for a number of steps (the rows compare
 at equal steps) or minutes (at equal time, back to back), seed 0, the

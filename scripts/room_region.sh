@@ -14,6 +14,10 @@
 #   scripts/room_region.sh MINUTES CONFIG_JSON...
 #   scripts/room_region.sh 5 '{}' '{"feature_max_res": 1024}'
 set -euo pipefail
+if [ $# -lt 2 ]; then
+  sed -n '14,15p' "$0" | sed 's/^# \{0,1\}//' >&2
+  exit 2
+fi
 minutes=$1
 shift
 . "$(dirname "$0")/lib.sh"

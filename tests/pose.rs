@@ -116,6 +116,8 @@ fn cameras_that_are_off_are_corrected_and_the_held_out_views_gain() {
             c.sampling.proposal_res = 32;
             c.sampling.batch_rays = 512;
             c.loss.pose_refine = refine;
+            // a short run: nerfacto's rate, where the default suits thousands of steps
+            c.optimiser.pose_lr = 6e-4;
         });
         let mut tr = Trainer::new(cfg, data.scene, 1, 0);
         for k in 0..steps {

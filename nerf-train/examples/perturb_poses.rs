@@ -11,7 +11,8 @@
 //!
 //! ```sh
 //! cargo run --release -p nerf-train --example perturb_poses -- ../shared/data/bird /tmp/bird_off 0.5 0.01
-//! nerf train --data /tmp/bird_off --downscale 8 --iters 2000 --config '{"pose_refine": true}'
+//! echo '{"pose_refine": true}' > /tmp/pose.json
+//! nerf train --data /tmp/bird_off --downscale 8 --iters 2000 --config /tmp/pose.json --out /tmp/bird_off_run
 //! ```
 //!
 //! `OUT` must not exist. Unix only (symbolic links). Seeded: the same
@@ -64,7 +65,7 @@ fn run(src: PathBuf, out: PathBuf, degrees: f64, shift: f64, holdout: usize) -> 
     let mut dist: Vec<f64> = views.iter().map(|v| v.pose.1.distance(centre)).collect();
     dist.sort_by(f64::total_cmp);
     let scale = shift * dist.get(dist.len() / 2).copied().unwrap_or(0.0);
-    let mut rng = Rng::new(0x5EED_0F_F5E7);
+    let mut rng = Rng::new(0x5E_ED0F_F5E7);
     let (mut turned, mut moved) = (0.0f64, 0.0f64);
     let mut changed = 0;
     for (i, v) in views.iter_mut().enumerate() {

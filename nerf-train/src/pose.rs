@@ -9,7 +9,13 @@
 //! [`crate::mlp::Mlp::direction_gradient`]). After each step the shifts
 //! are moved together so that their mean is zero ([`Poses::recentre`]):
 //! moving every camera and the field with them would cost the colour loss
-//! nothing. The held-out photos keep the poses they were loaded with
+//! nothing. Three parts of a ray's dependence on its pose are left out of
+//! the gradient: where its samples lie along it (the proposal grid's or
+//! the occupancy grid's placement, the bounds' near and far), held as
+//! nerfacto holds its proposal samples; the turn of a pixel footprint's
+//! points about the ray with the view direction; and the turn's own
+//! curvature (the gradient of `ω` is exact at `ω = 0`, [`ray_back`]).
+//! The held-out photos keep the poses they were loaded with
 //! ([`LossConfig::pose_refine`](crate::config::LossConfig::pose_refine)).
 
 use crate::adam::Adam;

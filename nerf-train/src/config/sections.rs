@@ -197,8 +197,8 @@ pub struct LossConfig {
     /// ([`crate::pose`]: a turn about the camera's centre and a shift),
     /// for captures whose poses are a little off; the held-out photos keep
     /// their poses. Object and unbounded scenes (forward-facing scenes keep
-    /// their poses); the coarse or only network's samples drive it. Off in
-    /// every preset.
+    /// their poses); runs with one network only (`sampling.n_fine` = 0).
+    /// Off in every preset.
     pub pose_refine: bool,
 }
 
