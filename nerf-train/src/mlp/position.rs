@@ -33,12 +33,16 @@ impl Mlp {
         let points = if a.k > 1 { foot } else { pos };
         assert_eq!(points.len(), a.s * a.k, "one feature-grid point per sample, or k with a footprint");
         let (w, nl, t) = (f.width as usize, f.levels(), &p[self.table..]);
-        let share = 1.0 / a.k as f32;
+        let (share, n) = (1.0 / a.k as f32, points.len());
+        let offsets: Vec<usize> = (0..nl).map(|l| f.offset(l)).collect();
+        assert_eq!(a.corners.len(), nl * n, "the forward pass's corners of every point and level");
         grid.extend(points.iter().enumerate().map(|(i, x)| {
             let mut g = [0.0f32; 3];
             for l in 0..nl {
                 let d = &a.dgf[(i * nl + l) * w..(i * nl + l + 1) * w];
-                let gl = level_back(f, l, t, *x, d);
+                // the forward pass's cell of this point (its entries; the weights are recomputed)
+                let entry = &a.corners[l * n + i].entry;
+                let gl = level_back(f.resolutions[l], offsets[l], entry, t, *x, d);
                 (0..3).for_each(|c| g[c] += share * gl[c]);
             }
             g
@@ -84,12 +88,12 @@ fn gamma_back(x: [f32; 3], freqs: usize, raw: bool, d: &[f32]) -> [f32; 3] {
     g
 }
 
-/// `∂L/∂x` of level `l`'s trilinear blend at `x` from `d`, the gradient of
-/// its `width` values (`t`: the table, f32).
-fn level_back(f: &nerf_infer::features::FeatureGrid<'_>, l: usize, t: &[f32], x: [f32; 3], d: &[f32]) -> [f32; 3] {
-    let res = f.resolutions[l] as f32;
-    let c = f.corners_f32(l, x);
-    let base = f.offset(l);
+/// `∂L/∂x` of one level's trilinear blend at `x` from `d`, the gradient of
+/// its `width` values: the level has `res` cells per axis, its entries
+/// start at `base` in the table `t` (f32), and `entry` are the eight
+/// corners of `x`'s cell ([`nerf_infer::features::FeatureGrid::corners_f32`]'s).
+fn level_back(res: u16, base: usize, entry: &[u32; 8], t: &[f32], x: [f32; 3], d: &[f32]) -> [f32; 3] {
+    let res = res as f32;
     // the weights' factors along each axis, and their slope (0 where clamped)
     let mut w = [[0.0f32; 2]; 3];
     let mut slope = [0.0f32; 3];
@@ -103,7 +107,7 @@ fn level_back(f: &nerf_infer::features::FeatureGrid<'_>, l: usize, t: &[f32], x:
     }
     let mut g = [0.0f32; 3];
     for k in 0..8 {
-        let e = (base + c.entry[k] as usize) * d.len();
+        let e = (base + entry[k] as usize) * d.len();
         let dot: f32 = d.iter().enumerate().map(|(j, dj)| t[e + j] * dj).sum();
         let b = [k & 1, (k >> 1) & 1, k >> 2];
         for a in 0..3 {
