@@ -319,6 +319,34 @@ fn the_optical_depth_penalty_empties_the_space_the_photos_leave_free() {
 }
 
 #[test]
+fn a_field_left_without_density_anywhere_grows_back() {
+    let d = support::TestDir::new("empty-field-test");
+    write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let cfg = small_config().with(|c| {
+        c.sampling.batch_rays = 128;
+        c.sampling.n_fine = 0;
+        c.optimiser.lr = 1e-2;
+    });
+    let mut tr = Trainer::new(cfg, data.scene, 1, 5);
+    // as a few large first steps can leave it: σ < 0 at every point (the
+    // density head's weights at zero, its bias below zero)
+    let (w, b) = tr.mlp().density_head();
+    tr.params[w].fill(0.0);
+    tr.params[b] = -0.5;
+    assert!(densities(&tr, 7).concat().iter().all(|&s| s == 0.0));
+    let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
+    for i in 0..80 {
+        tr.train_step(&data, i as f64 / 80.0);
+    }
+    let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
+    let sigma = densities(&tr, 7).concat();
+    let dense = sigma.iter().filter(|&&s| s > 0.0).count();
+    println!("loss {first:.4} -> {last:.4}; {dense} of {} points with density", sigma.len());
+    assert!(dense > 0 && last < 0.8 * first, "loss {first} -> {last}, {dense} points with density");
+}
+
+#[test]
 fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() {
     let bounded = nerf_infer::format::Scene::blender(1.1, 0.2, 1000.0);
     let unbounded =

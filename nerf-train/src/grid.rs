@@ -88,7 +88,8 @@ impl DensityGrid {
     /// call per chunk of cells, in parallel) at a random point of every
     /// cell, folds it into the decayed maxima, and marks a cell occupied
     /// while its maximum exceeds `min(threshold, mean)` (the mean keeps a
-    /// young, low-density field from being culled whole), lowered in the
+    /// young, low-density field from being culled whole; a field with no
+    /// density at all keeps the cells it had), lowered in the
     /// outer shell of a `contracted` grid by `1/m²`, `m` the distance a cell
     /// stands for in half-sizes of the bounds (samples lie `m²` times farther
     /// apart there).
@@ -114,6 +115,12 @@ impl DensityGrid {
             *d = (*d * DECAY).max(f);
         }
         let mean = self.density.iter().map(|&d| d as f64).sum::<f64>() / self.density.len() as f64;
+        self.updates += 1;
+        if mean == 0.0 {
+            // a field with no density anywhere leaves nothing to keep: its
+            // cells stay as they were, or training would sample nothing again
+            return;
+        }
         let thr = threshold.min(mean as f32);
         self.bits.fill(0);
         for (i, &d) in self.density.iter().enumerate() {
@@ -121,7 +128,6 @@ impl DensityGrid {
                 self.bits[i / 8] |= 1 << (i % 8);
             }
         }
-        self.updates += 1;
     }
 }
 
@@ -153,6 +159,19 @@ mod tests {
         }
         let v = g.view();
         assert!(v.at_f32([0.5, 0.0, 0.0]) && !v.at_f32([-0.4, 0.0, 0.0]));
+    }
+
+    #[test]
+    fn a_field_with_no_density_anywhere_keeps_its_cells() {
+        let mut g = DensityGrid::new(8);
+        let empty = |p: &[[f32; 3]]| vec![0.0; p.len()];
+        g.update(0, 1.0, false, empty);
+        assert_eq!(g.occupied_fraction(), 1.0, "a young field emptied by its first steps is still sampled");
+        // a field with density somewhere culls the rest as before
+        g.update(1, 1.0, false, |p: &[[f32; 3]]| p.iter().map(|q| if q[0] < 0.0 { 5.0 } else { 0.0 }).collect());
+        assert_eq!(g.occupied_fraction(), 0.5);
+        g.update(2, 1.0, false, empty);
+        assert_eq!(g.occupied_fraction(), 0.5, "decaying maxima keep the cells they mark");
     }
 
     #[test]

@@ -40,7 +40,10 @@ pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: [f32; 3], w: &mu
 /// on the weights themselves (such as [`distortion`]; empty: none) and the
 /// forward weights `w`, writes ∂L/∂σᵢ into `dsigma` and ∂L/∂cᵢ into `drgb`.
 /// (`∂wᵢ/∂sₖ` is `Tₖ₊₁` for `i = k` and `−wᵢ` for `i > k`, so a weight's
-/// gradient flows as a colour's does.)
+/// gradient flows as a colour's does.) A sample with `σᵢ ≤ 0` gets none
+/// (the slope of `max(σ, 0)`), unless no sample of the ray has density:
+/// then every sample gets the gradient at `σ = 0⁺`, so a field that early
+/// steps left empty everywhere grows back instead of staying dark.
 #[allow(clippy::too_many_arguments)]
 pub fn composite_back(
     sigma: &[f32],
@@ -57,6 +60,7 @@ pub fn composite_back(
     // suffix[k] = Σ_{i>k} wᵢ (cᵢ − bg)·dc, and T_{k+1} = 1 − Σ_{i≤k} wᵢ.
     let mut suffix = 0.0f32;
     let total: f32 = w.iter().sum();
+    let empty = total == 0.0;
     let mut prefix = total; // Σ_{i≤k} w_i, walked backwards
     for k in (0..n).rev() {
         let ck: f32 = (0..3).map(|j| (rgb[3 * k + j] - bg[j]) * dc[j]).sum::<f32>() + dw.get(k).copied().unwrap_or(0.0);
@@ -66,7 +70,7 @@ pub fn composite_back(
         let t_next = (1.0 - prefix).max(0.0);
         let ds = t_next * ck - suffix;
         // σ of a sample with δ = LAST_DELTA has no effect (α = 1 already)
-        dsigma[k] = if sigma[k] > 0.0 && delta[k] < LAST_DELTA { ds * delta[k] } else { 0.0 };
+        dsigma[k] = if (sigma[k] > 0.0 || empty) && delta[k] < LAST_DELTA { ds * delta[k] } else { 0.0 };
         suffix += w[k] * ck;
         prefix -= w[k];
     }
@@ -251,6 +255,39 @@ mod tests {
         let (mut ds, mut dr) = ([0.0; 6], [0.0; 18]);
         composite_back(&sigma, &rgb, &d, bg, &w, dc, &dw, &mut ds, &mut dr);
         check_density_gradients(&sigma, &ds, loss);
+    }
+
+    #[test]
+    fn an_empty_ray_pulls_its_densities_as_at_zero_plus() {
+        let rgb: Vec<f32> = (0..18).map(|i| ((i * 7) % 10) as f32 / 10.0).collect();
+        let mut d = Vec::new();
+        push_deltas(&[2.0f32, 2.3, 2.7, 3.0, 3.4, 3.9], 1.1, &mut d);
+        let (bg, dc) = ([0.0f32; 3], [-0.5f32, -0.8, 0.2]);
+        let loss = |s: &[f32]| {
+            let mut w = [0.0; 6];
+            let col = composite(s, &rgb, &d, bg, &mut w);
+            (0..3).map(|j| (col[j] * dc[j]) as f64).sum::<f64>()
+        };
+        let back = |sigma: &[f32; 6]| {
+            let mut w = [0.0; 6];
+            composite(sigma, &rgb, &d, bg, &mut w);
+            let (mut ds, mut dr) = ([0.0; 6], [0.0; 18]);
+            composite_back(sigma, &rgb, &d, bg, &w, dc, &[], &mut ds, &mut dr);
+            ds
+        };
+        // no density anywhere: each sample's gradient is the one-sided difference at σ = 0⁺
+        let empty = [-0.4f32, 0.0, -2.0, -0.1, 0.0, -1.0];
+        let ds = back(&empty);
+        let h = 1e-3;
+        for k in 0..5 {
+            let mut a = [0.0f32; 6];
+            a[k] = h;
+            let fd = (loss(&a) - loss(&[0.0; 6])) / h as f64;
+            assert!(ds[k] != 0.0 && (fd - ds[k] as f64).abs() < 1e-4 + 1e-2 * fd.abs(), "σ{k}: fd {fd} vs {}", ds[k]);
+        }
+        // with density somewhere, the samples without it get none (max(σ, 0)'s gradient)
+        let ds = back(&[-0.4f32, 0.0, 2.0, -0.1, 0.0, -1.0]);
+        assert!(ds[0] == 0.0 && ds[1] == 0.0 && ds[3] == 0.0 && ds[2] != 0.0, "{ds:?}");
     }
 
     /// Central differences of `loss` against `ds` for every positive

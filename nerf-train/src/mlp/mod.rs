@@ -204,10 +204,17 @@ impl Mlp {
     pub fn init_uniform_density(&self, seed: u64, sigma: f32) -> Vec<f32> {
         debug_assert!(sigma > 0.0 && sigma.is_finite(), "{sigma}");
         let mut p = self.init(seed);
-        let s = self.slots[self.sigma_idx()];
-        p[s.w..s.w + s.din * s.dout].fill(0.0);
-        p[s.b] = sigma;
+        let (w, b) = self.density_head();
+        p[w].fill(0.0);
+        p[b] = sigma;
         p
+    }
+
+    /// Where the density head sits in the parameters: the range of its
+    /// weights (one per trunk output) and the index of its bias.
+    pub fn density_head(&self) -> (std::ops::Range<usize>, usize) {
+        let s = self.slots[self.sigma_idx()];
+        (s.w..s.w + s.din * s.dout, s.b)
     }
 
     /// Multiply-accumulates of one forward evaluation (per sample), with
