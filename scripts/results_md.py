@@ -406,13 +406,20 @@ def seeds_section():
         return f"{r['psnr']} ({r['dark_steps']})" if r else ""
 
     body = [[cap, thousands(steps), seed] + [cell(c, (cap, steps, seed)) for c in commits] for cap, steps, seed in keys]
-    stamps = "; ".join(f"`{c}`: {run(next(r for r in rs if r['commit'] == c))}" for c in commits)
+    for cap, steps in dict.fromkeys((k[0], k[1]) for k in keys):
+        got = [[r for r in rs if r["commit"] == c and (r["capture"], r["steps"]) == (cap, steps)] for c in commits]
+        body.append([cap, thousands(steps), "mean; went dark"] + [
+            f"{sum(float(r['psnr']) for r in g) / len(g):.2f}; {sum(int(r['dark_steps']) > 0 for r in g)} of {len(g)}"
+            if g else "" for g in got])
+    first = {c: next(r for r in rs if r["commit"] == c) for c in commits}
+    stamps = "; ".join(f"`{c}` on {r['date']}, {cpu(r)}, {r['cores']} cores" for c, r in first.items())
     t = table(["<capture", "steps", "seed"] + [f"PSNR (dark steps) at `{c}`" for c in commits], body)
     return ("The default from several seeds", "seeds", f"""`scripts/seeds.sh DATA_DIR STEPS SEED...`: a capture trained
 STEPS steps at the default from each seed, back to back, scored on its
 held-out views (`nerf eval`); in brackets, the steps whose batch PSNR
 was 3 dB or more below the first step's: a field gone dark, rendering
-only the background. Each commit's runs: {stamps}.""", t if rs else missing("seeds"))
+only the background. A commit's column is a build of that commit
+(`NERF_BIN`, `NERF_COMMIT`), run {stamps}.""", t if rs else missing("seeds"))
 
 
 def ray_instructions_section():
