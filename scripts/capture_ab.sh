@@ -31,12 +31,7 @@ case $length in
   *) budget=(--iters "$length") ;;
 esac
 . "$(dirname "$0")/lib.sh"
-downscale=8
-if [ "$data" = room ] || [ "$data" = llff ]; then
-  "$bin" scene --out "$work/scene" --size 64 >&2
-  data=$work/scene/$data
-  downscale=1
-fi
+builtin_capture
 out_csv=docs/capture_ab.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,configuration,minutes,steps,ms_per_step,psnr,psnr_right_half,\
 psnr_right_half_corrected,psnr_int8,evaluations_per_ray,us_per_ray_int8" > "$out_csv"

@@ -64,3 +64,15 @@ side_by_side() {
   wait $a || { cat "$work/$2.log" >&2; exit 1; }
   wait $b || { cat "$work/$4.log" >&2; exit 1; }
 }
+
+# builtin_capture: `data` named `room` or `llff` becomes that built-in
+# capture of `nerf scene --size 64` (written to $work), trained at full
+# size; any other folder is trained at 1/8 size. Sets `data` and `downscale`.
+builtin_capture() {
+  downscale=8
+  if [ "$data" = room ] || [ "$data" = llff ]; then
+    "$bin" scene --out "$work/scene" --size 64 >&2
+    data=$work/scene/$data
+    downscale=1
+  fi
+}

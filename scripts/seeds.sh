@@ -21,12 +21,7 @@ case $data in room | llff) ;; *) data=$(realpath "$data") ;; esac
 iters=$2
 shift 2
 . "$(dirname "$0")/lib.sh"
-downscale=8
-if [ "$data" = room ] || [ "$data" = llff ]; then
-  "$bin" scene --out "$work/scene" --size 64 >&2
-  data=$work/scene/$data
-  downscale=1
-fi
+builtin_capture
 out_csv=docs/seeds.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,seed,steps,psnr,ssim,dark_steps" > "$out_csv"
 for seed in "$@"; do

@@ -180,7 +180,6 @@ pub struct LossConfig {
     /// coordinate (even in `t` within the bounds, in `1/t` beyond them in an
     /// unbounded scene): it pulls each ray's weight into one short stretch,
     /// clearing the fog and floaters a capture with surroundings grows.
-    /// It applies from step [`DISTORTION_FROM_STEP`](crate::train::DISTORTION_FROM_STEP) on.
     pub distortion: f32,
     /// Weight μ of an L1 penalty on the optical depth (0: off), added to
     /// the mean squared colour error as `μ · mean over rays of Σᵢ

@@ -15,12 +15,6 @@ struct Priors<'a> {
     density_l1: f32,
 }
 
-/// The step from which the distortion loss applies: the field's first
-/// steps are a fog the photos have not yet placed, and the loss's pull on
-/// the whole ray's weight could empty it (docs/EXPERIMENTS.md, "A field
-/// gone dark").
-pub const DISTORTION_FROM_STEP: u64 = 64;
-
 /// The photos' colour corrections and their gradient, which
 /// [`loss_gradients`] adds to.
 struct Corrections<'a> {
@@ -93,12 +87,8 @@ impl Trainer {
     /// the photos' colour corrections, their gradient summed into `ws.dapp`.
     pub(super) fn colour_loss(&self, rays: &[Sample], scale: f32, ws: &mut Workspace, fine: bool) -> f64 {
         let c = &self.cfg;
-        let priors = Priors {
-            distortion: if self.step < DISTORTION_FROM_STEP { 0.0 } else { c.loss.distortion },
-            mid: &ws.s_mid,
-            width: &ws.s_width,
-            density_l1: c.loss.density_l1,
-        };
+        let priors =
+            Priors { distortion: c.loss.distortion, mid: &ws.s_mid, width: &ws.s_width, density_l1: c.loss.density_l1 };
         let corr = self.appearance.as_ref().map(|a| Corrections { params: &a.params, grad: &mut ws.dapp });
         let (acts, w) = if fine { (&ws.acts_f, &mut ws.w_f) } else { (&ws.acts_c, &mut ws.w_c) };
         loss_gradients(rays, &ws.offs, scale, acts, &ws.delta, priors, corr, w, &mut ws.dw, &mut ws.dsig, &mut ws.drgb)

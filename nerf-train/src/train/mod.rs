@@ -53,7 +53,6 @@ use average::average_into;
 pub use batch::*;
 pub use calibrate::*;
 pub use checkpoint::*;
-pub use loss::DISTORTION_FROM_STEP;
 use pool::GradPool;
 
 /// Statistics of one optimisation step.
