@@ -301,11 +301,7 @@ fn the_optical_depth_penalty_empties_the_space_the_photos_leave_free() {
             c.loss.density_l1 = density_l1;
         });
         let mut tr = Trainer::new(cfg, data.scene, 1, 3);
-        let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
-        for i in 0..80 {
-            tr.train_step(&data, i as f64 / 80.0);
-        }
-        let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
+        let (first, last) = support::loss_before_and_after(&mut tr, &data, 80);
         let sigma = densities(&tr, 7).concat();
         let mean = sigma.iter().sum::<f32>() / sigma.len() as f32;
         println!("density_l1 {density_l1}: loss {first:.4} -> {last:.4}, mean density {mean:.3}");
@@ -335,11 +331,7 @@ fn a_field_left_without_density_anywhere_grows_back() {
     tr.params[w].fill(0.0);
     tr.params[b] = -0.5;
     assert!(densities(&tr, 7).concat().iter().all(|&s| s == 0.0));
-    let first: f32 = (0..3).map(|_| tr.train_step(&data, 0.0).loss).sum::<f32>() / 3.0;
-    for i in 0..80 {
-        tr.train_step(&data, i as f64 / 80.0);
-    }
-    let last: f32 = (0..3).map(|_| tr.train_step(&data, 1.0).loss).sum::<f32>() / 3.0;
+    let (first, last) = support::loss_before_and_after(&mut tr, &data, 80);
     let sigma = densities(&tr, 7).concat();
     let dense = sigma.iter().filter(|&&s| s > 0.0).count();
     println!("loss {first:.4} -> {last:.4}; {dense} of {} points with density", sigma.len());

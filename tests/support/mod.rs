@@ -74,18 +74,30 @@ pub fn render(model: &Model<'_>, camera: &Camera) -> Vec<[f32; 3]> {
     render_view(model, RenderOptions::from_model(model), camera).expect("render").rgb
 }
 
-/// Trains `tr` 120 steps on `data` (progress running from 0 to 1) and
+/// Trains `tr` on `data`: three steps at progress 0, `steps` steps with
+/// progress running from 0 to 1, three at 1; returns the mean loss of the
+/// first three and of the last three.
+pub fn loss_before_and_after(
+    tr: &mut nerf_train::train::Trainer,
+    data: &nerf_train::dataset::Dataset,
+    steps: usize,
+) -> (f32, f32) {
+    let first: f32 = (0..3).map(|_| tr.train_step(data, 0.0).loss).sum::<f32>() / 3.0;
+    for i in 0..steps {
+        tr.train_step(data, i as f64 / steps as f64);
+    }
+    let last: f32 = (0..3).map(|_| tr.train_step(data, 1.0).loss).sum::<f32>() / 3.0;
+    (first, last)
+}
+
+/// Trains `tr` 120 steps on `data` ([`loss_before_and_after`]) and
 /// checks that the loss, the mean of three steps, falls to less than half
 /// from the first steps to the last; returns both.
 pub fn train_until_the_loss_halves(
     tr: &mut nerf_train::train::Trainer,
     data: &nerf_train::dataset::Dataset,
 ) -> (f32, f32) {
-    let first: f32 = (0..3).map(|_| tr.train_step(data, 0.0).loss).sum::<f32>() / 3.0;
-    for i in 0..120 {
-        tr.train_step(data, i as f64 / 120.0);
-    }
-    let last: f32 = (0..3).map(|_| tr.train_step(data, 1.0).loss).sum::<f32>() / 3.0;
+    let (first, last) = loss_before_and_after(tr, data, 120);
     println!("loss {first:.4} -> {last:.4}");
     assert!(last < 0.5 * first, "loss did not fall: {first} -> {last}");
     (first, last)
