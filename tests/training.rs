@@ -14,6 +14,20 @@ use nerf_train::train::{Draw, Trainer};
 use support::small_config;
 
 #[test]
+fn a_checkpoint_keeps_its_scenes_unbounded_space() {
+    let scene = nerf_infer::format::Scene {
+        unbounded: Some(nerf_infer::format::Unbounded { linear_until: 2.5 }),
+        far: 2500.0,
+        ..support::unit_scene()
+    };
+    let tr = Trainer::new(small_config(), scene, 1, 1);
+    let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
+    // a resumed run marches and contracts its rays as the run it continues
+    assert_eq!(back.scene, scene);
+    assert_eq!(back.scene.unbounded, scene.unbounded);
+}
+
+#[test]
 fn loss_falls_and_the_exported_model_renders_the_scene() {
     let d = support::TestDir::new("train-test");
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();
@@ -29,6 +43,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     assert_eq!(back.params, tr.params);
     assert_eq!(back.step, tr.step);
+    assert_eq!(back.scene, tr.scene);
     // the exported model renders a validation view far better than a constant
     let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();

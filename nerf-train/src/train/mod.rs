@@ -97,7 +97,8 @@ pub fn network_seed(seed: u64, k: usize) -> u64 {
 pub struct Trainer {
     /// The configuration.
     pub cfg: TrainConfig,
-    /// The scene (bounds, near/far, background).
+    /// The scene (bounds, near/far, background, unbounded space).
+    #[serde(with = "checkpoint::scene_in_full")]
     pub scene: Scene,
     /// Dataset downscale the run trains at.
     pub downscale: u32,
