@@ -104,6 +104,7 @@ fn scene_from(path: &Path, t: &Transforms, d: SceneDefaults) -> Result<Scene, Da
         convention: CameraConvention::OpenGl,
         ndc: None,
         unbounded: None,
+        focus: None,
     };
     let ok =
         s.near.is_finite() && s.far.is_finite() && s.near >= 0.0 && s.near < s.far && (0..3).all(|i| lo[i] < hi[i]);
