@@ -3,7 +3,8 @@
 # `nerf scene --size 64`, then for each seed the scene on black trained
 # LENGTH with `--scene object` and no other flag, and the room trained
 # LENGTH with each configuration (the default with the configuration's
-# fields on top, as `--config` takes them), every model scored on the
+# fields on top, as `--config` takes them; a configuration that starts
+# with `-` is a flag of `nerf train` instead), every model scored on the
 # held-out views rendered as the model says (`nerf eval --save`) and split
 # by scripts/region_psnr.py into the object's pixels (those not black in
 # the view on black) and the rest. LENGTH is a number of steps, or with an
@@ -15,10 +16,10 @@
 #
 #   scripts/room_region.sh LENGTH SEEDS CONFIG_JSON...
 #   scripts/room_region.sh 5m 0 '{}' '{"feature_max_res": 1024}'
-#   scripts/room_region.sh 2000 0,1,2,3 '{}' '{"focus_zoom": 1}'
+#   scripts/room_region.sh 2000 0,1,2,3 '{}' '--focus-zoom 1'
 set -euo pipefail
 if [ $# -lt 3 ]; then
-  sed -n '16,18p' "$0" | sed 's/^# \{0,1\}//' >&2
+  sed -n '17,19p' "$0" | sed 's/^# \{0,1\}//' >&2
   exit 2
 fi
 length=$1
@@ -33,14 +34,17 @@ out_csv=docs/room_region.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,configuration,minutes,steps,psnr,object_psnr,rest_psnr,all_psnr,seed" \
   > "$out_csv"
 "$bin" scene --out "$work/scene" --size 64 >&2
-# run NAME DATA CONFIG_JSON SEED FLAGS...: trains and saves the held-out renders ($work/NAME)
+# run NAME DATA CONFIG SEED FLAGS...: trains and saves the held-out renders ($work/NAME)
 run() {
   local name=$1 data=$2 config=$3 seed=$4; shift 4
-  local out="$work/$name"
+  local out="$work/$name" flags=()
   mkdir -p "$out"
-  echo "$config" > "$out/config.json"
+  case $config in
+    -*) read -r -a flags <<< "$config"; echo '{}' > "$out/config.json" ;;
+    *) echo "$config" > "$out/config.json" ;;
+  esac
   echo "== $name $config" >&2
-  "$bin" train --data "$data" "${budget[@]}" --seed "$seed" --out "$out" --config "$out/config.json" "$@" >&2
+  "$bin" train --data "$data" "${budget[@]}" --seed "$seed" --out "$out" --config "$out/config.json" "${flags[@]}" "$@" >&2
   "$bin" eval "$out/model.nerf" --data "$data" --split val --save "$out/save" "$@" > "$out/eval.json"
 }
 # row CAPTURE CONFIG RUN_DIR SEED: appends the run's row, its regions scored against the seed's view on black

@@ -11,7 +11,7 @@ pub const SECTIONS: [&str; 6] = ["model", "features", "sampling", "grid", "optim
 
 /// Each field's flat name (a `--config` file without sections), its
 /// section and its name there.
-pub const FLAT_NAMES: [(&str, &str, &str); 43] = [
+pub const FLAT_NAMES: [(&str, &str, &str); 42] = [
     ("pos_freqs", "model", "pos_freqs"),
     ("dir_freqs", "model", "dir_freqs"),
     ("include_input", "model", "include_input"),
@@ -36,7 +36,6 @@ pub const FLAT_NAMES: [(&str, &str, &str); 43] = [
     ("chunk_rays", "sampling", "chunk_rays"),
     ("random_background", "sampling", "random_background"),
     ("pixel_jitter", "sampling", "pixel_jitter"),
-    ("focus_zoom", "sampling", "focus_zoom"),
     ("grid_res", "grid", "res"),
     ("grid_warmup", "grid", "warmup"),
     ("grid_every", "grid", "every"),

@@ -38,7 +38,6 @@ impl TrainConfig {
                 chunk_rays: 32,
                 random_background: 0.0,
                 pixel_jitter: false,
-                focus_zoom: crate::dataset::fit::FOCUS_ZOOM,
             },
             grid: GridConfig { res: 0, warmup: 256, every: 16, alpha: 0.01 },
             optimiser: OptimiserConfig {

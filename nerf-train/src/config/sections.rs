@@ -108,12 +108,6 @@ pub struct SamplingConfig {
     /// [`TrainConfig::PROPOSAL_RENDER_MAIN`] where it turns the proposal grid
     /// on, unless the configuration names it or `n_main`.
     pub n_main_render: u16,
-    /// Unbounded scenes: how many times wider, along each axis, the
-    /// contraction makes the object box inside the bounds (`1.0..=8.0`;
-    /// 1: the plain contraction), the rest of the bounds squeezed to make
-    /// room ([`crate::dataset::fit::stretch_focus`],
-    /// [`nerf_infer::format::Focus`]). 2 in every preset.
-    pub focus_zoom: f32,
 }
 
 /// The occupancy grid that keeps samples only in occupied cells, and its

@@ -48,9 +48,6 @@ impl TrainConfig {
                 )));
             }
         }
-        if !(1.0..=8.0).contains(&self.sampling.focus_zoom) {
-            return Err(Error::Config(format!("sampling.focus_zoom {} must be 1..=8", self.sampling.focus_zoom)));
-        }
         if self.sampling.batch_rays == 0 || self.sampling.chunk_rays == 0 {
             return Err(Error::Config("sampling.batch_rays and sampling.chunk_rays must be positive".into()));
         }

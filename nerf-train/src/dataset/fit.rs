@@ -39,8 +39,8 @@ use glam::{DMat3, DVec3};
 use nerf_infer::format::{CameraConvention, Focus, Scene, Unbounded};
 
 /// How many times wider along each axis an unbounded scene's contraction
-/// makes the object box ([`stretch_focus`]; `sampling.focus_zoom` of
-/// every preset).
+/// makes the object box unless told otherwise ([`stretch_focus`];
+/// `LoadOptions::focus_zoom`, `nerf train --focus-zoom`).
 pub const FOCUS_ZOOM: f32 = 2.0;
 
 /// Farthest `far` of an unbounded scene (fitted units: the median camera

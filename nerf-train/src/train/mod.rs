@@ -226,11 +226,8 @@ impl Workspace {
 }
 
 impl Trainer {
-    /// A new run with freshly initialised networks; the scene's focus
-    /// stretched by `cfg.sampling.focus_zoom`.
-    pub fn new(cfg: TrainConfig, mut scene: Scene, downscale: u32, seed: u64) -> Self {
-        // the scene's focus, stretched as the configuration says
-        scene.focus = scene.focus.and_then(|f| crate::dataset::fit::stretch_focus(f.from, cfg.sampling.focus_zoom));
+    /// A new run with freshly initialised networks.
+    pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
         let net = cfg.mlp();
         let init = |seed| match scene.unbounded {
             Some(_) => net.init_uniform_density(seed, UNBOUNDED_SIGMA_INIT),
