@@ -416,7 +416,10 @@ as `nerf eval` gives it (the room's models render at their default,
 the object's pixels (those that are not black in the same view on
 black: 8 131 of 28 672), over the rest, and over every pixel. "below on
 black" is the object's pixels' PSNR on black (the row of the same
-commit, length and seed) less the room's.""", t if rs else missing("room-region"))
+commit, length and seed) less the room's. The rows of `8168497` compare
+a stretch of the contraction around the object (`--focus-zoom`, 2 its
+default there, 1 the plain contraction of every other row), a build not
+kept: docs/EXPERIMENTS.md, "A capture with surroundings".""", t if rs else missing("room-region"))
 
 
 def seeds_section():

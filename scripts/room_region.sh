@@ -16,7 +16,7 @@
 #
 #   scripts/room_region.sh LENGTH SEEDS CONFIG_JSON...
 #   scripts/room_region.sh 5m 0 '{}' '{"feature_max_res": 1024}'
-#   scripts/room_region.sh 2000 0,1,2,3 '{}' '--focus-zoom 1'
+#   scripts/room_region.sh 2000 0,1,2,3 '{}' '--preset fast'
 set -euo pipefail
 if [ $# -lt 3 ]; then
   sed -n '17,19p' "$0" | sed 's/^# \{0,1\}//' >&2

@@ -49,7 +49,7 @@ fn a_proposal_model_renders_alike_in_both_numeric_paths() {
     for seed in [5, 6] {
         let bytes = ball_model(unit_scene(), seed).to_bytes().unwrap();
         let m32 = Model::from_bytes(&bytes).unwrap();
-        assert_eq!(m32.format_version(), nerf_infer::format::FORMAT_VERSION_NO_FOCUS);
+        assert_eq!(m32.format_version(), nerf_infer::format::FORMAT_VERSION);
         assert_eq!((m32.samples.coarse, m32.samples.fine), (64, 24));
         let q = quantise(&m32, Scheme::I16).unwrap().to_bytes().unwrap();
         let m16 = Model::from_bytes(&q).unwrap();

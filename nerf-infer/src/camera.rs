@@ -136,8 +136,6 @@ pub struct Ray {
     /// Unbounded scenes: [`crate::format::Unbounded::linear_until`] (positions are
     /// contracted and samples spaced as [`crate::unbounded`] says); `None` otherwise.
     pub linear_until: Option<f32>,
-    /// Unbounded scenes with a [`crate::format::Focus`]: the contraction's stretch.
-    pub warp: Option<unbounded::Warp>,
     /// With a pixel footprint ([`Ray::with_footprint`]): the offsets per
     /// unit of `t`, in normalised coordinates (before any contraction), of
     /// the footprint's points `ρ·t·(cos θₘ·u + sin θₘ·v)`, `θₘ = 2πm/3`;
@@ -180,8 +178,7 @@ impl Ray {
                 (t0.min(t1).max_element().max(scene.near), t0.max(t1).min_element().min(scene.far))
             }
         };
-        let warp = scene.focus.filter(|_| linear_until.is_some()).map(|f| unbounded::Warp::new(&f));
-        let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far, linear_until, warp, foot: None };
+        let r = Self { norm_origin, norm_dir, viewdir, dir_len: d.length(), near, far, linear_until, foot: None };
         let ok = r.norm_origin.is_finite() && r.norm_dir.is_finite() && r.dir_len.is_finite();
         (ok && near < far).then_some(r)
     }
@@ -220,9 +217,7 @@ impl Ray {
         let foot = self.foot?;
         let p = self.norm_origin + t * self.norm_dir;
         let pts = foot.map(|f| p + t * f);
-        Some(pts.map(|q| {
-            if self.linear_until.is_some() { unbounded::contract_f32(q, self.warp.as_ref()) } else { q }.to_array()
-        }))
+        Some(pts.map(|q| if self.linear_until.is_some() { unbounded::contract_f32(q) } else { q }.to_array()))
     }
 
     /// Normalised position at parameter `t` (contracted in an unbounded scene).
@@ -230,7 +225,7 @@ impl Ray {
     pub fn at(&self, t: f32) -> Vec3 {
         let p = self.norm_origin + t * self.norm_dir;
         if self.linear_until.is_some() {
-            unbounded::contract_f32(p, self.warp.as_ref())
+            unbounded::contract_f32(p)
         } else {
             p
         }

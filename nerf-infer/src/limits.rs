@@ -6,10 +6,8 @@ pub const MAGIC: [u8; 4] = *b"NERF";
 /// The eight bytes a training checkpoint starts with (`nerf_train`'s,
 /// framed as a model is); the model reader names such a file.
 pub const CHECKPOINT_MAGIC: [u8; 8] = *b"NERFCKPT";
-/// The newest format version this build reads and writes (it reads 1 to 11 too).
-pub const FORMAT_VERSION: u16 = 12;
-/// The version of models without a focus.
-pub const FORMAT_VERSION_NO_FOCUS: u16 = 11;
+/// The newest format version this build reads and writes (it reads 1 to 10 too).
+pub const FORMAT_VERSION: u16 = 11;
 /// The version of models without a proposal grid.
 pub const FORMAT_VERSION_NO_PROPOSAL: u16 = 10;
 /// The version of models without a pixel footprint.

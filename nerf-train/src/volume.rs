@@ -317,7 +317,6 @@ mod tests {
             convention: nerf_infer::format::CameraConvention::OpenGl,
             ndc: None,
             unbounded: None,
-            focus: None,
         };
         let ray = nerf_infer::camera::Ray::new(&scene, glam::Vec3::new(0.0, 0.0, 4.0), glam::Vec3::NEG_Z).unwrap();
         // the box from t = 3 to 5

@@ -47,8 +47,7 @@ pub fn run(a: Args) -> CmdResult {
         "scheme": format!("{:?}", m.scheme()),
         "scene": { "bounds_min": m.scene.bounds_min, "bounds_max": m.scene.bounds_max, "near": m.scene.near, "far": m.scene.far,
                    "white_background": m.scene.white_background, "ndc": m.scene.ndc.is_some(),
-                   "unbounded": m.scene.unbounded.map(|u| serde_json::json!({ "linear_until": u.linear_until })),
-                   "focus": m.scene.focus.map(|f| serde_json::json!({ "from": f.from, "to": f.to })) },
+                   "unbounded": m.scene.unbounded.map(|u| serde_json::json!({ "linear_until": u.linear_until })) },
         "encoding": { "pos_freqs": m.encoding.pos_freqs, "dir_freqs": m.encoding.dir_freqs, "include_input": m.encoding.include_input, "raw_frac_bits": m.encoding.raw_frac_bits },
         "topology": { "depth": m.topology.depth, "width": m.topology.width, "skips": (1..16).filter(|&i| m.topology.is_skip(i)).collect::<Vec<_>>(),
                       "view_dependent": m.topology.view_dependent, "view_width": m.topology.view_width },
@@ -123,15 +122,6 @@ pub fn run(a: Args) -> CmdResult {
             _ => String::new(),
         }
     );
-    if let Some(f) = m.scene.focus {
-        let axes = (0..3)
-            .map(|k| format!("{:.2}..{:.2} -> {:.2}..{:.2}", f.from[k][0], f.from[k][1], f.to[k][0], f.to[k][1]))
-            .collect::<Vec<_>>();
-        println!(
-            "  focus: the contraction stretches the object box (bounds normalised to -1..1) x {}, y {}, z {}",
-            axes[0], axes[1], axes[2]
-        );
-    }
     match m.grid {
         Some(g) => {
             let cells = (g.res as usize).pow(3);

@@ -116,11 +116,6 @@ pub struct CaptureArgs {
     /// that registers the most images].
     #[arg(long, value_name = "N")]
     pub sparse_model: Option<u32>,
-    /// Unbounded scenes: how many times wider along each axis the contraction makes the object box inside the
-    /// bounds (the bounds hold the cameras too), the rest of the bounds squeezed to make room; 1: the plain
-    /// contraction. The model records the result; eval and render read it from the model [default: 2]
-    #[arg(long, value_name = "1..=8", value_parser = num_in(1.0f32, 8.0))]
-    pub focus_zoom: Option<f32>,
 }
 
 /// The hold-out `--llffhold` defaults to.
@@ -137,7 +132,7 @@ impl CaptureArgs {
             // absent from runs made before the flag, so that they resume
             if self.undistort { ", undistort: true" } else { "" },
             self.sparse_model.map(|n| format!(", sparse_model: {n}")).unwrap_or_default()
-        ) + &self.focus_zoom.map(|z| format!(" --focus-zoom {z}")).unwrap_or_default()
+        )
     }
 
     /// These flags completed from what `model` (read from `path`) records of
@@ -197,7 +192,6 @@ pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs
         lens: !capture.ignore_distortion,
         undistort: capture.undistort,
         sparse_model: capture.sparse_model,
-        focus_zoom: capture.focus_zoom.unwrap_or(dataset::fit::FOCUS_ZOOM),
     };
     let data = dataset::load(dir, split, opts).map_err(|e| e.to_string())?;
     for n in &data.notes {

@@ -1,11 +1,11 @@
-//! The model file format (versions 1 to 12). The full layout is in `FORMAT.md`.
+//! The model file format (versions 1 to 10). The full layout is in `FORMAT.md`.
 //!
 //! A model is a 14-byte header followed by a postcard payload:
 //!
 //! | offset | size | field                                   |
 //! |--------|------|-----------------------------------------|
 //! | 0      | 4    | magic `b"NERF"`                          |
-//! | 4      | 2    | format version, u16 little-endian (1–12) |
+//! | 4      | 2    | format version, u16 little-endian (1–10) |
 //! | 6      | 4    | payload length in bytes, u32 LE         |
 //! | 10     | 4    | CRC-32 (IEEE) of the payload, u32 LE    |
 //! | 14     | n    | payload: [`Model`] in postcard encoding |
@@ -18,11 +18,8 @@
 //! stored as 8- or 4-bit codebook indices ([`NarrowTable`]); version 8 the
 //! density heads at 16 bits ([`PreciseDensity`]); version 9 the orbit fitted
 //! to the training cameras ([`FittedOrbit`]); version 10 the features
-//! averaged over each sample's pixel footprint ([`Footprint`]); version 11
-//! the proposal grid ([`Proposal`]); version 12 the focus of an unbounded
-//! scene's contraction ([`Focus`]). A model is
-//! written as the oldest version that holds it (no focus: 11; no proposal
-//! grid: 10; no footprint: 9; no fitted orbit: 8; no 16-bit density head: 7; no narrow
+//! averaged over each sample's pixel footprint ([`Footprint`]). A model is
+//! written as the oldest version that holds it (no footprint: 9; no fitted orbit: 8; no 16-bit density head: 7; no narrow
 //! table either: 6; no 16-bit parts
 //! either: 5; not
 //! unbounded either: 4; no capture record
@@ -49,8 +46,8 @@ pub use layers::{
     expected_shape, prunable, pruned_shape, sigma_layer, Layer, Network, Precise, PreciseDensity, PreciseNet,
 };
 pub use records::{
-    CameraConvention, Capture, Encoding, FittedOrbit, Focus, Footprint, Framing, Meta, Ndc, Samples, Scene, Scheme,
-    Topology, Unbounded,
+    CameraConvention, Capture, Encoding, FittedOrbit, Footprint, Framing, Meta, Ndc, Samples, Scene, Scheme, Topology,
+    Unbounded,
 };
 
 use crate::error::{Error, Result};
@@ -61,10 +58,9 @@ use serde::{Deserialize, Serialize};
 
 pub use crate::limits::{
     max_coarse, CHECKPOINT_MAGIC, FORMAT_VERSION, FORMAT_VERSION_NO_CAPTURE, FORMAT_VERSION_NO_DENSITY16,
-    FORMAT_VERSION_NO_FEATURES, FORMAT_VERSION_NO_FOCUS, FORMAT_VERSION_NO_FOOTPRINT, FORMAT_VERSION_NO_GRID,
-    FORMAT_VERSION_NO_NARROW, FORMAT_VERSION_NO_ORBIT, FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_PROPOSAL,
-    FORMAT_VERSION_NO_UNBOUNDED, HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_MARCH,
-    MAX_WIDTH,
+    FORMAT_VERSION_NO_FEATURES, FORMAT_VERSION_NO_FOOTPRINT, FORMAT_VERSION_NO_GRID, FORMAT_VERSION_NO_NARROW,
+    FORMAT_VERSION_NO_ORBIT, FORMAT_VERSION_NO_PRECISE, FORMAT_VERSION_NO_PROPOSAL, FORMAT_VERSION_NO_UNBOUNDED,
+    HEADER_LEN, MAGIC, MAX_COARSE, MAX_FINE, MAX_FREQS, MAX_INPUT, MAX_LAYERS, MAX_MARCH, MAX_WIDTH,
 };
 pub use crate::tensor::{read_f32, read_i16, read_i32};
 
@@ -125,9 +121,6 @@ pub struct Model<'a> {
     /// `samples.fine` samples drawn from its weights and the last stratified one.
     #[serde(borrow)]
     pub proposal: Option<Proposal<'a>>,
-    /// The part of an unbounded scene's bounds its contraction stretches
-    /// (format version 12), the same as `scene.focus`.
-    pub focus: Option<Focus>,
 }
 
 impl<'a> Model<'a> {
@@ -140,7 +133,6 @@ impl<'a> Model<'a> {
         de.finalize().map_err(|_| Error::Decode)?;
         model.encoding.grid_dim = model.features.as_ref().map_or(0, |f| f.dim() as u8);
         model.scene.unbounded = model.unbounded;
-        model.scene.focus = model.focus;
         if let Some(f) = &mut model.features {
             f.narrow = model.narrow;
         }
@@ -205,16 +197,14 @@ impl<'a> Model<'a> {
             .sum()
     }
 
-    /// The format version this model is written as: 12 with a focus, 11
-    /// with a proposal grid, 10 with a pixel footprint, 9 with a fitted orbit,
+    /// The format version this model is written as: 11 with a proposal
+    /// grid, 10 with a pixel footprint, 9 with a fitted orbit,
     /// 8 with 16-bit density heads, 7 with a narrow feature table, 6 with 16-bit parts, 5 with
     /// unbounded space, 4 with a capture record, 3 with a feature grid, 2
     /// with an occupancy grid or pruned layers, else 1.
     pub fn format_version(&self) -> u16 {
-        if self.focus.is_some() {
+        if self.proposal.is_some() {
             FORMAT_VERSION
-        } else if self.proposal.is_some() {
-            FORMAT_VERSION_NO_FOCUS
         } else if self.footprint.is_some() {
             FORMAT_VERSION_NO_PROPOSAL
         } else if self.orbit.is_some() {

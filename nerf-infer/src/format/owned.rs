@@ -182,7 +182,6 @@ impl OwnedModel {
             orbit: self.orbit,
             footprint: self.footprint,
             proposal: self.proposal.as_ref().map(|(p, codes)| Proposal { codes, ..*p }),
-            focus: self.scene.focus,
         };
         to_bytes(&m)
     }

@@ -79,11 +79,6 @@ pub struct Scene {
     /// when a model is decoded.
     #[serde(skip)]
     pub unbounded: Option<Unbounded>,
-    /// The part of an unbounded scene's bounds its contraction stretches
-    /// (format version 12). Not stored here: set from
-    /// [`Model::focus`](super::Model::focus) when a model is decoded.
-    #[serde(skip)]
-    pub focus: Option<Focus>,
 }
 
 impl Scene {
@@ -101,7 +96,6 @@ impl Scene {
             convention: CameraConvention::OpenGl,
             ndc: None,
             unbounded: None,
-            focus: None,
         }
     }
 
@@ -128,37 +122,6 @@ pub struct Unbounded {
     /// spacing turns from even in `t` to even in `1/t`: a sample at `s ∈
     /// [0, 1)` sits at `t = 2Ts` below `s = 1/2` and at `T/(2(1 − s))` above.
     pub linear_until: f32,
-}
-
-/// The part of an unbounded scene's bounds that its contraction gives
-/// more of the grid ([`crate::unbounded`]): along each axis `a` the
-/// normalised interval `from[a]` (bounds ↦ `[−1, 1]`) is stretched onto
-/// `to[a]`, and the rest of `[−1, 1]` squeezed linearly onto what is left
-/// (a piecewise-linear map `W` through `(−1, −1)`, `from`↦`to`, `(1, 1)`).
-/// Inside the bounds a position `u` enters the grid as `W(u)/2`; beyond
-/// them the map fades as `1/m`. Each interval lies strictly inside
-/// `(−1, 1)` with its ends increasing, and each piece of `W` has a slope
-/// within `1/64..=64`.
-#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq)]
-pub struct Focus {
-    /// Per axis (x, y, z), the interval of the normalised bounds stretched.
-    pub from: [[f32; 2]; 3],
-    /// Per axis, the interval it is stretched onto.
-    pub to: [[f32; 2]; 3],
-}
-
-impl Focus {
-    /// Whether every interval is finite, strictly inside `(−1, 1)` and
-    /// increasing, and every slope of the map within `1/64..=64`.
-    pub fn is_valid(&self) -> bool {
-        let inside = |&[a, b]: &[f32; 2]| a.is_finite() && b.is_finite() && -1.0 < a && a < b && b < 1.0;
-        let slope = |s: f32| (1.0 / 64.0..=64.0).contains(&s);
-        self.from.iter().chain(&self.to).all(inside)
-            && (0..3).all(|k| {
-                let ([a, b], [c, d]) = (self.from[k], self.to[k]);
-                slope((c + 1.0) / (a + 1.0)) && slope((d - c) / (b - a)) && slope((1.0 - d) / (1.0 - b))
-            })
-    }
 }
 
 /// Features averaged over each sample's pixel footprint (format version

@@ -242,35 +242,3 @@ fn narrow_tables_are_version_7_and_checked() {
     f.coarse.scheme = Scheme::F32;
     assert!(matches!(f.validate(), Err(Error::InvalidEncoding(s)) if s.contains("f32")));
 }
-
-/// A focus makes a version-12 file that decodes to the same model; a
-/// version-5 unbounded file without one re-encodes byte for byte; a focus
-/// outside the bounds, with too steep a stretch, or in a bounded scene is
-/// refused.
-#[cfg(feature = "alloc")]
-#[test]
-fn a_focus_is_version_12_and_checked() {
-    let golden = include_bytes!("../../tests/data/golden.nerf");
-    let mut m = Model::from_bytes(golden).unwrap();
-    let unbounded = Some(Unbounded { linear_until: 0.5 * m.scene.far });
-    (m.unbounded, m.scene.unbounded) = (unbounded, unbounded);
-    let plain = to_bytes(&m).unwrap();
-    assert_eq!(m.format_version(), FORMAT_VERSION_NO_PRECISE);
-    let f = Focus { from: [[-0.3, 0.2], [-0.2, 0.2], [-0.9, -0.4]], to: [[-0.6, 0.4], [-0.4, 0.4], [-0.95, 0.0]] };
-    let focused = Model { focus: Some(f), scene: Scene { focus: Some(f), ..m.scene }, ..m.clone() };
-    let bytes = to_bytes(&focused).unwrap();
-    assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 12);
-    assert_eq!(Model::from_bytes(&bytes).unwrap(), focused);
-    assert_eq!(to_bytes(&Model::from_bytes(&plain).unwrap()).unwrap(), plain);
-    let refused = |f: Focus, unbounded: Option<Unbounded>| {
-        let bad =
-            Model { focus: Some(f), unbounded, scene: Scene { focus: Some(f), unbounded, ..m.scene }, ..m.clone() };
-        matches!(Model::from_bytes(&encode(&bad).unwrap()), Err(Error::InvalidScene(_)))
-    };
-    assert!(!refused(f, unbounded));
-    assert!(refused(f, None), "a focus in a bounded scene");
-    assert!(refused(Focus { to: [[-1.0, 0.4], [-0.4, 0.4], [-0.95, 0.0]], ..f }, unbounded), "an end at -1");
-    assert!(refused(Focus { from: [[0.3, 0.2], [-0.2, 0.2], [-0.9, -0.4]], ..f }, unbounded), "a reversed interval");
-    assert!(refused(Focus { from: [[-0.001, 0.001], [-0.2, 0.2], [-0.9, -0.4]], ..f }, unbounded), "a slope of 500");
-    assert!(refused(Focus { to: [[f32::NAN, 0.4], [-0.4, 0.4], [-0.95, 0.0]], ..f }, unbounded));
-}

@@ -30,14 +30,6 @@ impl Model<'_> {
                 return Err(Error::InvalidScene("unbounded space needs 0 < linear_until < far and no NDC"));
             }
         }
-        if s.focus != self.focus {
-            return Err(Error::InvalidScene("scene.focus differs from the model's focus field"));
-        }
-        if let Some(f) = s.focus {
-            if s.unbounded.is_none() || !f.is_valid() {
-                return Err(Error::InvalidScene("a focus needs unbounded space and intervals inside (-1, 1)"));
-            }
-        }
         if let Some(n) = s.ndc {
             let finite = n.focal.is_finite() && n.width.is_finite() && n.height.is_finite();
             if !(finite && n.focal > 0.0 && n.width >= 1.0 && n.height >= 1.0) {

@@ -18,7 +18,7 @@ use crate::network::{check_i8_headroom, Fixed, W16, W8};
 use crate::occupancy::{CoarseOccupancy, Occupancy};
 use crate::proposal::Proposal;
 use crate::sampling::{sample_pdf_fixed, stratified_fixed, stratified_fixed_from};
-use crate::unbounded::{contract_q24, s_of_t_q30, t_of_s_q16, WarpQ24};
+use crate::unbounded::{contract_q24, s_of_t_q30, t_of_s_q16};
 use glam::Vec3;
 
 /// A ray in the fixed-point path's formats.
@@ -31,7 +31,6 @@ pub struct RayFixed {
     near: i32,                                  // Q16
     far: i32,                                   // Q16
     linear_until: Option<i32>,                  // Q16: unbounded scene (contracted positions, spaced samples)
-    warp: Option<WarpQ24>,                      // the contraction's stretch (a scene with a focus)
     foot: Option<[[i32; 3]; FOOTPRINT_POINTS]>, // Q24 normalised per unit t: the footprint's offsets
 }
 
@@ -46,7 +45,6 @@ impl RayFixed {
             near: to_fixed(r.near, POS_FRAC),
             far: to_fixed(r.far, POS_FRAC),
             linear_until: r.linear_until.map(|t| to_fixed(t, POS_FRAC).max(1)),
-            warp: r.warp.as_ref().map(WarpQ24::new),
             foot: r.foot.map(|f| f.map(q24)),
         }
     }
@@ -62,7 +60,7 @@ impl RayFixed {
             foot.map(|f| core::array::from_fn(|c| p[c] + shr_round_i64(t as i64 * f[c] as i64, POS_FRAC)));
         Some(pts.map(|u| match self.linear_until {
             None => u.map(sat_i32),
-            Some(_) => contract_q24(u, self.warp.as_ref()),
+            Some(_) => contract_q24(u),
         }))
     }
 
@@ -73,7 +71,7 @@ impl RayFixed {
             core::array::from_fn(|c| self.origin[c] as i64 + shr_round_i64(t as i64 * self.dir[c] as i64, POS_FRAC));
         match self.linear_until {
             None => u.map(sat_i32),
-            Some(_) => contract_q24(u, self.warp.as_ref()),
+            Some(_) => contract_q24(u),
         }
     }
 
@@ -320,7 +318,6 @@ mod tests {
                 near,
                 far,
                 linear_until: None,
-                warp: None,
                 foot: None,
             };
             stratified_fixed(near, far, key, &mut full[..n]);

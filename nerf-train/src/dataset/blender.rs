@@ -104,7 +104,6 @@ fn scene_from(path: &Path, t: &Transforms, d: SceneDefaults) -> Result<Scene, Da
         convention: CameraConvention::OpenGl,
         ndc: None,
         unbounded: None,
-        focus: None,
     };
     let ok =
         s.near.is_finite() && s.far.is_finite() && s.near >= 0.0 && s.near < s.far && (0..3).all(|i| lo[i] < hi[i]);
@@ -195,7 +194,6 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         select,
         downscale: opts.downscale,
         kind: opts.scene,
-        focus_zoom: opts.focus_zoom,
         lens: opts.lens,
         undistort: opts.undistort,
         white_background: t.white_background.unwrap_or(false),

@@ -59,9 +59,6 @@ pub struct CaptureOptions {
     pub downscale: u32,
     /// Scene treatment (`Auto`: fitted).
     pub kind: SceneKind,
-    /// How many times wider an unbounded scene's contraction makes the
-    /// object box ([`super::fit::stretch_focus`]; 1: not at all).
-    pub focus_zoom: f32,
     /// Bend rays by each view's lens (false: treat every photo as a pinhole).
     pub lens: bool,
     /// With `lens`: resample each distorted photo to a pinhole photo once
@@ -103,8 +100,7 @@ pub fn build(
     let frame = match fixed {
         Some(s) => Frame::Fixed(s),
         None => {
-            let mut f = fit_scene(&poses, points, opts.kind);
-            f.scene.focus = f.scene.focus.and_then(|x| super::fit::stretch_focus(x.from, opts.focus_zoom));
+            let f = fit_scene(&poses, points, opts.kind);
             if f.kind == SceneKind::Forward {
                 Frame::Forward(ForwardFrame::new(&poses, opts.nearest.unwrap_or_else(|| nearest_depth(&poses, points))))
             } else {

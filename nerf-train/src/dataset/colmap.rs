@@ -126,7 +126,6 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         select: Selection::Holdout(opts.holdout),
         downscale: opts.downscale,
         kind: opts.scene,
-        focus_zoom: opts.focus_zoom,
         lens: opts.lens,
         undistort: opts.undistort,
         white_background: false,

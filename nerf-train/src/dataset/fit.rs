@@ -24,11 +24,6 @@
 //!   box is the 2nd–98th percentile extent of the sparse points inside the
 //!   camera ring (or ±0.5 without points): for captures of an object on a
 //!   black background.
-//! - An unbounded scene's contraction stretches the object box (padded as
-//!   the bounds are) inside the bounds [`FOCUS_ZOOM`] times along each axis
-//!   ([`stretch_focus`], [`nerf_infer::format::Focus`]): the bounds hold the
-//!   cameras too, and without the stretch the object gets a quarter or so of
-//!   the grid's cells across that it gets in an object scene.
 //! - Near: half the distance from a camera to the nearest things it sees
 //!   (the 1st percentile of the depths of the sparse points within 60° of
 //!   the cameras' optical axes), at most [`MAX_NEAR`] and at least [`MIN_NEAR`]; `MAX_NEAR`
@@ -36,12 +31,7 @@
 //!   camera alone and lets the model paint its photo there.
 
 use glam::{DMat3, DVec3};
-use nerf_infer::format::{CameraConvention, Focus, Scene, Unbounded};
-
-/// How many times wider along each axis an unbounded scene's contraction
-/// makes the object box unless told otherwise ([`stretch_focus`];
-/// `LoadOptions::focus_zoom`, `nerf train --focus-zoom`).
-pub const FOCUS_ZOOM: f32 = 2.0;
+use nerf_infer::format::{CameraConvention, Scene, Unbounded};
 
 /// Farthest `far` of an unbounded scene (fitted units: the median camera
 /// is 1 from the centre), well inside the fixed-point path's 30 000.
@@ -96,25 +86,6 @@ impl Fitted {
     pub fn apply(&self, pose: &Pose) -> [[f32; 4]; 3] {
         pose_rows(&(self.rotation * pose.0, self.rotation * (pose.1 - self.centre) * self.scale))
     }
-}
-
-/// The focus that stretches the normalised intervals `from` (one per axis,
-/// inside `(−1, 1)`) `zoom` times about their centres, each at most half
-/// way to filling `[−1, 1]` (the rest of the bounds keeps at least half its
-/// width) and its centre moved so the rest shrinks by the same factor on
-/// both sides; `None` when `zoom ≤ 1` or the result is not a valid
-/// [`Focus`].
-pub fn stretch_focus(from: [[f32; 2]; 3], zoom: f32) -> Option<Focus> {
-    if zoom.is_nan() || zoom <= 1.0 {
-        return None;
-    }
-    let to = from.map(|[a, b]| {
-        let (c, h) = (0.5 * (a + b), 0.5 * (b - a));
-        let h2 = (zoom * h).min(h + 0.5 * (1.0 - h)).max(h);
-        let c2 = c * (1.0 - h2) / (1.0 - h);
-        [c2 - h2, c2 + h2]
-    });
-    Some(Focus { from, to }).filter(Focus::is_valid)
 }
 
 /// `pose` as a row-major 3×4 camera-to-world matrix `[R | t]`, f32.
@@ -238,7 +209,6 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
         (lo, hi)
     };
     let (mut lo, mut hi) = if inner.len() >= 20 { extent(&inner, 0.02, 0.98) } else { ([-0.5; 3], [0.5; 3]) };
-    let object = (lo, hi);
     if kind == SceneKind::Unbounded {
         // the bounds hold the object and the cameras; the rest of space is contracted
         let cams: Vec<DVec3> = poses.iter().map(|p| to_fit(p.1)).collect();
@@ -249,21 +219,11 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
         }
     }
     // pad by 10 % of the size, at least 0.05 per side
-    let pad = |lo: &mut [f64; 3], hi: &mut [f64; 3]| {
-        for a in 0..3 {
-            let pad = (0.1 * (hi[a] - lo[a])).max(0.05);
-            lo[a] -= pad;
-            hi[a] += pad;
-        }
-    };
-    pad(&mut lo, &mut hi);
-    // the object box, padded so, in the bounds' normalised coordinates
-    let (mut olo, mut ohi) = object;
-    pad(&mut olo, &mut ohi);
-    // (an object box that reaches a face of the bounds, such as one standing on
-    // the floor of a capture taken from above it, stops a sliver short of it)
-    let norm = |a: usize, v: f64| ((2.0 * v - lo[a] - hi[a]) / (hi[a] - lo[a])).clamp(-0.99, 0.99) as f32;
-    let from: [[f32; 2]; 3] = core::array::from_fn(|a| [norm(a, olo[a]), norm(a, ohi[a])]);
+    for a in 0..3 {
+        let pad = (0.1 * (hi[a] - lo[a])).max(0.05);
+        lo[a] -= pad;
+        hi[a] += pad;
+    }
     // far: the farthest any camera can see inside the box
     let corners =
         (0..8).map(|i| DVec3::new([lo[0], hi[0]][i & 1], [lo[1], hi[1]][(i >> 1) & 1], [lo[2], hi[2]][i >> 2]));
@@ -283,7 +243,6 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
         convention: CameraConvention::OpenGl,
         ndc: None,
         unbounded,
-        focus: unbounded.and_then(|_| stretch_focus(from, FOCUS_ZOOM)),
     };
     Fitted { kind, rotation, centre, scale, scene }
 }
@@ -340,35 +299,6 @@ mod tests {
         assert_eq!(fit_scene(&poses, &pts, SceneKind::Object).kind, SceneKind::Object);
         let obj = fit_scene(&poses, &pts, SceneKind::Object);
         assert!(obj.scene.bounds_max[0] < 0.5, "the object box holds the object only: {:?}", obj.scene.bounds_max);
-        assert_eq!(obj.scene.focus, None);
-    }
-
-    #[test]
-    fn an_unbounded_scene_stretches_its_object_box() {
-        let poses = ring(12, 4.0, DVec3::ZERO);
-        // an object 1.6 capture units across at the centre
-        let pts: Vec<DVec3> = (0..1000)
-            .map(|i| DVec3::new((i % 10) as f64 / 9.0, (i / 10 % 10) as f64 / 9.0, (i / 100) as f64 / 9.0) * 1.6 - 0.8)
-            .collect();
-        let f = fit_scene(&poses, &pts, SceneKind::Auto);
-        let focus = f.scene.focus.expect("an unbounded scene has a focus");
-        let (lo, hi) = (f.scene.bounds_min, f.scene.bounds_max);
-        for k in 0..3 {
-            // `from`: the object box padded by 0.05 a side (10 % of its size is less), in the bounds normalised
-            // to [-1, 1] (a sliver short of a face it reaches: the bottom, here)
-            let norm = |v: f32| ((2.0 * v - lo[k] - hi[k]) / (hi[k] - lo[k])).clamp(-0.99, 0.99);
-            let half = (0.8 * f.scale + 0.05) as f32;
-            let [a, b] = focus.from[k];
-            assert!((a - norm(-half)).abs() < 1e-5 && (b - norm(half)).abs() < 1e-5, "axis {k}: {:?}", focus.from[k]);
-            // `to`: FOCUS_ZOOM times as wide (at most half way to the bounds), the rest shrunk alike on both sides
-            let [c, d] = focus.to[k];
-            let want = (FOCUS_ZOOM * (b - a)).min(b - a + 0.5 * (2.0 - (b - a)));
-            assert!(((d - c) - want).abs() < 1e-5, "axis {k}: {:?}", focus.to[k]);
-            assert!((((c + 1.0) / (a + 1.0)) - (1.0 - d) / (1.0 - b)).abs() < 1e-5, "axis {k}");
-        }
-        // no stretch at zoom 1, and none for scenes that are not unbounded
-        assert_eq!(stretch_focus(focus.from, 1.0), None);
-        assert_eq!(fit_scene(&poses, &pts, SceneKind::Object).scene.focus, None);
     }
 
     #[test]

@@ -18,7 +18,6 @@ pub(super) fn ndc_scene(v0: &Camera) -> Scene {
         convention: CameraConvention::OpenGl,
         ndc: Some(Ndc { focal: v0.fx, width: v0.width as f32, height: v0.height as f32 }),
         unbounded: None,
-        focus: None,
     }
 }
 

@@ -92,7 +92,6 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
         select: Selection::Holdout(opts.holdout),
         downscale: opts.downscale,
         kind: opts.scene,
-        focus_zoom: opts.focus_zoom,
         lens: false,
         undistort: false,
         white_background: false,

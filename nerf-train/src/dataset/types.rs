@@ -251,10 +251,6 @@ pub struct LoadOptions {
     /// COLMAP: the reconstruction `sparse/N` to load (`None`: the one
     /// registering the most images).
     pub sparse_model: Option<u32>,
-    /// How many times wider an unbounded scene's contraction makes the
-    /// object box inside the bounds (`1.0..=8.0`; 1: the plain
-    /// contraction; [`super::fit::stretch_focus`]).
-    pub focus_zoom: f32,
 }
 
 impl Default for LoadOptions {
@@ -267,7 +263,6 @@ impl Default for LoadOptions {
             lens: true,
             undistort: false,
             sparse_model: None,
-            focus_zoom: super::fit::FOCUS_ZOOM,
         }
     }
 }

@@ -6,7 +6,7 @@
 use nerf_infer::fixed::to_fixed;
 use nerf_infer::format::{Model, Scheme};
 use nerf_infer::network::{Block, LayerKernel, Numbers, F32, W16, W8};
-use nerf_infer::unbounded::{contract_f32, contract_q24, Warp, WarpQ24};
+use nerf_infer::unbounded::{contract_f32, contract_q24};
 use nerf_infer::Vec3;
 
 /// Samples per network call.
@@ -20,7 +20,7 @@ const SIGMA_FRAC: u32 = nerf_infer::fixed::SIGMA_FRAC;
 /// `[−1, 1]³`): `u` itself, or its contraction for unbounded scenes.
 fn net_pos(m: &Model<'_>, u: [f32; 3]) -> [f32; 3] {
     match m.unbounded {
-        Some(_) => contract_f32(Vec3::from(u), m.scene.focus.map(|f| Warp::new(&f)).as_ref()).to_array(),
+        Some(_) => contract_f32(Vec3::from(u)).to_array(),
         None => u,
     }
 }
@@ -29,7 +29,7 @@ fn net_pos(m: &Model<'_>, u: [f32; 3]) -> [f32; 3] {
 fn net_pos_q24(m: &Model<'_>, u: [f32; 3]) -> [i32; 3] {
     let q = u.map(|v| to_fixed(v, POS_FRAC));
     match m.unbounded {
-        Some(_) => contract_q24(q.map(i64::from), m.scene.focus.map(|f| WarpQ24::new(&Warp::new(&f))).as_ref()),
+        Some(_) => contract_q24(q.map(i64::from)),
         None => q,
     }
 }

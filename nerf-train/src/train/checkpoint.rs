@@ -11,26 +11,25 @@ use nerf_infer::Error as FormatError;
 pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 18;
+pub const CHECKPOINT_VERSION: u16 = 17;
 
 /// The scene as a checkpoint holds it: [`Scene`] in the model format's
-/// encoding, then its unbounded space and focus, which that encoding leaves
-/// to a model's own fields (`#[serde(with = "scene_in_full")]` on
+/// encoding, then its unbounded space, which that encoding leaves to a
+/// model's own field (`#[serde(with = "scene_in_full")]` on
 /// [`Trainer::scene`]).
 pub(super) mod scene_in_full {
-    use nerf_infer::format::{Focus, Scene, Unbounded};
+    use nerf_infer::format::{Scene, Unbounded};
     use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-    /// Writes `scene`, `scene.unbounded` and `scene.focus`.
+    /// Writes `scene` and `scene.unbounded`.
     pub fn serialize<S: Serializer>(scene: &Scene, s: S) -> Result<S::Ok, S::Error> {
-        (scene, scene.unbounded, scene.focus).serialize(s)
+        (scene, scene.unbounded).serialize(s)
     }
 
     /// Reads what [`serialize`] writes.
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Scene, D::Error> {
-        let (mut scene, unbounded, focus): (Scene, Option<Unbounded>, Option<Focus>) = Deserialize::deserialize(d)?;
+        let (mut scene, unbounded): (Scene, Option<Unbounded>) = Deserialize::deserialize(d)?;
         scene.unbounded = unbounded;
-        scene.focus = focus;
         Ok(scene)
     }
 }

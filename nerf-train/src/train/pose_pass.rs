@@ -6,7 +6,6 @@ use super::*;
 use crate::pose::{self, Poses};
 use glam::Vec3;
 use nerf_infer::camera::FOOTPRINT_POINTS;
-use nerf_infer::unbounded::Warp;
 
 impl Trainer {
     /// Whether this run fits pose corrections: [`LossConfig::pose_refine`](crate::config::LossConfig::pose_refine)
@@ -69,7 +68,7 @@ impl Trainer {
                 let t = ws.t_c[i * nc + ws.kept[si] as usize];
                 let q = ray.norm_origin + t * ray.norm_dir;
                 let mut add = |q: Vec3, g: [f32; 3]| {
-                    let g = if contract { contract_back(q, Vec3::from(g), ray.warp.as_ref()) } else { Vec3::from(g) };
+                    let g = if contract { contract_back(q, Vec3::from(g)) } else { Vec3::from(g) };
                     go += g;
                     gd += t * g;
                 };
@@ -98,18 +97,18 @@ impl Trainer {
     }
 }
 
-/// `Jᵀ·g` for the contraction ([`nerf_infer::unbounded::contract_f32`],
-/// stretched by `warp` where the scene has a focus) at the normalised
-/// position `q`: the gradient with respect to `q` from `g`, the gradient
-/// with respect to the contracted position.
-pub fn contract_back(q: Vec3, g: Vec3, warp: Option<&Warp>) -> Vec3 {
+/// `Jᵀ·g` for the contraction ([`nerf_infer::unbounded::contract_f32`]) at
+/// the normalised position `q`: the gradient with respect to `q` from `g`,
+/// the gradient with respect to the contracted position.
+pub fn contract_back(q: Vec3, g: Vec3) -> Vec3 {
     let a = q.abs();
     let m = a.max_element();
     if m <= 1.0 {
-        return 0.5 * warp.map_or(Vec3::ONE, |w| w.slope(q)) * g;
+        return 0.5 * g;
     }
-    // x_j = A_j·f(m), A_j = v_j(1 − 1/m) + W(v_j)/m, v = q/m, f = 1 − 1/(2m);
-    // m = |q_k| for the largest axis k
+    // x = q·s(m), s = 1/m − 1/(2m²); m = |q_k| for the largest axis k
+    let s = (1.0 - 0.5 / m) / m;
+    let ds = -1.0 / (m * m) + 1.0 / (m * m * m);
     let k = if a.x >= a.y && a.x >= a.z {
         0
     } else if a.y >= a.z {
@@ -117,16 +116,8 @@ pub fn contract_back(q: Vec3, g: Vec3, warp: Option<&Warp>) -> Vec3 {
     } else {
         2
     };
-    let v = q / m;
-    let (wv, dw) = warp.map_or((v, Vec3::ONE), |w| (w.apply(v), w.slope(v)));
-    let (f, df) = (1.0 - 0.5 / m, 0.5 / (m * m));
-    let along = v * (1.0 - 1.0 / m) + wv / m;
-    // ∂x_j/∂q_j through v_j, and ∂x_j/∂m
-    let direct = f * ((1.0 - 1.0 / m) + dw / m) / m;
-    let d_along = -v / m + (2.0 * v - dw * v - wv) / (m * m);
-    let via_m = d_along * f + along * df;
-    let mut out = direct * g;
-    out[k] += q[k].signum() * via_m.dot(g);
+    let mut out = s * g;
+    out[k] += q[k].signum() * ds * q.dot(g);
     out
 }
 
@@ -138,29 +129,17 @@ mod tests {
     #[test]
     fn contract_back_matches_finite_differences() {
         let g = Vec3::new(0.3, -0.7, 0.5);
-        let focus = nerf_infer::format::Focus {
-            from: [[-0.25, 0.24], [-0.24, 0.24], [-0.91, -0.44]],
-            to: [[-0.49, 0.48], [-0.49, 0.49], [-0.94, 0.0]],
-        };
-        let warp = Warp::new(&focus);
-        let points = [
-            Vec3::new(0.2, -0.5, 0.7),
-            Vec3::new(1.7, -0.4, 0.9),
-            Vec3::new(0.3, -3.0, 2.1),
-            Vec3::new(-0.2, 1.0, 6.0),
-        ];
-        // with a focus: points on each piece of the stretch, inside and beyond the bounds
-        let focused = [Vec3::new(0.1, -0.6, -0.7), Vec3::new(0.5, 0.05, -0.3), Vec3::new(2.5, 0.3, -1.2)];
-        for (q, w) in points.iter().map(|q| (*q, None)).chain(points.iter().chain(&focused).map(|q| (*q, Some(&warp))))
+        for q in
+            [Vec3::new(0.2, -0.5, 0.7), Vec3::new(1.7, -0.4, 0.9), Vec3::new(0.3, -3.0, 2.1), Vec3::new(-0.2, 1.0, 6.0)]
         {
-            let back = contract_back(q, g, w);
+            let back = contract_back(q, g);
             let h = 1e-3;
             for a in 0..3 {
                 let (mut p, mut m) = (q, q);
                 p[a] += h;
                 m[a] -= h;
-                let fd = (g.dot(contract_f32(p, w)) - g.dot(contract_f32(m, w))) / (2.0 * h);
-                assert!((fd - back[a]).abs() < 2e-3, "{q} axis {a} (focus {}): {fd} against {}", w.is_some(), back[a]);
+                let fd = (g.dot(contract_f32(p)) - g.dot(contract_f32(m))) / (2.0 * h);
+                assert!((fd - back[a]).abs() < 2e-3, "{q} axis {a}: {fd} against {}", back[a]);
             }
         }
     }
