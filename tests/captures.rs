@@ -135,6 +135,48 @@ fn scene_is_fitted_to_the_capture() {
     assert!(object.ray_hit_fraction() > 0.5 && room.ray_hit_fraction() > 0.99);
 }
 
+#[test]
+fn colmap_rig_folders_keep_every_photo_apart_and_count_their_unregistered_images() {
+    let d = tmp("colmap-rig");
+    write_colmap(&d, spec(), ColmapText::Text, false).unwrap();
+    let flat = load(&d, Split::Test, LoadOptions { holdout: 1, ..opts(Format::Auto) }).unwrap();
+    // a rig's layout: img_00K.jpg moved to cam1/ (K even) or cam2/ (K odd) as img_00{K/2}.jpg, so each
+    // file name is in both folders; one image named from the capture's folder (`images/…`), as a model
+    // made with the capture's folder as COLMAP's image path names it
+    let path = d.join("sparse/0/images.txt");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let moved = |name: &str| {
+        let k: usize = name.trim_start_matches("img_").trim_end_matches(".jpg").parse().unwrap();
+        format!("cam{}/img_{:03}.jpg", 1 + k % 2, k / 2)
+    };
+    std::fs::create_dir_all(d.join("images/cam1")).unwrap();
+    std::fs::create_dir_all(d.join("images/cam2")).unwrap();
+    let mut out = Vec::new();
+    for l in text.lines() {
+        match l.split_whitespace().last().filter(|n| n.starts_with("img_") && n.ends_with(".jpg")) {
+            Some(name) => {
+                let to = moved(name);
+                std::fs::rename(d.join("images").join(name), d.join("images").join(&to)).unwrap();
+                let to = if to == "cam1/img_000.jpg" { format!("images/{to}") } else { to };
+                out.push(format!("{} {to}", l.rsplit_once(' ').unwrap().0));
+            }
+            None => out.push(l.to_string()),
+        }
+    }
+    std::fs::write(&path, out.join("\n")).unwrap();
+    std::fs::copy(d.join("images/cam2/img_000.jpg"), d.join("images/cam2/extra.jpg")).unwrap();
+    let rig = load(&d, Split::Test, opts(Format::Auto)).unwrap();
+    let names: Vec<&str> = rig.views.iter().map(|v| v.name.as_str()).collect();
+    // every 4th in name order (cam1/…, cam2/…, then images/cam1/img_000.jpg) held out: images 2, 1 and 9
+    assert_eq!(names, ["cam1_img_001", "cam2_img_000", "cam2_img_004"]);
+    for (u, k) in rig.views.iter().zip([2, 1, 9]) {
+        let v = flat.views.iter().find(|v| v.name == format!("img_{k:03}")).expect("in the flat layout");
+        assert_eq!((u.camera, &u.rgb), (v.camera, &v.rgb), "{}", u.name);
+    }
+    let train = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert!(train.notes.iter().any(|n| n.contains("1 images not registered")), "{:?}", train.notes);
+}
+
 /// Minimal EXIF (big-endian TIFF) holding one tag: orientation `o`.
 fn exif_orientation(o: u16) -> Vec<u8> {
     let mut v = b"MM\0\x2a\0\0\0\x08\0\x01".to_vec();
@@ -235,6 +277,90 @@ fn ngp_capture_skips_missing_frames_and_reads_its_lens() {
     std::fs::write(d.join("transforms.json"), v.to_string()).unwrap();
     let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
     assert!(e.contains("EQUIRECTANGULAR") && e.contains("not supported"), "{e}");
+}
+
+/// `d/transforms.json` edited by `f`.
+fn edit_transforms(d: &Path, f: impl FnOnce(&mut serde_json::Value)) {
+    let t = std::fs::read_to_string(d.join("transforms.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&t).unwrap();
+    f(&mut v);
+    std::fs::write(d.join("transforms.json"), v.to_string()).unwrap();
+}
+
+#[test]
+fn ngp_capture_reads_paths_focal_keys_and_split_files_as_instant_ngp_does() {
+    let d = tmp("ngp-variants");
+    ngp_capture(&d);
+    let base = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    let same = |other: &nerf_train::dataset::Dataset, what: &str| {
+        assert_eq!(other.views.len(), base.views.len(), "{what}");
+        for (u, v) in base.views.iter().zip(&other.views) {
+            assert_eq!((u.camera, &u.rgb), (v.camera, &v.rgb), "{what}: {}", u.name);
+        }
+    };
+    // file paths without their extension, and with Windows separators
+    let orig = std::fs::read_to_string(d.join("transforms.json")).unwrap();
+    edit_transforms(&d, |v| {
+        for (i, f) in v["frames"].as_array_mut().unwrap().iter_mut().enumerate() {
+            let p = f["file_path"].as_str().unwrap().to_string();
+            f["file_path"] = if i % 2 == 0 { p.trim_end_matches(".jpg").into() } else { p.replace('/', "\\").into() };
+        }
+    });
+    same(&load(&d, Split::Train, opts(Format::Auto)).unwrap(), "paths");
+    // the focal length from fl_y alone, or from camera_angle_y (a square pixel)
+    std::fs::write(d.join("transforms.json"), &orig).unwrap();
+    let (fx, fy) = (base.views[0].camera.fx, base.views[0].camera.fy);
+    edit_transforms(&d, |v| {
+        v.as_object_mut().unwrap().remove("fl_x");
+    });
+    let fl_y = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert!(fl_y.views.iter().all(|v| v.camera.fx == fy && v.camera.fy == fy), "{fx} {fy}");
+    edit_transforms(&d, |v| {
+        v.as_object_mut().unwrap().remove("fl_y");
+        v["camera_angle_y"] = (2.0 * (8.0 / fy as f64).atan()).into();
+    });
+    let angle_y = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert!(angle_y.views.iter().all(|v| (v.camera.fy - fy).abs() < 1e-4 && v.camera.fx == v.camera.fy));
+    edit_transforms(&d, |v| {
+        v.as_object_mut().unwrap().remove("camera_angle_y");
+    });
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("transforms.json") && e.contains("no fl_x or fl_y"), "{e}");
+    // nerfstudio's r⁸ term of a perspective lens is refused by name, not dropped
+    std::fs::write(d.join("transforms.json"), &orig).unwrap();
+    edit_transforms(&d, |v| v["k4"] = 0.01.into());
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("k4") && e.contains("not supported"), "{e}");
+    // split into transforms_{train,test}.json with the capture's keys: an ngp capture, not Blender
+    std::fs::write(d.join("transforms.json"), &orig).unwrap();
+    std::fs::copy(d.join("transforms.json"), d.join("transforms_train.json")).unwrap();
+    std::fs::copy(d.join("transforms.json"), d.join("transforms_test.json")).unwrap();
+    assert_eq!(nerf_train::dataset::detect(&d).unwrap(), Format::Ngp);
+    let split = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    // every frame of the training file whose image exists (3 of 5), each with its lens
+    assert_eq!(split.views.len(), 3);
+    assert!(split.views.iter().all(|v| matches!(v.lens, Lens::Opencv { .. })));
+}
+
+#[test]
+fn ngp_captures_take_photos_as_stored_whatever_their_exif_orientation() {
+    let d = tmp("ngp-exif");
+    ngp_capture(&d);
+    let base = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    // every photo written again with the same pixels, without and with orientation 6 (shown turned 90°)
+    let photos: Vec<(PathBuf, image::RgbImage)> = std::fs::read_dir(d.join("images"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .map(|p| (p.clone(), image::open(&p).unwrap().to_rgb8()))
+        .collect();
+    photos.iter().for_each(|(p, img)| write_jpeg(p, img, None));
+    let plain = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    photos.iter().for_each(|(p, img)| write_jpeg(p, img, Some(exif_orientation(6))));
+    let turned = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert_eq!(turned.views.len(), base.views.len());
+    for (u, v) in plain.views.iter().zip(&turned.views) {
+        assert_eq!((u.camera, &u.rgb), (v.camera, &v.rgb), "{}", u.name);
+    }
 }
 
 #[test]

@@ -52,6 +52,7 @@ struct Frame {
 #[derive(Deserialize)]
 struct Transforms {
     camera_angle_x: Option<f64>,
+    camera_angle_y: Option<f64>,
     #[serde(flatten)]
     intr: Intrinsics,
     frames: Vec<Frame>,
@@ -72,15 +73,44 @@ fn read_transforms(path: &Path) -> Result<Transforms, DataError> {
     Ok(t)
 }
 
+/// The image a frame's `file_path` names, relative to `dir`: Windows
+/// separators read as `/`, and a name that is not a file tried with the
+/// extensions instant-ngp tries (Blender's frames name `r_0` for `r_0.png`).
+/// A frame whose image is found under none of them gets the name with
+/// `.png` added if it had no extension, as given otherwise.
 fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
-    let p = dir.join(file);
-    if p.extension().is_some() && p.is_file() {
-        p
-    } else {
-        let mut s = p.into_os_string();
-        s.push(".png");
-        s.into()
+    let p = dir.join(file.replace('\\', "/"));
+    if p.is_file() {
+        return p;
     }
+    let with = |ext: &str| {
+        let mut s = p.clone().into_os_string();
+        s.push(ext);
+        std::path::PathBuf::from(s)
+    };
+    const EXTENSIONS: [&str; 8] = [".png", ".jpg", ".jpeg", ".PNG", ".JPG", ".JPEG", ".bmp", ".tga"];
+    EXTENSIONS.iter().map(|e| with(e)).find(|q| q.is_file()).unwrap_or_else(|| {
+        if p.extension().is_some() {
+            p.clone()
+        } else {
+            with(".png")
+        }
+    })
+}
+
+/// True if `dir/transforms_train.json` is an instant-ngp / nerfstudio
+/// capture split into files (intrinsics or lens keys of its own, for the
+/// file or a frame) rather than a Blender synthetic split (`camera_angle_x`
+/// alone). A file that does not parse counts as Blender, whose loader then
+/// names the fault.
+pub(super) fn is_ngp_split(dir: &Path) -> bool {
+    let Ok(t) = read_transforms(&dir.join("transforms_train.json")) else { return false };
+    let own = |i: &Intrinsics| {
+        [i.fl_x, i.fl_y, i.k1, i.k2, i.k3, i.k4, i.p1, i.p2].iter().any(Option::is_some)
+            || i.camera_model.is_some()
+            || i.is_fisheye.is_some()
+    };
+    own(&t.intr) || t.frames.iter().any(|f| own(&f.intr))
 }
 
 struct SceneDefaults {
@@ -198,7 +228,9 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         undistort: opts.undistort,
         white_background: t.white_background.unwrap_or(false),
         nearest: None,
-        upright: true,
+        // as stored: instant-ngp and nerfstudio read the pixels without the EXIF orientation, and
+        // the poses and `w`, `h` describe those pixels
+        upright: false,
     };
     let mut data = if !select_all {
         build(&path, &views, &[], fixed, copts(Selection::Holdout(opts.holdout)))?
@@ -250,17 +282,22 @@ fn ngp_views(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<CaptureView
                 .map(|(w, h)| (w as f64, h as f64))
                 .map_err(|e| DataError::new(&image, format!("cannot read image: {e}")))?,
         };
-        let fx = match (pick(f.intr.fl_x, t.intr.fl_x), t.camera_angle_x) {
-            (Some(fx), _) => fx,
-            (None, Some(fov)) => 0.5 * w / (0.5 * fov).tan(),
+        // instant-ngp's order: fl_x, else camera_angle_x; a square pixel takes the other axis's
+        let fx = pick(f.intr.fl_x, t.intr.fl_x).or(t.camera_angle_x.map(|a| 0.5 * w / (0.5 * a).tan()));
+        let fy = pick(f.intr.fl_y, t.intr.fl_y).or(t.camera_angle_y.map(|a| 0.5 * h / (0.5 * a).tan()));
+        let (fx, fy) = match (fx, fy) {
+            (Some(fx), fy) => (fx, fy.unwrap_or(fx)),
+            (None, Some(fy)) => (fy, fy),
             (None, None) => {
                 return Err(DataError::new(
                     path,
-                    format!("{what}: no fl_x of its own and none for the file (nor camera_angle_x)"),
+                    format!(
+                        "{what}: no fl_x or fl_y of its own and none for the file \
+                         (nor camera_angle_x or camera_angle_y)"
+                    ),
                 ))
             }
         };
-        let fy = pick(f.intr.fl_y, t.intr.fl_y).unwrap_or(fx);
         let cx = pick(f.intr.cx, t.intr.cx).unwrap_or(w / 2.0);
         let cy = pick(f.intr.cy, t.intr.cy).unwrap_or(h / 2.0);
         let ok = [w, h, fx, fy, cx, cy].iter().all(|v| v.is_finite()) && w > 0.0 && h > 0.0 && fx > 0.0 && fy > 0.0;
@@ -301,6 +338,15 @@ fn ngp_lens(path: &Path, what: &str, f: &Intrinsics, g: &Intrinsics) -> Result<L
         "OPENCV_FISHEYE" => Lens::Fisheye { k: [k1, k2, k3, k4] },
         "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" if fisheye => {
             Lens::Fisheye { k: [k1, k2, k3, k4] }
+        }
+        "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" if k4 != 0.0 => {
+            return Err(DataError::new(
+                path,
+                format!(
+                    "{what}: k4 {k4} of a perspective camera (nerfstudio's r⁸ term) is not supported \
+                     (k1, k2, k3, p1, p2 are; undistort the images with colmap image_undistorter)"
+                ),
+            ))
         }
         "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" => {
             Lens::Opencv { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2] }

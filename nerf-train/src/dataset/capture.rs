@@ -76,6 +76,33 @@ pub struct CaptureOptions {
     pub upright: bool,
 }
 
+/// The views' names (what `eval --save` and `render` name their files
+/// after): each image's file stem, or where two images share a stem (a
+/// rig's `cam1/0001.jpg` and `cam2/0001.jpg`), each image's path from the
+/// folder that holds them all, its separators turned into `_` (`cam1_0001`),
+/// with its extension if the stems still collide.
+pub fn view_names(all: &[CaptureView]) -> Vec<String> {
+    let unique = |names: &[String]| names.iter().collect::<std::collections::HashSet<_>>().len() == names.len();
+    let stems: Vec<String> = all.iter().map(|v| stem(&v.image)).collect();
+    if unique(&stems) {
+        return stems;
+    }
+    // the deepest folder holding every image
+    let mut root = all[0].image.parent().map(Path::to_path_buf).unwrap_or_default();
+    while !all.iter().all(|v| v.image.starts_with(&root)) && root.pop() {}
+    let relative = |v: &CaptureView, ext: bool| {
+        let r = v.image.strip_prefix(&root).unwrap_or(&v.image);
+        let r = if ext { r.to_path_buf() } else { r.with_extension("") };
+        r.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect::<Vec<_>>().join("_")
+    };
+    let names: Vec<String> = all.iter().map(|v| relative(v, false)).collect();
+    if unique(&names) {
+        names
+    } else {
+        all.iter().map(|v| relative(v, true)).collect()
+    }
+}
+
 /// Builds the split `opts.split` of a capture. `all` holds every view in
 /// capture order (the fit uses them all); `points` the capture's sparse
 /// points (may be empty); `fixed` a scene given by the capture's own
@@ -112,8 +139,9 @@ pub fn build(
         Selection::Holdout(n) => i.is_multiple_of(n.max(1)) != (opts.split == Split::Train),
         Selection::From(first) => i >= first,
     };
+    let names = view_names(all);
     let mut views = Vec::new();
-    for (_, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
+    for (i, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
         // the image's shape must be the camera's (the downscale crops at most n − 1 pixels a side); a photo
         // turned by its EXIF orientation, or another photo, is not what the poses were computed on: checked
         // on its header before its pixels are decoded
@@ -153,7 +181,7 @@ pub fn build(
             rgb = super::lens::undistort_image(&rgb, w as usize, h as usize, px, lens);
             lens = Lens::Pinhole;
         }
-        views.push(View { name: stem(&v.image), file: v.image.clone(), camera, rgb, alpha: Vec::new(), lens });
+        views.push(View { name: names[i].clone(), file: v.image.clone(), camera, rgb, alpha: Vec::new(), lens });
     }
     if views.is_empty() {
         let hint = match opts.select {
@@ -174,7 +202,6 @@ pub fn build(
                 Frame::Fitted(f) if f.kind == SceneKind::Unbounded => Framing::Unbounded,
                 Frame::Fitted(_) => Framing::Object,
             };
-            let names: Vec<String> = all.iter().map(|v| stem(&v.image)).collect();
             Some(capture_record(n, &names, framing, opts.lens))
         }
         Selection::From(_) => None,

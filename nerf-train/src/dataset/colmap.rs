@@ -3,8 +3,9 @@
 //! `DIR/sparse/`, or `DIR/`, as `.bin` or `.txt` ([`super::colmap_io`]).
 //!
 //! Camera models: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV,
-//! FULL_OPENCV and OPENCV_FISHEYE (their distortion becomes the view's
-//! [`Lens`]); any other is refused by name. Each image keeps its own
+//! FULL_OPENCV, OPENCV_FISHEYE and the radial and plain fisheyes
+//! (SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE): their
+//! distortion becomes the view's [`Lens`]; any other is refused by name. Each image keeps its own
 //! camera, so one capture may mix intrinsics and image sizes. Images are
 //! taken in name order (as LLFF), every `holdout`-th held out; files in
 //! `images/` that COLMAP did not register are counted in the notes.
@@ -46,13 +47,17 @@ pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), Error> {
             k([p[0], p[1]], [p[2], p[3]]),
             Lens::Opencv { k: [p[4], p[5], p[8], p[9], p[10], p[11]], p: [p[6], p[7]] }.simplified(),
         ),
-        CameraModel::OpencvFisheye => {
-            (k([p[0], p[1]], [p[2], p[3]]), Lens::Fisheye { k: [p[4], p[5], p[6], p[7]] }.simplified())
-        }
+        CameraModel::OpencvFisheye => (k([p[0], p[1]], [p[2], p[3]]), Lens::Fisheye { k: [p[4], p[5], p[6], p[7]] }),
+        // COLMAP's radial fisheyes: θ (1 + k1 θ² + k2 θ⁴), OpenCV's fisheye with k3 = k4 = 0
+        CameraModel::SimpleRadialFisheye => (k([p[0], p[0]], [p[1], p[2]]), Lens::Fisheye { k: [p[3], z, z, z] }),
+        CameraModel::RadialFisheye => (k([p[0], p[0]], [p[1], p[2]]), Lens::Fisheye { k: [p[3], p[4], z, z] }),
+        CameraModel::SimpleFisheye => (k([p[0], p[0]], [p[1], p[2]]), Lens::Fisheye { k: [z; 4] }),
+        CameraModel::Fisheye => (k([p[0], p[1]], [p[2], p[3]]), Lens::Fisheye { k: [z; 4] }),
         m => {
             return Err(Error::Camera(format!(
                 "camera model {} is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, \
-                 FULL_OPENCV, OPENCV_FISHEYE are; undistort the images with colmap image_undistorter)",
+                 FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE are; \
+                 undistort the images with colmap image_undistorter)",
                 m.name()
             )))
         }
@@ -106,7 +111,16 @@ pub fn colmap_views(dir: &Path, model_dir: &Path) -> Result<(Vec<CaptureView>, V
         let (intrinsics, lens) =
             camera_lens(cam).map_err(|e| DataError::new(model_dir, format!("camera {}: {e}", cam.id)))?;
         let pose = image_pose(im).ok_or_else(|| DataError::new(model_dir, format!("{what}: invalid rotation")))?;
-        let image = img_dir.join(&im.name);
+        // names are relative to the folder COLMAP was given: images/, or the capture's own folder
+        // (`images/0001.jpg`)
+        let image = Some(img_dir.join(&im.name)).filter(|p| p.is_file()).unwrap_or_else(|| {
+            let beside = dir.join(&im.name);
+            if beside.starts_with(&img_dir) && beside.is_file() {
+                beside
+            } else {
+                img_dir.join(&im.name)
+            }
+        });
         if !image.is_file() {
             return Err(DataError::new(&image, format!("image not found (registered in {})", model_dir.display())));
         }
@@ -133,18 +147,62 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         upright: false,
     };
     let mut data = build(&model_dir, &views, &points, None, copts)?;
-    let registered: HashSet<&std::ffi::OsStr> = views.iter().filter_map(|v| v.image.file_name()).collect();
-    let unregistered = std::fs::read_dir(&img_dir)
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .filter(|e| e.path().is_file())
-                .filter(|e| !registered.contains(e.file_name().as_os_str()))
-                .count()
-        })
-        .unwrap_or(0);
+    let registered: HashSet<&Path> = views.iter().map(|v| v.image.as_path()).collect();
+    let unregistered = files_under(&img_dir, 4).iter().filter(|f| !registered.contains(f.as_path())).count();
     data.notes.extend(choice);
     if unregistered > 0 {
         data.notes.push(format!("{}: {unregistered} images not registered by COLMAP, skipped", img_dir.display()));
     }
     Ok(data)
+}
+
+/// The files in `dir` and its folders, `depth` levels down at most (COLMAP
+/// names images by their path under `images/`, folders included).
+fn files_under(dir: &Path, depth: u32) -> Vec<std::path::PathBuf> {
+    let Ok(rd) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut out = Vec::new();
+    for e in rd.filter_map(|e| e.ok()) {
+        let (p, kind) = (e.path(), e.file_type());
+        match kind {
+            Ok(k) if k.is_dir() && depth > 0 => out.extend(files_under(&p, depth - 1)),
+            _ if p.is_file() => out.push(p),
+            _ => {}
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera(model: CameraModel, params: &[f64]) -> ColmapCamera {
+        ColmapCamera { id: 1, model, width: 640, height: 480, params: params.to_vec() }
+    }
+
+    #[test]
+    fn colmaps_fisheyes_become_the_fisheye_lens_with_their_coefficients() {
+        let cases = [
+            (CameraModel::SimpleRadialFisheye, vec![300.0, 320.0, 240.0, 0.05], [0.05, 0.0, 0.0, 0.0]),
+            (CameraModel::RadialFisheye, vec![300.0, 320.0, 240.0, 0.05, -0.01], [0.05, -0.01, 0.0, 0.0]),
+            (CameraModel::SimpleFisheye, vec![300.0, 320.0, 240.0], [0.0; 4]),
+            (CameraModel::Fisheye, vec![300.0, 300.0, 320.0, 240.0], [0.0; 4]),
+            (CameraModel::OpencvFisheye, vec![300.0, 300.0, 320.0, 240.0, 0.0, 0.0, 0.0, 0.0], [0.0; 4]),
+        ];
+        for (model, params, k) in cases {
+            let (intr, lens) = camera_lens(&camera(model, &params)).unwrap();
+            assert_eq!(lens, Lens::Fisheye { k }, "{}", model.name());
+            assert_eq!((intr.focal, intr.centre), ([300.0, 300.0], [320.0, 240.0]), "{}", model.name());
+        }
+    }
+
+    #[test]
+    fn models_without_a_lens_here_are_refused_by_name() {
+        for (model, n) in [(CameraModel::Fov, 5), (CameraModel::Eucm, 6), (CameraModel::Equirectangular, 2)] {
+            let e = camera_lens(&camera(model, &vec![300.0; n])).unwrap_err().to_string();
+            assert!(e.contains(model.name()) && e.contains("not supported"), "{e}");
+        }
+        assert_eq!(CameraModel::from_id(14), Some(CameraModel::SimpleFisheye));
+        assert_eq!(CameraModel::from_name("EQUIRECTANGULAR").map(CameraModel::id), Some(17));
+    }
 }

@@ -39,12 +39,14 @@ impl Lens {
         Self::Opencv { k: [k1, k2, 0.0, 0.0, 0.0, 0.0], p: [p1, p2] }.simplified()
     }
 
-    /// [`Lens::Pinhole`] if every coefficient is 0, else `self`.
+    /// [`Lens::Pinhole`] for an OpenCV lens whose coefficients are all 0,
+    /// else `self`: a fisheye with all its coefficients 0 stays a fisheye
+    /// (the equidistant projection, `r = θ`, which no pinhole images).
     pub fn simplified(self) -> Self {
         let zero = match self {
             Lens::Pinhole => true,
             Lens::Opencv { k, p } => k.iter().chain(&p).all(|&c| c == 0.0),
-            Lens::Fisheye { k } => k.iter().all(|&c| c == 0.0),
+            Lens::Fisheye { .. } => false,
         };
         if zero {
             Lens::Pinhole
@@ -281,5 +283,15 @@ mod tests {
         assert!(x < 0.5);
         assert_eq!(Lens::opencv(0.0, 0.0, 0.0, 0.0), Lens::Pinhole);
         assert_eq!(Lens::Pinhole.distort(0.3, -0.2), (0.3, -0.2));
+    }
+
+    #[test]
+    fn a_fisheye_without_coefficients_is_the_equidistant_projection_not_a_pinhole() {
+        let lens = Lens::Fisheye { k: [0.0; 4] };
+        assert_eq!(lens.simplified(), lens);
+        // a point 45° off the axis (x = tan 45° = 1) lands at r = θ = π/4
+        let (x, y) = lens.distort(1.0, 0.0);
+        assert!((x - core::f64::consts::FRAC_PI_4).abs() < 1e-15 && y == 0.0, "{x} {y}");
+        round_trip(lens);
     }
 }

@@ -28,10 +28,13 @@ pub use types::{capture_record, rigid_pose, stem, DataError, Dataset, Format, Lo
 
 use std::path::Path;
 
-/// Detects the layout of `dir`.
+/// Detects the layout of `dir`: `transforms_train.json` is a Blender
+/// synthetic split, or an instant-ngp / nerfstudio capture split into files
+/// when it carries intrinsics or lens keys; then `poses_bounds.npy` (LLFF),
+/// `transforms.json` (instant-ngp / nerfstudio), a COLMAP sparse model.
 pub fn detect(dir: &Path) -> Result<Format, DataError> {
     if dir.join("transforms_train.json").is_file() {
-        Ok(Format::Blender)
+        Ok(if blender::is_ngp_split(dir) { Format::Ngp } else { Format::Blender })
     } else if dir.join("poses_bounds.npy").is_file() {
         Ok(Format::Llff)
     } else if dir.join("transforms.json").is_file() {

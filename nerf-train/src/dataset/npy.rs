@@ -3,7 +3,8 @@
 use super::types::DataError;
 use std::path::Path;
 
-/// Reads a C-order 2-D `<f8` or `<f4` array; returns (rows, cols, values).
+/// Reads a 2-D `<f8` or `<f4` array (C or Fortran order); returns (rows,
+/// cols, values) in C order (row after row).
 pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> {
     let bytes = crate::userfile::read_checked(path, 256 << 20).map_err(|e| DataError::new(path, e))?;
     parse_npy_f64(path, &bytes)
@@ -29,9 +30,7 @@ pub fn parse_npy_f64(path: &Path, bytes: &[u8]) -> Result<(usize, usize, Vec<f64
     } else {
         return Err(bad("dtype must be little-endian float64 or float32"));
     };
-    if header.contains("'fortran_order': True") {
-        return Err(bad("Fortran order is not supported"));
-    }
+    let fortran = header.contains("'fortran_order': True");
     let shape = header
         .split("'shape':")
         .nth(1)
@@ -54,11 +53,15 @@ pub fn parse_npy_f64(path: &Path, bytes: &[u8]) -> Result<(usize, usize, Vec<f64
     if data.len() != need {
         return Err(bad(&format!("expected {need} data bytes, found {}", data.len())));
     }
-    let vals = if descr == 8 {
+    let vals: Vec<f64> = if descr == 8 {
         data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect()
     } else {
         data.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap()) as f64).collect()
     };
+    if fortran {
+        // column after column on disk: element (r, c) at c·rows + r
+        return Ok((rows, cols, (0..rows * cols).map(|i| vals[(i % cols) * rows + i / cols]).collect()));
+    }
     Ok((rows, cols, vals))
 }
 
@@ -76,4 +79,29 @@ pub fn write_npy_f64(path: &Path, rows: usize, cols: usize, vals: &[f64]) -> std
         out.extend_from_slice(&v.to_le_bytes());
     }
     crate::atomic::write(path, &out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An NPY 1.0 file of `vals` (in the order given) with `header`'s order and shape.
+    fn npy(order: &str, rows: usize, cols: usize, vals: &[f64]) -> Vec<u8> {
+        let header = format!("{{'descr': '<f8', 'fortran_order': {order}, 'shape': ({rows}, {cols}), }}\n");
+        let mut out = b"\x93NUMPY\x01\x00".to_vec();
+        out.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        vals.iter().for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+        out
+    }
+
+    #[test]
+    fn fortran_order_reads_as_the_same_array_in_c_order() {
+        let p = Path::new("poses_bounds.npy");
+        // [[1, 2, 3], [4, 5, 6]]: row after row in C order, column after column in Fortran order
+        let c = parse_npy_f64(p, &npy("False", 2, 3, &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0])).unwrap();
+        let f = parse_npy_f64(p, &npy("True", 2, 3, &[1.0, 4.0, 2.0, 5.0, 3.0, 6.0])).unwrap();
+        assert_eq!(c, (2, 3, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+        assert_eq!(f, c);
+    }
 }

@@ -36,7 +36,7 @@ impl Split {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Format {
-    /// Detect from the files present.
+    /// Detect from the files present ([`super::detect`]).
     #[default]
     Auto,
     /// `transforms_{train,val,test}.json` with `camera_angle_x`.
@@ -46,7 +46,8 @@ pub enum Format {
     /// COLMAP: `images/` + `sparse/0/` (or `sparse/`) with `cameras`,
     /// `images`, `points3D` as `.bin` or `.txt`.
     Colmap,
-    /// instant-ngp / nerfstudio `transforms.json` with `fl_x`, `cx`, ….
+    /// instant-ngp / nerfstudio `transforms.json` (or split into
+    /// `transforms_{split}.json`) with `fl_x`, `cx`, ….
     Ngp,
 }
 

@@ -49,9 +49,21 @@ pub enum CameraModel {
     ThinPrismFisheye,
     /// 11: 16 parameters.
     RadTanThinPrismFisheye,
+    /// 12: `f, cx, cy, k`.
+    SimpleDivision,
+    /// 13: `fx, fy, cx, cy, k`.
+    Division,
+    /// 14: `f, cx, cy` (equidistant fisheye).
+    SimpleFisheye,
+    /// 15: `fx, fy, cx, cy` (equidistant fisheye).
+    Fisheye,
+    /// 16: `fx, fy, cx, cy, alpha, beta`.
+    Eucm,
+    /// 17: `w, h` (a spherical panorama).
+    Equirectangular,
 }
 
-const MODELS: [(CameraModel, &str, usize); 12] = [
+const MODELS: [(CameraModel, &str, usize); 18] = [
     (CameraModel::SimplePinhole, "SIMPLE_PINHOLE", 3),
     (CameraModel::Pinhole, "PINHOLE", 4),
     (CameraModel::SimpleRadial, "SIMPLE_RADIAL", 4),
@@ -64,6 +76,12 @@ const MODELS: [(CameraModel, &str, usize); 12] = [
     (CameraModel::RadialFisheye, "RADIAL_FISHEYE", 5),
     (CameraModel::ThinPrismFisheye, "THIN_PRISM_FISHEYE", 12),
     (CameraModel::RadTanThinPrismFisheye, "RAD_TAN_THIN_PRISM_FISHEYE", 16),
+    (CameraModel::SimpleDivision, "SIMPLE_DIVISION", 4),
+    (CameraModel::Division, "DIVISION", 5),
+    (CameraModel::SimpleFisheye, "SIMPLE_FISHEYE", 3),
+    (CameraModel::Fisheye, "FISHEYE", 4),
+    (CameraModel::Eucm, "EUCM", 6),
+    (CameraModel::Equirectangular, "EQUIRECTANGULAR", 2),
 ];
 
 impl CameraModel {

@@ -66,12 +66,13 @@ fn binary_and_text_round_trip_to_the_same_model() {
 fn colmaps_text_layout_reads() {
     let d_dir = tmp("text");
     let d = d_dir.path();
-    std::fs::write(d.join("cameras.txt"), "# Camera list\n# Number of cameras: 1\n1 PINHOLE 100 80 90 91 50 40\n")
+    // comments after blanks too: COLMAP trims each line before it looks for `#`
+    std::fs::write(d.join("cameras.txt"), "# Camera list\n  # Number of cameras: 1\n1 PINHOLE 100 80 90 91 50 40\n")
         .unwrap();
     std::fs::write(
         d.join("images.txt"),
         "# Image list with two lines of data per image:\n#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n\
-         1 1 0 0 0 0 0 0 1 x.jpg\n10.5 20.5 -1 11 12 3\n2 1 0 0 0 1 2 3 1 y.jpg\n\n3 1 0 0 0 0 0 1 1 z.jpg",
+         1 1 0 0 0 0 0 0 1 x.jpg\n10.5 20.5 -1 11 12 3\n\t# y next\n2 1 0 0 0 1 2 3 1 y.jpg\n\n3 1 0 0 0 0 0 1 1 z.jpg",
     )
     .unwrap();
     let r = read_model(d).unwrap();

@@ -3,11 +3,17 @@
 
 use super::*;
 
-/// The non-comment, non-blank lines of a text model with their line numbers.
+/// The lines of a text model that are not comments (`#` after any
+/// leading blanks, as COLMAP trims each line) with their line numbers.
 pub(super) fn text_lines(path: &Path, bytes: &[u8]) -> Result<Vec<(usize, String)>, ParseError> {
     let text = std::str::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    Ok(text.lines().enumerate().map(|(i, l)| (i + 1, l.to_string())).filter(|(_, l)| !l.starts_with('#')).collect())
+    Ok(text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.to_string()))
+        .filter(|(_, l)| !l.trim_start().starts_with('#'))
+        .collect())
 }
 
 pub(super) fn field<T: std::str::FromStr>(
@@ -70,7 +76,7 @@ pub fn read_images_txt(path: &Path) -> Result<Vec<ColmapImage>, ParseError> {
 pub fn parse_images_txt(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapImage>, ParseError> {
     let text = std::str::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.starts_with('#'));
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim_start().starts_with('#'));
     let mut out = Vec::new();
     let mut seen = HashSet::new();
     while let Some((i, l)) = lines.next() {
