@@ -595,6 +595,45 @@ fn llff_captures_are_fitted_as_colmap_ones() {
 }
 
 #[test]
+fn llff_captures_read_the_downscaled_copies_they_ship() {
+    use nerf_train::dataset::synthetic::write_llff_room;
+    let d = tmp("llff-images-n");
+    write_llff_room(&d, spec()).unwrap();
+    let half = LoadOptions { downscale: 2, ..opts(Format::Auto) };
+    let from_full = load(&d, Split::Train, half).unwrap();
+    // images_2: each photo at half size, grey, so the photos read show where they came from
+    std::fs::create_dir_all(d.join("images_2")).unwrap();
+    for e in std::fs::read_dir(d.join("images")).unwrap() {
+        let p = e.unwrap().path();
+        let (w, h) = image::image_dimensions(&p).unwrap();
+        write_jpeg(
+            &d.join("images_2").join(p.file_name().unwrap()),
+            &image::RgbImage::from_pixel(w / 2, h / 2, image::Rgb([128; 3])),
+            None,
+        );
+    }
+    let from_copies = load(&d, Split::Train, half).unwrap();
+    assert_eq!(from_copies.views.len(), from_full.views.len());
+    for (u, v) in from_full.views.iter().zip(&from_copies.views) {
+        assert_eq!(u.camera, v.camera, "{}", u.name);
+        assert!(v.rgb.iter().all(|c| (c[0] - 0.5).abs() < 0.02), "{}: read from images_2", v.name);
+        assert!(u.rgb != v.rgb);
+    }
+    // at downscale 4 without images_4: images/ is read
+    let quarter = load(&d, Split::Train, LoadOptions { downscale: 4, ..opts(Format::Auto) }).unwrap();
+    assert!(quarter.views.iter().all(|v| v.rgb.iter().any(|c| (c[0] - 0.5).abs() > 0.05)));
+    // a shipped copy missing photos is passed over
+    std::fs::remove_file(
+        d.join("images_2").join(std::fs::read_dir(d.join("images_2")).unwrap().next().unwrap().unwrap().file_name()),
+    )
+    .unwrap();
+    let partial = load(&d, Split::Train, half).unwrap();
+    for (u, v) in from_full.views.iter().zip(&partial.views) {
+        assert_eq!(&u.rgb, &v.rgb, "{}", u.name);
+    }
+}
+
+#[test]
 fn of_several_reconstructions_the_one_registering_the_most_images_loads() {
     use nerf_train::dataset::colmap_io::{read_model, write_model_bin};
     let d = tmp("colmap-models");

@@ -12,7 +12,8 @@
 //! `--scene` chooses otherwise. The file has no sparse points: each
 //! camera's near bound stands for the nearest thing it sees, as the point
 //! at that depth on its optical axis. Every `holdout`-th image is a
-//! test/val view.
+//! test/val view. At a downscale `N`, the `images_N/` copies LLFF and
+//! mip-NeRF 360 ship are read if present ([`image_folder`]).
 //!
 //! [`write_poses_bounds`] writes the file from posed cameras and sparse
 //! points as LLFF's `imgs2poses` does from a COLMAP model.
@@ -47,6 +48,29 @@ fn image_files(img_dir: &Path) -> Result<Vec<PathBuf>, DataError> {
     Ok(files)
 }
 
+/// The folder of photos an LLFF capture is read from at `downscale`, and
+/// the downscale left to apply to them: `images_N` as it is for `N` the
+/// downscale (the copies LLFF and mip-NeRF 360 ship, `images_4`, `images_8`,
+/// made from `images/` by resizing), else `images/` downscaled, else
+/// `images_K` for a `K` dividing the downscale, downscaled the rest of the
+/// way. A folder counts if it holds one photo per pose; `images/` is
+/// named otherwise (the error then counts its photos). The cameras keep
+/// the full size the file gives: [`build`] scales them to the photos.
+fn image_folder(dir: &Path, downscale: u32, poses: usize) -> (PathBuf, u32) {
+    let holds = |p: &Path| image_files(p).is_ok_and(|f| f.len() == poses);
+    let mut tries = Vec::new();
+    if downscale > 1 {
+        tries.push((dir.join(format!("images_{downscale}")), 1));
+    }
+    tries.push((dir.join("images"), downscale));
+    for k in [2u32, 4, 8, 16] {
+        if k < downscale && downscale.is_multiple_of(k) {
+            tries.push((dir.join(format!("images_{k}")), downscale / k));
+        }
+    }
+    tries.into_iter().find(|(p, _)| holds(p)).unwrap_or((dir.join("images"), downscale))
+}
+
 /// Loads an LLFF capture's split (see the module doc).
 pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> Result<Dataset, DataError> {
     let npy = dir.join("poses_bounds.npy");
@@ -57,7 +81,7 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
     if vals.iter().any(|v| !v.is_finite()) {
         return Err(DataError::new(&npy, "non-finite values"));
     }
-    let img_dir = dir.join("images");
+    let (img_dir, downscale) = image_folder(dir, opts.downscale, rows);
     let files = image_files(&img_dir)?;
     if files.len() != rows {
         return Err(DataError::new(&img_dir, format!("{} images but {rows} poses in poses_bounds.npy", files.len())));
@@ -90,7 +114,7 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
     let copts = CaptureOptions {
         split,
         select: Selection::Holdout(opts.holdout),
-        downscale: opts.downscale,
+        downscale,
         kind: opts.scene,
         lens: false,
         undistort: false,
