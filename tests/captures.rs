@@ -326,6 +326,11 @@ fn ngp_capture_reads_paths_focal_keys_and_split_files_as_instant_ngp_does() {
     });
     let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
     assert!(e.contains("transforms.json") && e.contains("no fl_x or fl_y"), "{e}");
+    // nerfstudio's masks are not applied, and the run says so
+    std::fs::write(d.join("transforms.json"), &orig).unwrap();
+    edit_transforms(&d, |v| v["frames"][0]["mask_path"] = "masks/img_000.png".into());
+    let masked = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert!(masked.notes.iter().any(|n| n.contains("1 frames name a mask_path")), "{:?}", masked.notes);
     // nerfstudio's r⁸ term of a perspective lens is refused by name, not dropped
     std::fs::write(d.join("transforms.json"), &orig).unwrap();
     edit_transforms(&d, |v| v["k4"] = 0.01.into());

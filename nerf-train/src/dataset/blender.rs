@@ -45,6 +45,9 @@ struct Intrinsics {
 struct Frame {
     file_path: String,
     transform_matrix: Vec<Vec<f64>>,
+    /// nerfstudio's mask of the pixels to leave out of the loss: not
+    /// applied here, only reported.
+    mask_path: Option<String>,
     #[serde(flatten)]
     intr: Intrinsics,
 }
@@ -250,6 +253,14 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
             "{}: {missing} of {} frames skipped: image file not found",
             path.display(),
             t.frames.len()
+        ));
+    }
+    let masked = t.frames.iter().filter(|f| f.mask_path.is_some()).count();
+    if masked > 0 {
+        data.notes.push(format!(
+            "{}: {masked} frames name a mask_path: masks are not applied, every pixel of those photos trains \
+             and is scored (paint what the masks hide out of the photos, or leave those photos out)",
+            path.display()
         ));
     }
     Ok(data)
