@@ -63,6 +63,9 @@ struct Transforms {
     far: Option<f64>,
     aabb: Option<[[f64; 3]; 2]>,
     white_background: Option<bool>,
+    /// nerfstudio's sparse points (a PLY file beside this one, in the
+    /// frames' coordinates).
+    ply_file_path: Option<String>,
 }
 
 fn read_transforms(path: &Path) -> Result<Transforms, DataError> {
@@ -222,6 +225,14 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
     } else {
         None
     };
+    // the sparse points of the file the fit uses (the training file's with split files)
+    let fit_file = if select_all && split != Split::Train {
+        Some(dir.join("transforms_train.json")).filter(|p| p.is_file()).unwrap_or(dir.join("transforms.json"))
+    } else {
+        path.clone()
+    };
+    let fit_t = if fit_file == path { None } else { Some(read_transforms(&fit_file)?) };
+    let (points, mut notes) = sparse_points(&fit_file, dir, fit_t.as_ref().unwrap_or(&t))?;
     let copts = |select| CaptureOptions {
         split,
         select,
@@ -236,18 +247,18 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         upright: false,
     };
     let mut data = if !select_all {
-        build(&path, &views, &[], fixed, copts(Selection::Holdout(opts.holdout)))?
-    } else if split == Split::Train {
-        build(&path, &views, &[], fixed, copts(Selection::From(0)))?
-    } else {
+        build(&path, &views, &points, fixed, copts(Selection::Holdout(opts.holdout)))?
+    } else if let Some(ft) = &fit_t {
         // the split's own file: fitted on the training cameras first (transforms_train.json, else
         // transforms.json), so all splits share one frame
-        let tp = Some(dir.join("transforms_train.json")).filter(|p| p.is_file()).unwrap_or(dir.join("transforms.json"));
-        let mut all = ngp_views(&tp, dir, &read_transforms(&tp)?)?.0;
+        let mut all = ngp_views(&fit_file, dir, ft)?.0;
         let first = all.len();
         all.extend(views);
-        build(&path, &all, &[], fixed, copts(Selection::From(first)))?
+        build(&path, &all, &points, fixed, copts(Selection::From(first)))?
+    } else {
+        build(&path, &views, &points, fixed, copts(Selection::From(0)))?
     };
+    data.notes.append(&mut notes);
     if missing > 0 {
         data.notes.push(format!(
             "{}: {missing} of {} frames skipped: image file not found",
@@ -264,6 +275,19 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         ));
     }
     Ok(data)
+}
+
+/// The sparse points that the file at `path` names (`ply_file_path`,
+/// relative to `dir`), and a note if it names a file that is not there.
+fn sparse_points(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<glam::DVec3>, Vec<String>), DataError> {
+    let Some(name) = &t.ply_file_path else { return Ok((Vec::new(), Vec::new())) };
+    let ply = dir.join(name.replace('\\', "/"));
+    if !ply.is_file() {
+        let note =
+            format!("{}: ply_file_path {name} not found: the scene is fitted to the cameras alone", path.display());
+        return Ok((Vec::new(), vec![note]));
+    }
+    Ok((super::ply::read_ply_points(&ply)?, Vec::new()))
 }
 
 /// The frames of an ngp file whose images exist, as capture views, and

@@ -13,6 +13,7 @@ mod image_io;
 pub mod lens;
 mod llff;
 mod npy;
+mod ply;
 pub mod reconstructions;
 pub mod synthetic;
 mod types;
