@@ -11,7 +11,10 @@ NAME_gt.png); standard library only (8-bit PNG, any filter).
     scripts/region_psnr.py ROOM_SAVE OBJ_SAVE
 
 Prints each view's two PSNRs and pixel counts, then the pooled PSNR of
-each region and its share of the squared error, and of every pixel.
+each region and its share of the squared error, and of every pixel; then
+the object's pixels split in two: its silhouette (an object pixel with a
+pixel of the rest among its eight neighbours, where the render blends the
+object with what lies behind it) and its interior (the others).
 """
 
 import math
@@ -75,6 +78,7 @@ def main():
         sys.exit(__doc__)
     room, obj = sys.argv[1], sys.argv[2]
     total = {"object": [0.0, 0], "rest": [0.0, 0]}
+    parts = {"object's interior": [0.0, 0], "object's silhouette": [0.0, 0]}
     for name in sorted(os.listdir(room)):
         if not name.endswith(".png") or name.endswith("_gt.png"):
             continue
@@ -85,18 +89,26 @@ def main():
         if (wg, hg) != (w, h) or (wo, ho) != (w, h) or min(cr, cg, co) < 3:
             sys.exit(f"{view}: the render, its ground truth and the view on black differ in size or are not RGB")
         per = {"object": [0.0, 0], "rest": [0.0, 0]}
+        mask = [[max(black[y][x * co + k] for k in range(3)) > OBJECT_LEVEL for x in range(w)] for y in range(h)]
         for y in range(h):
             for x in range(w):
-                region = "object" if max(black[y][x * co + k] for k in range(3)) > OBJECT_LEVEL else "rest"
+                region = "object" if mask[y][x] else "rest"
                 e = sum(((render[y][x * cr + k] - truth[y][x * cg + k]) / 255.0) ** 2 for k in range(3)) / 3
                 for acc in (per[region], total[region]):
                     acc[0] += e
                     acc[1] += 1
+                if mask[y][x]:
+                    near = [mask[j][i] for j in range(max(0, y - 1), min(h, y + 2)) for i in range(max(0, x - 1), min(w, x + 2))]
+                    part = parts["object's interior" if all(near) else "object's silhouette"]
+                    part[0] += e
+                    part[1] += 1
         print(view, "  ".join(f"{r} {psnr(*per[r]):.2f} dB ({per[r][1]} px)" for r in per))
     sq, n_all = sum(v[0] for v in total.values()), sum(v[1] for v in total.values())
     for r, (e, n) in total.items():
         print(f"all views, {r}: {psnr(e, n):.2f} dB over {n} px, {100 * e / sq:.0f} % of the squared error")
     print(f"all views, every pixel: {psnr(sq, n_all):.2f} dB over {n_all} px")
+    for r, (e, n) in parts.items():
+        print(f"all views, {r}: {psnr(e, n):.2f} dB over {n} px")
 
 
 if __name__ == "__main__":
