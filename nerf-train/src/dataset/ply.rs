@@ -37,7 +37,9 @@ fn type_size(t: &str) -> Option<usize> {
 
 /// The points of a PLY file's bytes.
 pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, String> {
-    let end = bytes.windows(11).position(|w| w == b"end_header\n").ok_or("no end_header line")? + 11;
+    // the header ends with the line `end_header` (LF or CR LF)
+    let at = bytes.windows(10).position(|w| w == b"end_header").ok_or("no end_header line")?;
+    let end = at + bytes[at..].iter().position(|&b| b == b'\n').ok_or("no end_header line")? + 1;
     let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "header is not text")?;
     let mut lines = header.lines().map(str::trim);
     if lines.next() != Some("ply") {
@@ -134,6 +136,7 @@ mod tests {
         // nerfstudio's sparse_pc.ply: ASCII, colour after the coordinates
         let ascii = format!("ply\nformat ascii 1.0\n{HEAD}1 -2 0.5 10 20 30\n0.25 3 -4 1 2 3\n");
         assert_eq!(parse_ply_points(ascii.as_bytes()).unwrap(), want);
+        assert_eq!(parse_ply_points(ascii.replace('\n', "\r\n").as_bytes()).unwrap(), want, "CR LF lines");
         for (format, le) in [("binary_little_endian", true), ("binary_big_endian", false)] {
             let mut b = format!("ply\nformat {format} 1.0\ncomment made by a test\n{HEAD}").into_bytes();
             for p in &want {
