@@ -634,6 +634,11 @@ fn llff_captures_read_the_downscaled_copies_they_ship() {
     // at downscale 4 without images_4: images/ is read
     let quarter = load(&d, Split::Train, LoadOptions { downscale: 4, ..opts(Format::Auto) }).unwrap();
     assert!(quarter.views.iter().all(|v| v.rgb.iter().any(|c| (c[0] - 0.5).abs() > 0.05)));
+    // with images/ gone, the error names the copy that can be read instead
+    std::fs::rename(d.join("images"), d.join("originals")).unwrap();
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("images_2/ (--downscale 2) can be read instead"), "{e}");
+    std::fs::rename(d.join("originals"), d.join("images")).unwrap();
     // a shipped copy missing photos is passed over
     std::fs::remove_file(
         d.join("images_2").join(std::fs::read_dir(d.join("images_2")).unwrap().next().unwrap().unwrap().file_name()),

@@ -82,9 +82,19 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
         return Err(DataError::new(&npy, "non-finite values"));
     }
     let (img_dir, downscale) = image_folder(dir, opts.downscale, rows);
-    let files = image_files(&img_dir)?;
+    // the shipped copies that hold a photo per pose, for the error's hint
+    let copies: Vec<String> = [2u32, 4, 8, 16]
+        .iter()
+        .filter(|k| image_files(&dir.join(format!("images_{k}"))).is_ok_and(|f| f.len() == rows))
+        .map(|k| format!("images_{k}/ (--downscale {k})"))
+        .collect();
+    let hint = if copies.is_empty() { String::new() } else { format!("; {} can be read instead", copies.join(", ")) };
+    let files = image_files(&img_dir).map_err(|e| DataError::new(&img_dir, format!("{}{hint}", e.msg)))?;
     if files.len() != rows {
-        return Err(DataError::new(&img_dir, format!("{} images but {rows} poses in poses_bounds.npy", files.len())));
+        return Err(DataError::new(
+            &img_dir,
+            format!("{} images but {rows} poses in poses_bounds.npy{hint}", files.len()),
+        ));
     }
     let mut views = Vec::with_capacity(rows);
     let mut near_points = Vec::with_capacity(rows);
