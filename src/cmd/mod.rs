@@ -90,8 +90,8 @@ pub struct CaptureArgs {
     /// Dataset layout.
     #[arg(long, value_enum, default_value_t = Format::Auto)]
     pub format: Format,
-    /// Downscale images by this integer factor (area averaging) [default: 1 to train; with a model: the one it
-    /// was trained at].
+    /// Downscale images by this integer factor (area averaging; an LLFF capture's images_N/ copy is read if it
+    /// ships one) [default: 1 to train; with a model: the one it was trained at].
     #[arg(long, value_name = "1..=64", value_parser = num_in(1u32, 64))]
     pub downscale: Option<u32>,
     /// Hold-out of LLFF, COLMAP and instant-ngp captures: every N-th image is a test/val view [default: 8; with a
