@@ -346,12 +346,29 @@ fn ngp_capture_reads_paths_focal_keys_and_split_files_as_instant_ngp_does() {
     // split into transforms_{train,test}.json with the capture's keys: an ngp capture, not Blender
     std::fs::write(d.join("transforms.json"), &orig).unwrap();
     std::fs::copy(d.join("transforms.json"), d.join("transforms_train.json")).unwrap();
-    std::fs::copy(d.join("transforms.json"), d.join("transforms_test.json")).unwrap();
+    let mut test: serde_json::Value = serde_json::from_str(&orig).unwrap();
+    let last = test["frames"].as_array().unwrap().last().unwrap().clone();
+    test["frames"] = serde_json::json!([last]);
+    std::fs::write(d.join("transforms_test.json"), test.to_string()).unwrap();
     assert_eq!(nerf_train::dataset::detect(&d).unwrap(), Format::Ngp);
     let split = load(&d, Split::Train, opts(Format::Auto)).unwrap();
     // every frame of the training file whose image exists (3 of 5), each with its lens
     assert_eq!(split.views.len(), 3);
     assert!(split.views.iter().all(|v| matches!(v.lens, Lens::Opencv { .. })));
+    // the test file's one photo is the training file's last: the same camera in the training split's frame
+    let test = load(&d, Split::Test, opts(Format::Auto)).unwrap();
+    assert_eq!(test.views.len(), 1);
+    let same = split.views.iter().find(|v| v.name == test.views[0].name).expect("the photo in both files");
+    assert_eq!(test.views[0].camera, same.camera);
+    assert_eq!(test.scene, split.scene);
+    // the same split files with a Blender camera_angle_x and a lens without distortion: a Blender split
+    let mut blender: serde_json::Value = serde_json::from_str(&orig).unwrap();
+    for k in ["k1", "k2", "p1", "p2"] {
+        blender[k] = 0.0.into();
+    }
+    blender["camera_angle_x"] = 0.69.into();
+    std::fs::write(d.join("transforms_train.json"), blender.to_string()).unwrap();
+    assert_eq!(nerf_train::dataset::detect(&d).unwrap(), Format::Blender);
 }
 
 #[test]
@@ -647,6 +664,26 @@ fn llff_captures_read_the_downscaled_copies_they_ship() {
     let partial = load(&d, Split::Train, half).unwrap();
     for (u, v) in from_full.views.iter().zip(&partial.views) {
         assert_eq!(&u.rgb, &v.rgb, "{}", u.name);
+    }
+    // a copy whose photos are renamed (nerf_llff_data's image000.png, …) is passed over while images/ is
+    // there: the views keep images/'s names, which a model records
+    std::fs::remove_dir_all(d.join("images_2")).unwrap();
+    std::fs::create_dir_all(d.join("images_2")).unwrap();
+    for (i, v) in from_full.views.iter().enumerate() {
+        let (w, h) = (v.camera.width, v.camera.height);
+        write_jpeg(
+            &d.join(format!("images_2/image{i:03}.jpg")),
+            &image::RgbImage::from_pixel(w, h, image::Rgb([128; 3])),
+            None,
+        );
+    }
+    let n = std::fs::read_dir(d.join("images")).unwrap().count();
+    for i in from_full.views.len()..n {
+        std::fs::copy(d.join("images_2/image000.jpg"), d.join(format!("images_2/image{i:03}.jpg"))).unwrap();
+    }
+    let renamed = load(&d, Split::Train, half).unwrap();
+    for (u, v) in from_full.views.iter().zip(&renamed.views) {
+        assert_eq!((&u.name, &u.rgb), (&v.name, &v.rgb));
     }
 }
 

@@ -105,18 +105,22 @@ fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
 }
 
 /// True if `dir/transforms_train.json` is an instant-ngp / nerfstudio
-/// capture split into files (intrinsics or lens keys of its own, for the
-/// file or a frame) rather than a Blender synthetic split (`camera_angle_x`
-/// alone). A file that does not parse counts as Blender, whose loader then
-/// names the fault.
+/// capture split into files rather than a Blender synthetic split: a file
+/// without `camera_angle_x` (its focal length in other keys), or one whose
+/// lens the Blender loader would drop (a distortion coefficient other than
+/// 0, a fisheye), or whose frames carry intrinsics of their own. A
+/// Blender-layout file that also states its pinhole's `fl_x`, `cx`, `w`, …
+/// (as BlenderNeRF writes) stays Blender. A file that does not parse counts
+/// as Blender, whose loader then names the fault.
 pub(super) fn is_ngp_split(dir: &Path) -> bool {
     let Ok(t) = read_transforms(&dir.join("transforms_train.json")) else { return false };
-    let own = |i: &Intrinsics| {
-        [i.fl_x, i.fl_y, i.k1, i.k2, i.k3, i.k4, i.p1, i.p2].iter().any(Option::is_some)
-            || i.camera_model.is_some()
-            || i.is_fisheye.is_some()
+    let lens = |i: &Intrinsics| {
+        [i.k1, i.k2, i.k3, i.k4, i.p1, i.p2].iter().any(|k| k.is_some_and(|k| k != 0.0))
+            || i.is_fisheye == Some(true)
+            || i.camera_model.as_deref() == Some("OPENCV_FISHEYE")
     };
-    own(&t.intr) || t.frames.iter().any(|f| own(&f.intr))
+    let own = |i: &Intrinsics| [i.fl_x, i.fl_y, i.cx, i.cy, i.w, i.h].iter().any(Option::is_some);
+    t.camera_angle_x.is_none() || lens(&t.intr) || t.frames.iter().any(|f| lens(&f.intr) || own(&f.intr))
 }
 
 struct SceneDefaults {
@@ -210,8 +214,9 @@ pub fn load_blender(dir: &Path, split: Split, downscale: u32) -> Result<Dataset,
 }
 
 /// Loads an instant-ngp / nerfstudio capture: `transforms_{split}.json` if
-/// present (the fit then uses the cameras of `transforms_train.json`, or
-/// of `transforms.json` without it), otherwise
+/// present (the frame is then fitted on the cameras, sparse points and
+/// scene keys of `transforms_train.json`, or of `transforms.json` without
+/// it, so that every split shares it), otherwise
 /// `transforms.json` with every `holdout`-th frame as the val/test views.
 pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, DataError> {
     let own = dir.join(format!("transforms_{}.json", split.name()));
@@ -219,20 +224,27 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
     let (path, select_all) = if split_files { (own, true) } else { (dir.join("transforms.json"), false) };
     let t = read_transforms(&path)?;
     let (views, missing) = ngp_views(&path, dir, &t)?;
-    let fixed = if t.aabb.is_some() || t.near.is_some() || t.far.is_some() {
-        let r = views.iter().map(|v| v.pose.1.length()).fold(0.0f64, f64::max).max(1e-3);
-        Some(scene_from(&path, &t, SceneDefaults { near: 0.05 * r, far: 2.0 * r, half: r, white: false })?)
-    } else {
-        None
-    };
-    // the sparse points of the file the fit uses (the training file's with split files)
+    // with split files, the other splits take the training file's frame: its cameras, sparse points,
+    // aabb, near and far and background (transforms_train.json, else transforms.json)
     let fit_file = if select_all && split != Split::Train {
         Some(dir.join("transforms_train.json")).filter(|p| p.is_file()).unwrap_or(dir.join("transforms.json"))
     } else {
         path.clone()
     };
     let fit_t = if fit_file == path { None } else { Some(read_transforms(&fit_file)?) };
-    let (points, mut notes) = sparse_points(&fit_file, dir, fit_t.as_ref().unwrap_or(&t))?;
+    let ft = fit_t.as_ref().unwrap_or(&t);
+    let fit_views = match &fit_t {
+        Some(f) => ngp_views(&fit_file, dir, f)?.0,
+        None => Vec::new(),
+    };
+    let fixed = if ft.aabb.is_some() || ft.near.is_some() || ft.far.is_some() {
+        let cams = if fit_t.is_some() { &fit_views } else { &views };
+        let r = cams.iter().map(|v| v.pose.1.length()).fold(0.0f64, f64::max).max(1e-3);
+        Some(scene_from(&fit_file, ft, SceneDefaults { near: 0.05 * r, far: 2.0 * r, half: r, white: false })?)
+    } else {
+        None
+    };
+    let (points, mut notes) = sparse_points(&fit_file, dir, ft)?;
     let copts = |select| CaptureOptions {
         split,
         select,
@@ -240,7 +252,7 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         kind: opts.scene,
         lens: opts.lens,
         undistort: opts.undistort,
-        white_background: t.white_background.unwrap_or(false),
+        white_background: ft.white_background.unwrap_or(false),
         nearest: None,
         // as stored: instant-ngp and nerfstudio read the pixels without the EXIF orientation, and
         // the poses and `w`, `h` describe those pixels
@@ -248,12 +260,10 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
     };
     let mut data = if !select_all {
         build(&path, &views, &points, fixed, copts(Selection::Holdout(opts.holdout)))?
-    } else if let Some(ft) = &fit_t {
-        // the split's own file: fitted on the training cameras first (transforms_train.json, else
-        // transforms.json), so all splits share one frame
-        let mut all = ngp_views(&fit_file, dir, ft)?.0;
-        let first = all.len();
-        all.extend(views);
+    } else if fit_t.is_some() {
+        // the split's own file after the training cameras, on which alone the frame is fitted
+        let first = fit_views.len();
+        let all: Vec<CaptureView> = fit_views.into_iter().chain(views).collect();
         build(&path, &all, &points, fixed, copts(Selection::From(first)))?
     } else {
         build(&path, &views, &points, fixed, copts(Selection::From(0)))?

@@ -44,7 +44,10 @@ pub enum Selection {
     /// Every N-th view (0, N, 2N, … in capture order) is a val/test view,
     /// the others train (N ≥ 1).
     Holdout(usize),
-    /// The views from this index on (the ones before only take part in the fit).
+    /// The views from this index on. The ones before are the capture's
+    /// training views, on which alone the frame is fitted, so that every
+    /// split shares the training split's frame; with none (`From(0)`) the
+    /// frame is fitted on the views themselves.
     From(usize),
 }
 
@@ -82,7 +85,11 @@ pub struct CaptureOptions {
 /// folder that holds them all, its separators turned into `_` (`cam1_0001`),
 /// with its extension if the stems still collide.
 pub fn view_names(all: &[CaptureView]) -> Vec<String> {
-    let unique = |names: &[String]| names.iter().collect::<std::collections::HashSet<_>>().len() == names.len();
+    // a name is unique if it stands for one file (a file listed twice keeps its one name)
+    let unique = |names: &[String]| {
+        let mut seen = std::collections::HashMap::new();
+        names.iter().zip(all).all(|(n, v)| *seen.entry(n).or_insert(&v.image) == &v.image)
+    };
     let stems: Vec<String> = all.iter().map(|v| stem(&v.image)).collect();
     if unique(&stems) {
         return stems;
@@ -118,7 +125,13 @@ pub fn build(
     if all.is_empty() {
         return Err(DataError::new(path, "no registered images"));
     }
-    let poses: Vec<Pose> = all.iter().map(|v| v.pose).collect();
+    // the frame is fitted on the capture's views, or with `From(first)` on the training views before
+    // `first` that every split of the capture shares
+    let fit_on = match opts.select {
+        Selection::From(first) if first > 0 => &all[..first],
+        _ => all,
+    };
+    let poses: Vec<Pose> = fit_on.iter().map(|v| v.pose).collect();
     enum Frame {
         Fixed(Scene),
         Fitted(super::fit::Fitted),
@@ -139,7 +152,13 @@ pub fn build(
         Selection::Holdout(n) => i.is_multiple_of(n.max(1)) != (opts.split == Split::Train),
         Selection::From(first) => i >= first,
     };
-    let names = view_names(all);
+    // names among the views a split can hold: all of them (the record of a hold-out names them all), or
+    // the split's own
+    let first = match opts.select {
+        Selection::From(first) => first.min(all.len()),
+        Selection::Holdout(_) => 0,
+    };
+    let names: Vec<String> = vec![String::new(); first].into_iter().chain(view_names(&all[first..])).collect();
     let mut views = Vec::new();
     for (i, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
         // the image's shape must be the camera's (the downscale crops at most n − 1 pixels a side); a photo

@@ -53,11 +53,21 @@ fn image_files(img_dir: &Path) -> Result<Vec<PathBuf>, DataError> {
 /// downscale (the copies LLFF and mip-NeRF 360 ship, `images_4`, `images_8`,
 /// made from `images/` by resizing), else `images/` downscaled, else
 /// `images_K` for a `K` dividing the downscale, downscaled the rest of the
-/// way. A folder counts if it holds one photo per pose; `images/` is
+/// way. A folder counts if it holds one photo per pose, and a copy only
+/// if its photos bear the names of `images/`'s (the views' names, which a
+/// model records; nerf_llff_data's copies are renamed `image000.png`, …,
+/// and are passed over) or `images/` holds no photo per pose; `images/` is
 /// named otherwise (the error then counts its photos). The cameras keep
 /// the full size the file gives: [`build`] scales them to the photos.
 fn image_folder(dir: &Path, downscale: u32, poses: usize) -> (PathBuf, u32) {
-    let holds = |p: &Path| image_files(p).is_ok_and(|f| f.len() == poses);
+    let stems = |p: &Path| {
+        image_files(p)
+            .ok()
+            .filter(|f| f.len() == poses)
+            .map(|f| f.iter().map(|x| super::types::stem(x)).collect::<Vec<_>>())
+    };
+    let full = stems(&dir.join("images"));
+    let holds = |p: &Path| stems(p).is_some_and(|s| full.as_ref().is_none_or(|f| *f == s));
     let mut tries = Vec::new();
     if downscale > 1 {
         tries.push((dir.join(format!("images_{downscale}")), 1));

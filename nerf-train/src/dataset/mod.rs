@@ -31,7 +31,7 @@ use std::path::Path;
 
 /// Detects the layout of `dir`: `transforms_train.json` is a Blender
 /// synthetic split, or an instant-ngp / nerfstudio capture split into files
-/// when it carries intrinsics or lens keys; then `poses_bounds.npy` (LLFF),
+/// when the Blender loader would lose its lens or intrinsics; then `poses_bounds.npy` (LLFF),
 /// `transforms.json` (instant-ngp / nerfstudio), a COLMAP sparse model.
 pub fn detect(dir: &Path) -> Result<Format, DataError> {
     if dir.join("transforms_train.json").is_file() {

@@ -24,30 +24,86 @@ enum Encoding {
     Big,
 }
 
-/// Bytes of a PLY scalar type, or `None` for an unknown one.
-fn type_size(t: &str) -> Option<usize> {
-    Some(match t {
-        "char" | "uchar" | "int8" | "uint8" => 1,
-        "short" | "ushort" | "int16" | "uint16" => 2,
-        "int" | "uint" | "int32" | "uint32" | "float" | "float32" => 4,
-        "double" | "float64" => 8,
-        _ => return None,
-    })
+/// A PLY scalar type.
+#[derive(Clone, Copy)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    /// The type a PLY header names, or `None` for an unknown one.
+    fn of(t: &str) -> Option<Self> {
+        Some(match t {
+            "char" | "int8" => Self::I8,
+            "uchar" | "uint8" => Self::U8,
+            "short" | "int16" => Self::I16,
+            "ushort" | "uint16" => Self::U16,
+            "int" | "int32" => Self::I32,
+            "uint" | "uint32" => Self::U32,
+            "float" | "float32" => Self::F32,
+            "double" | "float64" => Self::F64,
+            _ => return None,
+        })
+    }
+
+    /// Bytes per value.
+    fn size(self) -> usize {
+        match self {
+            Self::I8 | Self::U8 => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::I32 | Self::U32 | Self::F32 => 4,
+            Self::F64 => 8,
+        }
+    }
+
+    /// The value in `b` (`size` bytes, little-endian if `le`, else big-endian).
+    fn read(self, b: &[u8], le: bool) -> f64 {
+        let mut a = [0u8; 8];
+        a[..b.len()].copy_from_slice(b);
+        if !le {
+            a[..b.len()].reverse();
+        }
+        let [a0, a1, a2, a3, ..] = a;
+        match self {
+            Self::I8 => a0 as i8 as f64,
+            Self::U8 => a0 as f64,
+            Self::I16 => i16::from_le_bytes([a0, a1]) as f64,
+            Self::U16 => u16::from_le_bytes([a0, a1]) as f64,
+            Self::I32 => i32::from_le_bytes([a0, a1, a2, a3]) as f64,
+            Self::U32 => u32::from_le_bytes([a0, a1, a2, a3]) as f64,
+            Self::F32 => f32::from_le_bytes([a0, a1, a2, a3]) as f64,
+            Self::F64 => f64::from_le_bytes(a),
+        }
+    }
 }
 
 /// The points of a PLY file's bytes.
 pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, String> {
     // the header ends with the line `end_header` (LF or CR LF)
-    let at = bytes.windows(10).position(|w| w == b"end_header").ok_or("no end_header line")?;
-    let end = at + bytes[at..].iter().position(|&b| b == b'\n').ok_or("no end_header line")? + 1;
+    let mut end = 0;
+    loop {
+        let next = bytes[end..].iter().position(|&b| b == b'\n').ok_or("no end_header line")? + end + 1;
+        let line = &bytes[end..next];
+        end = next;
+        if line.trim_ascii() == b"end_header" {
+            break;
+        }
+    }
     let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "header is not text")?;
     let mut lines = header.lines().map(str::trim);
     if lines.next() != Some("ply") {
         return Err("missing the 'ply' magic line".into());
     }
     let (mut encoding, mut count) = (None, None);
-    // the vertex element's properties (name, bytes), and whether an element precedes it
-    let (mut props, mut in_vertex, mut before) = (Vec::<(String, usize)>::new(), false, false);
+    // the vertex element's properties (name, type), and whether an element precedes it
+    let (mut props, mut in_vertex, mut before) = (Vec::<(String, Scalar)>::new(), false, false);
     for l in lines {
         let t: Vec<&str> = l.split_whitespace().collect();
         match t.as_slice() {
@@ -69,8 +125,8 @@ pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, String> {
             }
             ["property", "list", ..] if in_vertex => return Err("a list property in the vertex element".into()),
             ["property", ty, name] if in_vertex => {
-                let size = type_size(ty).ok_or_else(|| format!("unknown property type {ty}"))?;
-                props.push((name.to_string(), size));
+                let ty = Scalar::of(ty).ok_or_else(|| format!("unknown property type {ty}"))?;
+                props.push((name.to_string(), ty));
             }
             _ => {}
         }
@@ -96,25 +152,15 @@ pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, String> {
             out.push(DVec3::new(v(ix)?, v(iy)?, v(iz)?));
         }
     } else {
-        let offsets: Vec<usize> = props.iter().scan(0, |o, p| Some(std::mem::replace(o, *o + p.1))).collect();
-        let stride: usize = props.iter().map(|p| p.1).sum();
+        let offsets: Vec<usize> = props.iter().scan(0, |o, p| Some(std::mem::replace(o, *o + p.1.size()))).collect();
+        let stride: usize = props.iter().map(|p| p.1.size()).sum();
         if body.len() / stride.max(1) < n {
             return Err(format!("{n} vertices declared, {} bytes for them", body.len()));
         }
-        let value = |row: &[u8], k: usize| -> Result<f64, String> {
-            let b = &row[offsets[k]..offsets[k] + props[k].1];
-            let word =
-                |a: [u8; 4]| if encoding == Encoding::Little { f32::from_le_bytes(a) } else { f32::from_be_bytes(a) };
-            let long =
-                |a: [u8; 8]| if encoding == Encoding::Little { f64::from_le_bytes(a) } else { f64::from_be_bytes(a) };
-            match b.len() {
-                4 => Ok(word(b.try_into().unwrap()) as f64),
-                8 => Ok(long(b.try_into().unwrap())),
-                _ => Err(format!("coordinate {} is not a float or double", props[k].0)),
-            }
-        };
+        let le = encoding == Encoding::Little;
+        let value = |row: &[u8], k: usize| props[k].1.read(&row[offsets[k]..offsets[k] + props[k].1.size()], le);
         for row in body.chunks_exact(stride).take(n) {
-            out.push(DVec3::new(value(row, ix)?, value(row, iy)?, value(row, iz)?));
+            out.push(DVec3::new(value(row, ix), value(row, iy), value(row, iz)));
         }
     }
     if out.iter().any(|p| !p.is_finite()) {
@@ -147,6 +193,18 @@ mod tests {
             }
             assert_eq!(parse_ply_points(&b).unwrap(), want, "{format}");
         }
+    }
+
+    #[test]
+    fn binary_coordinates_of_any_type_after_other_properties_read() {
+        let head = "ply\nformat binary_little_endian 1.0\ncomment end_header is a word here\nelement vertex 1\n\
+                    property uchar flag\nproperty double x\nproperty int y\nproperty short z\nend_header\n";
+        let mut b = head.as_bytes().to_vec();
+        b.push(1);
+        b.extend_from_slice(&0.125f64.to_le_bytes());
+        b.extend_from_slice(&(-7i32).to_le_bytes());
+        b.extend_from_slice(&300i16.to_le_bytes());
+        assert_eq!(parse_ply_points(&b).unwrap(), vec![DVec3::new(0.125, -7.0, 300.0)]);
     }
 
     #[test]
