@@ -79,13 +79,18 @@ fn read_transforms(path: &Path) -> Result<Transforms, DataError> {
     Ok(t)
 }
 
-/// The image a frame's `file_path` names, relative to `dir`: Windows
-/// separators read as `/`, and a name that is not a file tried with the
-/// extensions instant-ngp tries (Blender's frames name `r_0` for `r_0.png`).
-/// A frame whose image is found under none of them gets the name with
+/// The file a path in a transforms file names, relative to the file's
+/// folder `dir` (Windows separators read as `/`).
+fn beside(dir: &Path, name: &str) -> std::path::PathBuf {
+    dir.join(name.replace('\\', "/"))
+}
+
+/// The image a frame's `file_path` names ([`beside`]), a name that is not
+/// a file tried with the extensions instant-ngp tries (Blender's frames
+/// name `r_0` for `r_0.png`). A frame whose image is found under none of them gets the name with
 /// `.png` added if it had no extension, as given otherwise.
 fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
-    let p = dir.join(file.replace('\\', "/"));
+    let p = beside(dir, file);
     if p.is_file() {
         return p;
     }
@@ -113,14 +118,12 @@ fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
 /// (as BlenderNeRF writes) stays Blender. A file that does not parse counts
 /// as Blender, whose loader then names the fault.
 pub(super) fn is_ngp_split(dir: &Path) -> bool {
-    let Ok(t) = read_transforms(&dir.join("transforms_train.json")) else { return false };
-    let lens = |i: &Intrinsics| {
-        [i.k1, i.k2, i.k3, i.k4, i.p1, i.p2].iter().any(|k| k.is_some_and(|k| k != 0.0))
-            || i.is_fisheye == Some(true)
-            || i.camera_model.as_deref() == Some("OPENCV_FISHEYE")
-    };
+    let path = dir.join("transforms_train.json");
+    let Ok(t) = read_transforms(&path) else { return false };
+    // a lens other than a pinhole, or one the ngp loader refuses (it then names the fault)
+    let lens = |f: &Frame| ngp_lens(&path, "", &f.intr, &t.intr).map_or(true, |l| l != Lens::Pinhole);
     let own = |i: &Intrinsics| [i.fl_x, i.fl_y, i.cx, i.cy, i.w, i.h].iter().any(Option::is_some);
-    t.camera_angle_x.is_none() || lens(&t.intr) || t.frames.iter().any(|f| lens(&f.intr) || own(&f.intr))
+    t.camera_angle_x.is_none() || t.frames.iter().any(|f| lens(f) || own(&f.intr))
 }
 
 struct SceneDefaults {
@@ -291,7 +294,7 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
 /// relative to `dir`), and a note if it names a file that is not there.
 fn sparse_points(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<glam::DVec3>, Vec<String>), DataError> {
     let Some(name) = &t.ply_file_path else { return Ok((Vec::new(), Vec::new())) };
-    let ply = dir.join(name.replace('\\', "/"));
+    let ply = beside(dir, name);
     if !ply.is_file() {
         let note =
             format!("{}: ply_file_path {name} not found: the scene is fitted to the cameras alone", path.display());
@@ -379,12 +382,11 @@ fn ngp_lens(path: &Path, what: &str, f: &Intrinsics, g: &Intrinsics) -> Result<L
     let fisheye = f.is_fisheye.or(g.is_fisheye).unwrap_or(false);
     let (k1, k2, k3, k4) = (k(f.k1, g.k1), k(f.k2, g.k2), k(f.k3, g.k3), k(f.k4, g.k4));
     let (p1, p2) = (k(f.p1, g.p1), k(f.p2, g.p2));
+    let perspective = matches!(model, "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL");
     let lens = match model {
         "OPENCV_FISHEYE" => Lens::Fisheye { k: [k1, k2, k3, k4] },
-        "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" if fisheye => {
-            Lens::Fisheye { k: [k1, k2, k3, k4] }
-        }
-        "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" if k4 != 0.0 => {
+        _ if perspective && fisheye => Lens::Fisheye { k: [k1, k2, k3, k4] },
+        _ if perspective && k4 != 0.0 => {
             return Err(DataError::new(
                 path,
                 format!(
@@ -393,9 +395,7 @@ fn ngp_lens(path: &Path, what: &str, f: &Intrinsics, g: &Intrinsics) -> Result<L
                 ),
             ))
         }
-        "OPENCV" | "PINHOLE" | "SIMPLE_PINHOLE" | "SIMPLE_RADIAL" | "RADIAL" => {
-            Lens::Opencv { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2] }
-        }
+        _ if perspective => Lens::Opencv { k: [k1, k2, k3, 0.0, 0.0, 0.0], p: [p1, p2] },
         other => {
             return Err(DataError::new(
                 path,

@@ -84,7 +84,7 @@ pub struct CaptureOptions {
 /// rig's `cam1/0001.jpg` and `cam2/0001.jpg`), each image's path from the
 /// folder that holds them all, its separators turned into `_` (`cam1_0001`),
 /// with its extension if the stems still collide.
-pub fn view_names(all: &[CaptureView]) -> Vec<String> {
+fn view_names(all: &[CaptureView]) -> Vec<String> {
     // a name is unique if it stands for one file (a file listed twice keeps its one name)
     let unique = |names: &[String]| {
         let mut seen = std::collections::HashMap::new();
@@ -111,7 +111,8 @@ pub fn view_names(all: &[CaptureView]) -> Vec<String> {
 }
 
 /// Builds the split `opts.split` of a capture. `all` holds every view in
-/// capture order (the fit uses them all); `points` the capture's sparse
+/// capture order (the fit uses them all, or with `Selection::From` the
+/// training views before the split's); `points` the capture's sparse
 /// points (may be empty); `fixed` a scene given by the capture's own
 /// files, used as is with the poses unchanged. `path` names the capture's
 /// pose file in errors.
@@ -125,12 +126,12 @@ pub fn build(
     if all.is_empty() {
         return Err(DataError::new(path, "no registered images"));
     }
-    // the frame is fitted on the capture's views, or with `From(first)` on the training views before
-    // `first` that every split of the capture shares
-    let fit_on = match opts.select {
-        Selection::From(first) if first > 0 => &all[..first],
-        _ => all,
+    // `From(first)`: the training views before `first`, which alone the frame is fitted on
+    let first = match opts.select {
+        Selection::From(first) => first.min(all.len()),
+        Selection::Holdout(_) => 0,
     };
+    let fit_on = if first > 0 { &all[..first] } else { all };
     let poses: Vec<Pose> = fit_on.iter().map(|v| v.pose).collect();
     enum Frame {
         Fixed(Scene),
@@ -154,10 +155,6 @@ pub fn build(
     };
     // names among the views a split can hold: all of them (the record of a hold-out names them all), or
     // the split's own
-    let first = match opts.select {
-        Selection::From(first) => first.min(all.len()),
-        Selection::Holdout(_) => 0,
-    };
     let names: Vec<String> = vec![String::new(); first].into_iter().chain(view_names(&all[first..])).collect();
     let mut views = Vec::new();
     for (i, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {

@@ -48,6 +48,10 @@ fn image_files(img_dir: &Path) -> Result<Vec<PathBuf>, DataError> {
     Ok(files)
 }
 
+/// The downscales of the `images_N/` copies of `images/` that an LLFF
+/// capture may ship.
+const COPIES: [u32; 4] = [2, 4, 8, 16];
+
 /// The folder of photos an LLFF capture is read from at `downscale`, and
 /// the downscale left to apply to them: `images_N` as it is for `N` the
 /// downscale (the copies LLFF and mip-NeRF 360 ship, `images_4`, `images_8`,
@@ -73,7 +77,7 @@ fn image_folder(dir: &Path, downscale: u32, poses: usize) -> (PathBuf, u32) {
         tries.push((dir.join(format!("images_{downscale}")), 1));
     }
     tries.push((dir.join("images"), downscale));
-    for k in [2u32, 4, 8, 16] {
+    for k in COPIES {
         if k < downscale && downscale.is_multiple_of(k) {
             tries.push((dir.join(format!("images_{k}")), downscale / k));
         }
@@ -93,7 +97,7 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
     }
     let (img_dir, downscale) = image_folder(dir, opts.downscale, rows);
     // the shipped copies that hold a photo per pose, for the error's hint
-    let copies: Vec<String> = [2u32, 4, 8, 16]
+    let copies: Vec<String> = COPIES
         .iter()
         .filter(|k| image_files(&dir.join(format!("images_{k}"))).is_ok_and(|f| f.len() == rows))
         .map(|k| format!("images_{k}/ (--downscale {k})"))

@@ -74,13 +74,11 @@ pub fn read_images_txt(path: &Path) -> Result<Vec<ColmapImage>, ParseError> {
 
 /// [`read_images_txt`] on the file's bytes (`path` names it in errors).
 pub fn parse_images_txt(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapImage>, ParseError> {
-    let text = std::str::from_utf8(bytes).map_err(|_| err(path, "not UTF-8 text"))?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim_start().starts_with('#'));
+    // blank lines kept: an image's 2-D points line may be empty
+    let mut lines = text_lines(path, bytes)?.into_iter();
     let mut out = Vec::new();
     let mut seen = HashSet::new();
-    while let Some((i, l)) = lines.next() {
-        let ln = i + 1;
+    while let Some((ln, l)) = lines.next() {
         if l.trim().is_empty() {
             continue;
         }
@@ -102,7 +100,7 @@ pub fn parse_images_txt(path: &Path, bytes: &[u8]) -> Result<Vec<ColmapImage>, P
         // the 2-D points line: triples of numbers, skipped
         if let Some((j, p)) = lines.next() {
             if p.split_whitespace().count() % 3 != 0 {
-                return Err(err(path, format!("line {}: 2-D points are not (x, y, point id) triples", j + 1)));
+                return Err(err(path, format!("line {j}: 2-D points are not (x, y, point id) triples")));
             }
         }
     }
