@@ -1,8 +1,8 @@
 //! Real-capture inputs on data the tests make: COLMAP models (binary and
 //! text, several cameras, lens distortion, unregistered images, refused
 //! camera models), JPEG with EXIF orientation, instant-ngp files with
-//! missing frames and distortion keys, the fitted scene, and captures
-//! whose rays miss the scene.
+//! missing frames, distortion keys and masks, the fitted scene, and
+//! captures whose rays miss the scene.
 
 mod support;
 
@@ -333,11 +333,6 @@ fn ngp_capture_reads_paths_focal_keys_and_split_files_as_instant_ngp_does() {
     });
     let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
     assert!(e.contains("transforms.json") && e.contains("no fl_x or fl_y"), "{e}");
-    // nerfstudio's masks are not applied, and the run says so
-    std::fs::write(d.join("transforms.json"), &orig).unwrap();
-    edit_transforms(&d, |v| v["frames"][0]["mask_path"] = "masks/img_000.png".into());
-    let masked = load(&d, Split::Train, opts(Format::Auto)).unwrap();
-    assert!(masked.notes.iter().any(|n| n.contains("1 frames name a mask_path")), "{:?}", masked.notes);
     // nerfstudio's r⁸ term of a perspective lens is refused by name, not dropped
     std::fs::write(d.join("transforms.json"), &orig).unwrap();
     edit_transforms(&d, |v| v["k4"] = 0.01.into());
@@ -369,6 +364,39 @@ fn ngp_capture_reads_paths_focal_keys_and_split_files_as_instant_ngp_does() {
     blender["camera_angle_x"] = 0.69.into();
     std::fs::write(d.join("transforms_train.json"), blender.to_string()).unwrap();
     assert_eq!(nerf_train::dataset::detect(&d).unwrap(), Format::Blender);
+}
+
+#[test]
+fn nerfstudio_masks_leave_their_pixels_out_at_every_downscale() {
+    let d = tmp("ngp-masks");
+    ngp_capture(&d);
+    // frames img_000, img_001, img_003 (two images missing); every 4th held out: img_000 is the test view
+    std::fs::create_dir_all(d.join("masks")).unwrap();
+    // the five left columns left out (0), the rest kept (any other value)
+    let mask = image::GrayImage::from_fn(16, 16, |x, _| image::Luma([if x < 5 { 0 } else { 1 + x as u8 }]));
+    mask.save(d.join("masks/img_000.png")).unwrap();
+    edit_transforms(&d, |v| v["frames"][0]["mask_path"] = "masks/img_000.png".into());
+    let full = load(&d, Split::Test, opts(Format::Auto)).unwrap();
+    let m = &full.views[0].mask;
+    assert_eq!(m.len(), 256);
+    assert!(m.iter().enumerate().all(|(i, &k)| k == (i % 16 >= 5)));
+    // at half size a pixel is kept only if all four photo pixels it averages are: columns 3.. (2 holds column 4)
+    let half = load(&d, Split::Test, LoadOptions { downscale: 2, ..opts(Format::Auto) }).unwrap();
+    assert!(half.views[0].mask.iter().enumerate().all(|(i, &k)| k == (i % 8 >= 3)));
+    // resampled through the lens, the left-out columns stay out, the far side stays in
+    let flat = load(&d, Split::Test, LoadOptions { undistort: true, ..opts(Format::Auto) }).unwrap();
+    let m = &flat.views[0].mask;
+    assert!(m.iter().enumerate().all(|(i, &k)| (i % 16 > 3 || !k) && (i % 16 < 8 || k)));
+    // the training views have no mask: every pixel kept
+    let train = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert!(train.views.iter().all(|v| v.mask.is_empty()));
+    // a mask of another size, or one that is not there, is an error naming it
+    image::GrayImage::new(8, 16).save(d.join("masks/img_000.png")).unwrap();
+    let e = load(&d, Split::Test, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("img_000.png") && e.contains("mask is 8x16 but its photo is 16x16"), "{e}");
+    std::fs::remove_file(d.join("masks/img_000.png")).unwrap();
+    let e = load(&d, Split::Test, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("mask_path") && e.contains("img_000.png") && e.contains("not a file"), "{e}");
 }
 
 #[test]

@@ -110,6 +110,49 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
 }
 
 #[test]
+fn pixels_a_mask_leaves_out_are_never_drawn_nor_scored() {
+    let d = support::TestDir::new("train-mask");
+    write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
+    let mut data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    // every 7th pixel poisoned and masked out: a step that drew one would be skipped
+    for v in &mut data.views {
+        v.rgb.iter_mut().step_by(7).for_each(|p| *p = [f32::NAN, f32::INFINITY, 0.5]);
+        v.mask = (0..v.rgb.len()).map(|i| i % 7 != 0).collect();
+    }
+    let cfg = small_config().with(|c| c.sampling.batch_rays = 512);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 2);
+    for k in 0..4 {
+        let st = tr.train_step(&data, 0.1 * k as f64);
+        assert!(!st.skipped && st.loss.is_finite(), "{st:?}");
+    }
+    let batch = Trainer::draw_batch(&data, 4096, Draw::CENTRES, &mut Rng::new(5));
+    assert_eq!(batch.len(), 4096);
+    assert!(batch.iter().all(|s| s.rgb.iter().all(|c| c.is_finite())));
+    // scored on the kept pixels alone: a render equal to them where they are kept scores 100 dB
+    let mut v = data.views[0].clone();
+    v.rgb.iter_mut().step_by(7).for_each(|p| *p = [1.0, 0.0, 1.0]);
+    let r = Rendered {
+        width: v.camera.width,
+        height: v.camera.height,
+        rgb: v.rgb.iter().enumerate().map(|(i, p)| if v.kept(i) { *p } else { [0.0; 3] }).collect(),
+        depth: vec![0.0; v.rgb.len()],
+        opacity: vec![1.0; v.rgb.len()],
+        secs_per_ray: 0.0,
+        samples_per_ray: 0.0,
+    };
+    let s = score_rendered(&r, &v);
+    assert_eq!(s.psnr, 100.0);
+    v.mask.clear();
+    assert!(score_rendered(&r, &v).psnr < 20.0);
+    // with every pixel masked out, training refuses the data and says why
+    for v in &mut data.views {
+        v.mask.iter_mut().for_each(|k| *k = false);
+    }
+    let e = data.check_rays().unwrap_err().to_string();
+    assert!(e.contains("masks leave 0 of"), "{e}");
+}
+
+#[test]
 fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     let d = support::TestDir::new("grid-test");
     write_blender(&d, SceneSpec { size: 24, train: 12, val: 1, test: 1 }).unwrap();

@@ -2,7 +2,7 @@
 //! scoring them, with per-ray timing.
 
 use crate::dataset::View;
-use crate::metrics::{psnr, ssim};
+use crate::metrics::{psnr_kept, ssim_kept};
 use nerf_infer::{AnyRenderer, AnyScratch, Camera, Model, RayRenderer, RenderOptions};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -140,9 +140,10 @@ fn render_row<C: PixelRays + ?Sized>(
 pub struct ViewScore {
     /// View name.
     pub name: String,
-    /// PSNR against ground truth, dB.
+    /// PSNR against ground truth, dB, over the pixels the view's mask keeps.
     pub psnr: f64,
-    /// SSIM against ground truth.
+    /// SSIM against ground truth, over the windows centred on the pixels the
+    /// view's mask keeps.
     pub ssim: f64,
     /// Mean rendered opacity, in `[0, 1]`, over the pixels whose photo is
     /// fully transparent (alpha 0): density left in empty space (haze,
@@ -162,15 +163,16 @@ pub fn score_view(
     Ok((r, s))
 }
 
-/// PSNR and SSIM of a render of `view` against its ground truth.
+/// PSNR and SSIM of a render of `view` against its ground truth, over the
+/// pixels its mask keeps ([`View::mask`]; SSIM over the windows centred on them).
 pub fn score_rendered(r: &Rendered, view: &View) -> ViewScore {
     let (w, h) = (view.camera.width as usize, view.camera.height as usize);
     let clear = view.alpha.iter().zip(&r.opacity).filter(|(&a, _)| a == 0.0);
     let (sum, count) = clear.fold((0.0f64, 0usize), |(s, k), (_, &o)| (s + o as f64, k + 1));
     ViewScore {
         name: view.name.clone(),
-        psnr: psnr(&r.rgb, &view.rgb),
-        ssim: ssim(&r.rgb, &view.rgb, w, h),
+        psnr: psnr_kept(&r.rgb, &view.rgb, &view.mask),
+        ssim: ssim_kept(&r.rgb, &view.rgb, w, h, &view.mask),
         clear_opacity: (count > 0).then(|| sum / count as f64),
     }
 }

@@ -13,6 +13,8 @@
 //! `camera_model` (`OPENCV` or absent: `k1 k2 p1 p2` with `k3` in the
 //! numerator; `OPENCV_FISHEYE` or ngp's `is_fisheye`: `k1..k4`). Frames
 //! whose image file is missing are skipped and counted in the dataset's notes.
+//! A frame's `mask_path` (nerfstudio) leaves the pixels its mask zeroes out
+//! of training and scoring ([`View::mask`]).
 
 use super::capture::{build, CaptureOptions, CaptureView, Intrinsics as CaptureIntrinsics, Selection};
 use super::image_io::load_rgba;
@@ -45,8 +47,8 @@ struct Intrinsics {
 struct Frame {
     file_path: String,
     transform_matrix: Vec<Vec<f64>>,
-    /// nerfstudio's mask of the pixels to leave out of the loss: not
-    /// applied here, only reported.
+    /// nerfstudio's mask of the pixels to leave out of training and
+    /// scoring (0 in its first channel), relative to the file's folder.
     mask_path: Option<String>,
     #[serde(flatten)]
     intr: Intrinsics,
@@ -201,7 +203,8 @@ fn load_frames(
         }
         .map_err(|_| DataError::new(path, format!("{what}: invalid intrinsics")))?;
         let name = super::types::stem(&img);
-        views.push(View { name, file: img, camera, rgb, alpha: alpha.unwrap_or_default(), lens: Lens::Pinhole });
+        let alpha = alpha.unwrap_or_default();
+        views.push(View { name, file: img, camera, rgb, alpha, lens: Lens::Pinhole, mask: Vec::new() });
     }
     Ok(views)
 }
@@ -279,14 +282,6 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
             t.frames.len()
         ));
     }
-    let masked = t.frames.iter().filter(|f| f.mask_path.is_some()).count();
-    if masked > 0 {
-        data.notes.push(format!(
-            "{}: {masked} frames name a mask_path: masks are not applied, every pixel of those photos trains \
-             and is scored (paint what the masks hide out of the photos, or leave those photos out)",
-            path.display()
-        ));
-    }
     Ok(data)
 }
 
@@ -360,7 +355,11 @@ fn ngp_views(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<CaptureView
         }
         let lens = ngp_lens(path, &what, &f.intr, &t.intr)?;
         let intrinsics = CaptureIntrinsics { size: [w, h], focal: [fx, fy], centre: [cx, cy] };
-        out.push(CaptureView { image, pose: (rot, pos), intrinsics, lens });
+        let mask = f.mask_path.as_deref().map(|m| beside(dir, m));
+        if let Some(m) = mask.as_ref().filter(|m| !m.is_file()) {
+            return Err(DataError::new(path, format!("{what}: its mask_path {} is not a file", m.display())));
+        }
+        out.push(CaptureView { image, pose: (rot, pos), intrinsics, lens, mask });
     }
     if out.is_empty() {
         let first = t.frames.first().map(|f| f.file_path.as_str()).unwrap_or_default();

@@ -5,7 +5,7 @@
 
 use super::fit::{fit_scene, pose_rows, Pose, SceneKind};
 use super::forward::{ndc_scene, ForwardFrame};
-use super::image_io::{image_size, load_rgb, load_rgb_stored};
+use super::image_io::{image_size, load_mask, load_rgb, load_rgb_stored};
 use super::lens::Lens;
 use super::types::{capture_record, stem, DataError, Dataset, Split, View};
 use glam::DVec3;
@@ -36,6 +36,9 @@ pub struct CaptureView {
     pub intrinsics: Intrinsics,
     /// The lens's distortion.
     pub lens: Lens,
+    /// The image's mask, if the capture gives one ([`View::mask`]; nerfstudio's
+    /// `mask_path`): a pixel whose first channel is 0 is left out.
+    pub mask: Option<PathBuf>,
 }
 
 /// Which views of a capture make a split.
@@ -191,13 +194,24 @@ pub fn build(
         let [cx, cy] = [k.centre[0] / sx, k.centre[1] / sy];
         let camera = Camera::new(w, h, fx as f32, fy as f32, cx as f32, cy as f32, c2w)
             .map_err(|_| DataError::new(&v.image, "invalid camera (intrinsics or pose)"))?;
+        let mut mask = match &v.mask {
+            Some(m) => load_mask(m, opts.downscale, opts.upright, (fw, fh))?,
+            None => Vec::new(),
+        };
         let (mut rgb, mut lens) = (rgb, if opts.lens { v.lens } else { Lens::Pinhole });
         if opts.undistort && lens != Lens::Pinhole {
             let px = super::lens::Pixels { fx, fy, cx, cy };
             rgb = super::lens::undistort_image(&rgb, w as usize, h as usize, px, lens);
+            if !mask.is_empty() {
+                // a resampled pixel is kept only if every photo pixel it blends is
+                let m: Vec<[f32; 3]> = mask.iter().map(|&k| [k as u8 as f32; 3]).collect();
+                let m = super::lens::undistort_image(&m, w as usize, h as usize, px, lens);
+                mask = m.iter().map(|p| p[0] > 0.9999).collect();
+            }
             lens = Lens::Pinhole;
         }
-        views.push(View { name: names[i].clone(), file: v.image.clone(), camera, rgb, alpha: Vec::new(), lens });
+        let (name, file, alpha) = (names[i].clone(), v.image.clone(), Vec::new());
+        views.push(View { name, file, camera, rgb, alpha, lens, mask });
     }
     if views.is_empty() {
         let hint = match opts.select {

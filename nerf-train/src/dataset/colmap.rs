@@ -124,7 +124,7 @@ pub fn colmap_views(dir: &Path, model_dir: &Path) -> Result<(Vec<CaptureView>, V
         if !image.is_file() {
             return Err(DataError::new(&image, format!("image not found (registered in {})", model_dir.display())));
         }
-        views.push(CaptureView { image, pose, intrinsics, lens });
+        views.push(CaptureView { image, pose, intrinsics, lens, mask: None });
     }
     let points: Vec<DVec3> = rec.points.iter().map(|p| DVec3::from(p.xyz)).collect();
     Ok((views, points))

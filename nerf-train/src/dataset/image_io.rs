@@ -1,6 +1,6 @@
 //! Image reading (PNG and JPEG: 8/16-bit, grey, RGB, RGBA; EXIF
-//! orientation applied) with compositing and area downscaling, and PNG
-//! writing.
+//! orientation applied) with compositing and area downscaling, masks, and
+//! PNG writing.
 
 use super::types::DataError;
 use std::path::Path;
@@ -151,6 +151,33 @@ fn rgba_of(
         }
     }
     Ok((ow, oh, out, has_alpha.then_some(alpha)))
+}
+
+/// Reads a mask (nerfstudio's `mask_path`: a pixel whose first channel is 0
+/// is left out, any other value keeps it) at `downscale` as the photo it
+/// belongs to is loaded (each `n × n` block, the remainder at the
+/// right/bottom cropped): a block is kept only if every pixel in it is, so
+/// no kept pixel mixes in what the mask hides. Read as stored, or after its
+/// EXIF orientation if `upright` (as the photo). `size` is the photo's size
+/// (width, height, full resolution, as read); a mask of another size is
+/// refused. Returns one flag per loaded pixel, row-major, true where kept.
+pub fn load_mask(path: &Path, downscale: u32, upright: bool, size: (u32, u32)) -> Result<Vec<bool>, DataError> {
+    let img = read_image(path, upright)?.to_rgba16();
+    let (w, h) = img.dimensions();
+    if (w, h) != size {
+        return Err(DataError::new(
+            path,
+            format!("mask is {w}x{h} but its photo is {}x{}: a mask must have its photo's size", size.0, size.1),
+        ));
+    }
+    let n = downscale.max(1);
+    let (ow, oh) = (w / n, h / n);
+    let mut out = vec![true; (ow * oh) as usize];
+    for (i, keep) in out.iter_mut().enumerate() {
+        let (x, y) = (i as u32 % ow, i as u32 / ow);
+        *keep = (0..n * n).all(|k| img.get_pixel(x * n + k % n, y * n + k / n).0[0] != 0);
+    }
+    Ok(out)
 }
 
 /// Writes RGB in `[0, 1]` as an 8-bit PNG, atomically (temp file + rename).

@@ -133,7 +133,7 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
         min_near = min_near.min(r[15]);
         near_points.push(t - r[15] * m.z_axis);
         let intrinsics = Intrinsics { size: [w, h], focal: [f, f], centre: [w / 2.0, h / 2.0] };
-        views.push(CaptureView { image: file.clone(), pose: (m, t), intrinsics, lens: Lens::Pinhole });
+        views.push(CaptureView { image: file.clone(), pose: (m, t), intrinsics, lens: Lens::Pinhole, mask: None });
     }
     let copts = CaptureOptions {
         split,

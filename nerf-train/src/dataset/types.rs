@@ -72,6 +72,10 @@ pub struct View {
     /// The photo's lens distortion ([`Lens::Pinhole`] for rendered data):
     /// [`View::ray`] bends each pixel's ray by it.
     pub lens: Lens,
+    /// Whether each pixel (row-major, as `rgb`) trains and is scored: false
+    /// where the capture's mask (nerfstudio's `mask_path`) leaves it out;
+    /// empty when every pixel does.
+    pub mask: Vec<bool>,
 }
 
 impl View {
@@ -95,6 +99,11 @@ impl View {
         let (ux, uy) = self.lens.undistort(xd, yd).unwrap_or((xd, yd));
         // OpenCV's y points down, the camera's (OpenGL) y up
         (c.position, c.rotation * glam::Vec3::new(ux as f32, -uy as f32, -1.0))
+    }
+
+    /// Whether pixel `i` (row-major) trains and is scored ([`View::mask`]).
+    pub fn kept(&self, i: usize) -> bool {
+        self.mask.get(i).copied().unwrap_or(true)
     }
 }
 
@@ -155,8 +164,9 @@ impl Dataset {
         self.views.iter().map(|v| v.rgb.len()).sum()
     }
 
-    /// The fraction of pixels whose ray meets the scene's bounds within
-    /// near..far, estimated on at most 4096 pixels spread evenly over all views.
+    /// The fraction of pixels that train ([`View::mask`]) and whose ray meets
+    /// the scene's bounds within near..far, estimated on at most 4096 pixels
+    /// spread evenly over all views.
     pub fn ray_hit_fraction(&self) -> f64 {
         let total = self.pixel_count();
         let step = (total / 4096).max(1);
@@ -167,7 +177,7 @@ impl Dataset {
             while k < v.rgb.len() {
                 let (o, d) = v.ray((k % w) as u32, (k / w) as u32);
                 tried += 1;
-                hit += nerf_infer::Ray::new(&self.scene, o, d).is_some() as usize;
+                hit += (v.kept(k) && nerf_infer::Ray::new(&self.scene, o, d).is_some()) as usize;
                 k += step;
             }
             k -= v.rgb.len();
@@ -212,12 +222,21 @@ impl Dataset {
         Some((cells.ceil().min(1e6) as u32).max(1).next_power_of_two())
     }
 
-    /// Fails, saying why and what to try, if fewer than 1 % of the pixels'
-    /// rays meet the scene: training would see almost nothing.
+    /// Fails, saying why and what to try, if fewer than 1 % of the pixels
+    /// train and have a ray that meets the scene: training would see almost
+    /// nothing.
     pub fn check_rays(&self) -> Result<(), Error> {
         let f = self.ray_hit_fraction();
         if f >= 0.01 {
             return Ok(());
+        }
+        let kept = self.views.iter().map(|v| v.rgb.len() - v.mask.iter().filter(|&&k| !k).count()).sum::<usize>();
+        if (kept as f64) < 0.01 * self.pixel_count() as f64 {
+            return Err(Error::Camera(format!(
+                "the masks leave {kept} of the {} pixels to train on (a pixel whose mask is 0 is left out): \
+                 check the masks' mask_path, or that they are not inverted",
+                self.pixel_count()
+            )));
         }
         let s = &self.scene;
         Err(Error::Camera(format!(

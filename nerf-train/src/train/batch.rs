@@ -62,10 +62,10 @@ impl Trainer {
     /// Draws `n` training rays uniformly over all pixels of `data` (views
     /// may differ in size), through each view's lens: through the pixel's
     /// centre, or with `how.jitter` through a uniformly random point of it.
-    /// Pixels whose ray
-    /// misses the scene are drawn again, at most `64 n` draws in all:
-    /// [`crate::dataset::Dataset::check_rays`] makes sure at load time that
-    /// enough rays meet the scene, so a short batch is rare.
+    /// Pixels whose ray misses the scene, or that their view's mask leaves
+    /// out ([`crate::dataset::View::mask`]), are drawn again, at most `64 n`
+    /// draws in all: [`crate::dataset::Dataset::check_rays`] makes sure at
+    /// load time that enough rays meet the scene, so a short batch is rare.
     ///
     /// A share `how.random_background` (in `[0, 1]`) of the pixels of views
     /// with an alpha channel gets a uniformly random background colour,
@@ -100,6 +100,9 @@ impl Trainer {
             let vi = ends.partition_point(|&e| e <= k);
             let v = &data.views[vi];
             let px = k - (ends[vi] - v.rgb.len());
+            if !v.kept(px) {
+                continue;
+            }
             let (x, y) = ((px % v.camera.width as usize) as u32, (px / v.camera.width as usize) as u32);
             let (o, d) = match how.jitter {
                 true => v.ray_at(x as f32 + rng.f32(), y as f32 + rng.f32()),

@@ -107,6 +107,7 @@ pub fn write_llff_room(dir: &Path, spec: SceneSpec) -> Result<(), DataError> {
             pose,
             intrinsics: Intrinsics { size: [s, s], focal: [f, f], centre: [s / 2.0, s / 2.0] },
             lens: Lens::Pinhole,
+            mask: None,
         });
     }
     crate::dataset::write_poses_bounds(dir, &views, &points)
