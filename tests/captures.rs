@@ -85,12 +85,12 @@ fn colmap_refuses_unsupported_camera_models_by_name_and_counts_unregistered_imag
     let text = std::fs::read_to_string(&cams).unwrap();
     let fov: String = text
         .lines()
-        .map(|l| if l.starts_with("2 ") { "2 FOV 16 12 10 10 8 6 0.5".to_string() } else { l.to_string() })
+        .map(|l| if l.starts_with("2 ") { "2 EUCM 16 12 10 10 8 6 0.5 1.0".to_string() } else { l.to_string() })
         .collect::<Vec<_>>()
         .join("\n");
     std::fs::write(&cams, fov).unwrap();
     let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
-    assert!(e.contains("FOV") && e.contains("not supported") && e.contains("camera 2"), "{e}");
+    assert!(e.contains("EUCM") && e.contains("not supported") && e.contains("camera 2"), "{e}");
     assert!(!e.contains('\n'));
     std::fs::write(&cams, text).unwrap();
     // a photo turned on its side (12×16 where its camera is 16×12) is refused by name
@@ -397,6 +397,28 @@ fn nerfstudio_masks_leave_their_pixels_out_at_every_downscale() {
     std::fs::remove_file(d.join("masks/img_000.png")).unwrap();
     let e = load(&d, Split::Test, opts(Format::Auto)).unwrap_err().to_string();
     assert!(e.contains("mask_path") && e.contains("img_000.png") && e.contains("not a file"), "{e}");
+}
+
+#[test]
+fn colmap_captures_take_masks_from_a_masks_folder_named_as_colmap_or_nerfstudio_names_them() {
+    let d = tmp("colmap-masks");
+    write_colmap(&d, spec(), ColmapText::Binary, false).unwrap();
+    std::fs::create_dir_all(d.join("masks")).unwrap();
+    let top = |size: u32| image::GrayImage::from_fn(size, size, |_, y| image::Luma([if y < 4 { 0 } else { 255 }]));
+    // COLMAP's naming (the image's name with .png added), then nerfstudio's (the extension replaced)
+    top(16).save(d.join("masks/img_002.jpg.png")).unwrap();
+    top(16).save(d.join("masks/img_006.png")).unwrap();
+    let data = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    for v in &data.views {
+        let masked = v.name == "img_002" || v.name == "img_006";
+        let expect: Vec<bool> = if masked { (0..256).map(|i| i / 16 >= 4).collect() } else { Vec::new() };
+        assert_eq!(v.mask, expect, "{}", v.name);
+    }
+    assert!(data.notes.iter().any(|n| n.contains("2 of the 10 registered photos have a mask")), "{:?}", data.notes);
+    // a mask of another size is an error naming it
+    top(8).save(d.join("masks/img_006.png")).unwrap();
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("img_006.png") && e.contains("mask is 8x8 but its photo is 16x16"), "{e}");
 }
 
 #[test]

@@ -3,12 +3,15 @@
 //! `DIR/sparse/`, or `DIR/`, as `.bin` or `.txt` ([`super::colmap_io`]).
 //!
 //! Camera models: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV,
-//! FULL_OPENCV, OPENCV_FISHEYE and the radial and plain fisheyes
-//! (SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE): their
+//! FULL_OPENCV, OPENCV_FISHEYE, the radial and plain fisheyes
+//! (SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE),
+//! THIN_PRISM_FISHEYE and FOV: their
 //! distortion becomes the view's [`Lens`]; any other is refused by name. Each image keeps its own
 //! camera, so one capture may mix intrinsics and image sizes. Images are
 //! taken in name order (as LLFF), every `holdout`-th held out; files in
-//! `images/` that COLMAP did not register are counted in the notes.
+//! `images/` that COLMAP did not register are counted in the notes. A
+//! `masks/` folder beside `images/` gives photos masks ([`super::View::mask`];
+//! `masks/0001.jpg.png` as COLMAP names them or `masks/0001.png` as nerfstudio does).
 //! Poses: COLMAP stores world-to-camera `q, t` in OpenCV axes (x right,
 //! y down, z forward); the camera-to-world pose in OpenGL axes is
 //! `[Rᵀx, −Rᵀy, −Rᵀz | −Rᵀt]`.
@@ -53,11 +56,16 @@ pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), Error> {
         CameraModel::RadialFisheye => (k([p[0], p[0]], [p[1], p[2]]), Lens::Fisheye { k: [p[3], p[4], z, z] }),
         CameraModel::SimpleFisheye => (k([p[0], p[0]], [p[1], p[2]]), Lens::Fisheye { k: [z; 4] }),
         CameraModel::Fisheye => (k([p[0], p[1]], [p[2], p[3]]), Lens::Fisheye { k: [z; 4] }),
+        CameraModel::ThinPrismFisheye => (
+            k([p[0], p[1]], [p[2], p[3]]),
+            Lens::ThinPrismFisheye { k: [p[4], p[5], p[8], p[9]], p: [p[6], p[7]], s: [p[10], p[11]] }.simplified(),
+        ),
+        CameraModel::Fov => (k([p[0], p[1]], [p[2], p[3]]), Lens::Fov { omega: p[4] }.simplified()),
         m => {
             return Err(Error::Camera(format!(
                 "camera model {} is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, \
-                 FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE are; \
-                 undistort the images with colmap image_undistorter)",
+                 FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE, \
+                 THIN_PRISM_FISHEYE, FOV are; undistort the images with colmap image_undistorter)",
                 m.name()
             )))
         }
@@ -124,10 +132,21 @@ pub fn colmap_views(dir: &Path, model_dir: &Path) -> Result<(Vec<CaptureView>, V
         if !image.is_file() {
             return Err(DataError::new(&image, format!("image not found (registered in {})", model_dir.display())));
         }
-        views.push(CaptureView { image, pose, intrinsics, lens, mask: None });
+        let mask = mask_of(dir, &im.name);
+        views.push(CaptureView { image, pose, intrinsics, lens, mask });
     }
     let points: Vec<DVec3> = rec.points.iter().map(|p| DVec3::from(p.xyz)).collect();
     Ok((views, points))
+}
+
+/// The mask of the image COLMAP names `name` in a capture's `masks/`
+/// folder, if there is one: `masks/NAME.png` (COLMAP's own
+/// `--ImageReader.mask_path` naming, `0001.jpg.png`) or `NAME` with its
+/// extension replaced by `.png` (nerfstudio's `masks_path`, `0001.png`).
+fn mask_of(dir: &Path, name: &str) -> Option<std::path::PathBuf> {
+    let masks = dir.join("masks");
+    let name = name.strip_prefix("images/").unwrap_or(name);
+    [masks.join(format!("{name}.png")), masks.join(name).with_extension("png")].into_iter().find(|p| p.is_file())
 }
 
 /// Loads a COLMAP capture's split (see the module doc).
@@ -152,6 +171,15 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
     data.notes.extend(choice);
     if unregistered > 0 {
         data.notes.push(format!("{}: {unregistered} images not registered by COLMAP, skipped", img_dir.display()));
+    }
+    let masked = views.iter().filter(|v| v.mask.is_some()).count();
+    if masked > 0 {
+        data.notes.push(format!(
+            "{}: {masked} of the {} registered photos have a mask there: their pixels at 0 neither train nor are \
+             scored",
+            dir.join("masks").display(),
+            views.len()
+        ));
     }
     Ok(data)
 }
@@ -197,8 +225,27 @@ mod tests {
     }
 
     #[test]
+    fn thin_prism_fisheye_and_fov_cameras_keep_their_coefficients_in_colmap_order() {
+        // fx fy cx cy k1 k2 p1 p2 k3 k4 sx1 sy1
+        let params = [300.0, 310.0, 320.0, 240.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8];
+        let (intr, lens) = camera_lens(&camera(CameraModel::ThinPrismFisheye, &params)).unwrap();
+        assert_eq!(lens, Lens::ThinPrismFisheye { k: [0.1, 0.2, 0.5, 0.6], p: [0.3, 0.4], s: [0.7, 0.8] });
+        assert_eq!((intr.focal, intr.centre), ([300.0, 310.0], [320.0, 240.0]));
+        // without tangential and prism terms it is the fisheye
+        let params = [300.0, 310.0, 320.0, 240.0, 0.1, 0.2, 0.0, 0.0, 0.5, 0.6, 0.0, 0.0];
+        let (_, lens) = camera_lens(&camera(CameraModel::ThinPrismFisheye, &params)).unwrap();
+        assert_eq!(lens, Lens::Fisheye { k: [0.1, 0.2, 0.5, 0.6] });
+        let (intr, lens) = camera_lens(&camera(CameraModel::Fov, &[300.0, 310.0, 320.0, 240.0, 0.9])).unwrap();
+        assert_eq!((lens, intr.focal), (Lens::Fov { omega: 0.9 }, [300.0, 310.0]));
+        let (_, lens) = camera_lens(&camera(CameraModel::Fov, &[300.0, 310.0, 320.0, 240.0, 0.0])).unwrap();
+        assert_eq!(lens, Lens::Pinhole);
+    }
+
+    #[test]
     fn models_without_a_lens_here_are_refused_by_name() {
-        for (model, n) in [(CameraModel::Fov, 5), (CameraModel::Eucm, 6), (CameraModel::Equirectangular, 2)] {
+        for (model, n) in
+            [(CameraModel::RadTanThinPrismFisheye, 16), (CameraModel::Eucm, 6), (CameraModel::Equirectangular, 2)]
+        {
             let e = camera_lens(&camera(model, &vec![300.0; n])).unwrap_err().to_string();
             assert!(e.contains(model.name()) && e.contains("not supported"), "{e}");
         }

@@ -30,6 +30,24 @@ pub enum Lens {
         /// Coefficients `k1..k4`.
         k: [f64; 4],
     },
+    /// COLMAP's `THIN_PRISM_FISHEYE`: the fisheye's equidistant point
+    /// `(u, v) = (θ / r)(x, y)` scaled by `1 + k1 θ² + … + k4 θ⁸` as
+    /// [`Lens::Fisheye`], plus OpenCV's tangential terms and the thin
+    /// prism's `(s1 θ², s2 θ²)`, both evaluated on `(u, v)`.
+    ThinPrismFisheye {
+        /// Coefficients `k1..k4`.
+        k: [f64; 4],
+        /// Tangential coefficients `p1, p2`.
+        p: [f64; 2],
+        /// Thin-prism coefficients `sx1, sy1`.
+        s: [f64; 2],
+    },
+    /// COLMAP's `FOV` (Devernay & Faugeras 2001): a point at radius `r`
+    /// lands at `atan(2 r tan(ω/2)) / ω`; `ω → 0` is the pinhole.
+    Fov {
+        /// The field of view `ω`, radians.
+        omega: f64,
+    },
 }
 
 impl Lens {
@@ -39,19 +57,17 @@ impl Lens {
         Self::Opencv { k: [k1, k2, 0.0, 0.0, 0.0, 0.0], p: [p1, p2] }.simplified()
     }
 
-    /// [`Lens::Pinhole`] for an OpenCV lens whose coefficients are all 0,
-    /// else `self`: a fisheye with all its coefficients 0 stays a fisheye
-    /// (the equidistant projection, `r = θ`, which no pinhole images).
+    /// [`Lens::Pinhole`] for an OpenCV lens whose coefficients are all 0 or
+    /// a FOV lens with `ω = 0`, [`Lens::Fisheye`] for a thin-prism fisheye
+    /// without tangential and prism terms, else `self`: a fisheye with all
+    /// its coefficients 0 stays a fisheye (the equidistant projection,
+    /// `r = θ`, which no pinhole images).
     pub fn simplified(self) -> Self {
-        let zero = match self {
-            Lens::Pinhole => true,
-            Lens::Opencv { k, p } => k.iter().chain(&p).all(|&c| c == 0.0),
-            Lens::Fisheye { .. } => false,
-        };
-        if zero {
-            Lens::Pinhole
-        } else {
-            self
+        match self {
+            Lens::Opencv { k, p } if k.iter().chain(&p).all(|&c| c == 0.0) => Lens::Pinhole,
+            Lens::Fov { omega: 0.0 } => Lens::Pinhole,
+            Lens::ThinPrismFisheye { k, p, s } if p.iter().chain(&s).all(|&c| c == 0.0) => Lens::Fisheye { k },
+            _ => self,
         }
     }
 
@@ -61,6 +77,8 @@ impl Lens {
             Lens::Pinhole => true,
             Lens::Opencv { k, p } => k.iter().chain(p).all(|c| c.is_finite()),
             Lens::Fisheye { k } => k.iter().all(|c| c.is_finite()),
+            Lens::ThinPrismFisheye { k, p, s } => k.iter().chain(p).chain(s).all(|c| c.is_finite()),
+            Lens::Fov { omega } => omega.is_finite(),
         }
     }
 
@@ -87,6 +105,25 @@ impl Lens {
                 let thd = th * (1.0 + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))));
                 (x * thd / r, y * thd / r)
             }
+            Lens::ThinPrismFisheye { k, p, s } => {
+                let (xr, yr) = Lens::Fisheye { k }.distort(x, y);
+                // the equidistant point the tangential and prism terms act on
+                let (u, v) = Lens::Fisheye { k: [0.0; 4] }.distort(x, y);
+                let r2 = u * u + v * v;
+                let du = 2.0 * p[0] * u * v + p[1] * (r2 + 2.0 * u * u) + s[0] * r2;
+                let dv = 2.0 * p[1] * u * v + p[0] * (r2 + 2.0 * v * v) + s[1] * r2;
+                (xr + du, yr + dv)
+            }
+            Lens::Fov { omega } => {
+                let (r, c) = ((x * x + y * y).sqrt(), 2.0 * (0.5 * omega).tan());
+                // atan(c r) / (r ω), c / ω at the centre
+                let factor = match omega == 0.0 {
+                    true => 1.0,
+                    false if r * c.abs() < 1e-12 => c / omega,
+                    false => (c * r).atan() / (r * omega),
+                };
+                (x * factor, y * factor)
+            }
         }
     }
 
@@ -97,34 +134,23 @@ impl Lens {
     pub fn undistort(&self, xd: f64, yd: f64) -> Option<(f64, f64)> {
         match *self {
             Lens::Pinhole => Some((xd, yd)),
-            Lens::Opencv { .. } => {
-                let (mut x, mut y) = (xd, yd);
-                for _ in 0..50 {
-                    let (fx, fy) = self.distort(x, y);
-                    let (ex, ey) = (fx - xd, fy - yd);
-                    if ex.abs().max(ey.abs()) < 1e-12 {
-                        return Some((x, y));
-                    }
-                    // Jacobian by central differences (as COLMAP)
-                    let h = 1e-7 * (1.0 + x.abs().max(y.abs()));
-                    let (ax, ay) = self.distort(x + h, y);
-                    let (bx, by) = self.distort(x - h, y);
-                    let (cx, cy) = self.distort(x, y + h);
-                    let (dx, dy) = self.distort(x, y - h);
-                    let (j00, j10) = ((ax - bx) / (2.0 * h), (ay - by) / (2.0 * h));
-                    let (j01, j11) = ((cx - dx) / (2.0 * h), (cy - dy) / (2.0 * h));
-                    let det = j00 * j11 - j01 * j10;
-                    if !det.is_finite() || det.abs() < 1e-12 {
-                        return None;
-                    }
-                    x -= (j11 * ex - j01 * ey) / det;
-                    y -= (-j10 * ex + j00 * ey) / det;
-                    if !x.is_finite() || !y.is_finite() {
-                        return None;
-                    }
+            Lens::Opencv { .. } => self.newton(xd, yd, (xd, yd)),
+            // from the fisheye's own inverse, the tangential and prism terms being small
+            Lens::ThinPrismFisheye { k, .. } => {
+                self.newton(xd, yd, Lens::Fisheye { k }.undistort(xd, yd).unwrap_or((xd, yd)))
+            }
+            Lens::Fov { omega } => {
+                let (rd, c) = ((xd * xd + yd * yd).sqrt(), 2.0 * (0.5 * omega).tan());
+                if rd * omega.abs() >= std::f64::consts::FRAC_PI_2 {
+                    return None;
                 }
-                let (fx, fy) = self.distort(x, y);
-                ((fx - xd).abs().max((fy - yd).abs()) < 1e-9).then_some((x, y))
+                // tan(rd ω) / (rd c), ω / c at the centre
+                let factor = match omega == 0.0 {
+                    true => 1.0,
+                    false if rd * omega.abs() < 1e-12 => omega / c,
+                    false => (rd * omega).tan() / (rd * c),
+                };
+                Some((xd * factor, yd * factor))
             }
             Lens::Fisheye { k } => {
                 let rd = (xd * xd + yd * yd).sqrt();
@@ -157,6 +183,40 @@ impl Lens {
                 ok.then_some((xd * r / rd, yd * r / rd))
             }
         }
+    }
+}
+
+impl Lens {
+    /// The point [`Lens::distort`] maps to `(xd, yd)` by Newton's method
+    /// from `start` (at most 50 steps, the Jacobian by central differences
+    /// as COLMAP computes it), or `None` where it does not converge.
+    fn newton(&self, xd: f64, yd: f64, start: (f64, f64)) -> Option<(f64, f64)> {
+        let (mut x, mut y) = start;
+        for _ in 0..50 {
+            let (fx, fy) = self.distort(x, y);
+            let (ex, ey) = (fx - xd, fy - yd);
+            if ex.abs().max(ey.abs()) < 1e-12 {
+                return Some((x, y));
+            }
+            let h = 1e-7 * (1.0 + x.abs().max(y.abs()));
+            let (ax, ay) = self.distort(x + h, y);
+            let (bx, by) = self.distort(x - h, y);
+            let (cx, cy) = self.distort(x, y + h);
+            let (dx, dy) = self.distort(x, y - h);
+            let (j00, j10) = ((ax - bx) / (2.0 * h), (ay - by) / (2.0 * h));
+            let (j01, j11) = ((cx - dx) / (2.0 * h), (cy - dy) / (2.0 * h));
+            let det = j00 * j11 - j01 * j10;
+            if !det.is_finite() || det.abs() < 1e-12 {
+                return None;
+            }
+            x -= (j11 * ex - j01 * ey) / det;
+            y -= (-j10 * ex + j00 * ey) / det;
+            if !x.is_finite() || !y.is_finite() {
+                return None;
+            }
+        }
+        let (fx, fy) = self.distort(x, y);
+        ((fx - xd).abs().max((fy - yd).abs()) < 1e-9).then_some((x, y))
     }
 }
 
@@ -272,6 +332,30 @@ mod tests {
     fn fisheye_round_trip_within_1e4_px() {
         round_trip(Lens::Fisheye { k: [0.05, -0.01, 0.002, -0.0005] });
         round_trip(Lens::Fisheye { k: [-0.1, 0.01, 0.0, 0.0] });
+    }
+
+    #[test]
+    fn thin_prism_fisheye_and_fov_round_trip_within_1e4_px() {
+        round_trip(Lens::ThinPrismFisheye { k: [0.05, -0.01, 0.002, -0.0005], p: [0.001, -0.002], s: [0.002, 0.001] });
+        round_trip(Lens::Fov { omega: 0.9 });
+        round_trip(Lens::Fov { omega: -0.5 });
+        round_trip(Lens::Fov { omega: 0.0 });
+    }
+
+    #[test]
+    fn thin_prism_and_fov_lenses_move_points_as_colmap_does() {
+        // the prism terms alone: the equidistant point (θ/r)(x, y) shifted by (s1 θ², s2 θ²)
+        let lens = Lens::ThinPrismFisheye { k: [0.0; 4], p: [0.0; 2], s: [0.01, -0.02] };
+        let th = 0.5f64.atan();
+        let (x, y) = lens.distort(0.5, 0.0);
+        assert!((x - (th + 0.01 * th * th)).abs() < 1e-15 && (y + 0.02 * th * th).abs() < 1e-15, "{x} {y}");
+        // FOV: a point at radius r lands at atan(2 r tan(ω/2)) / ω
+        let omega = 0.9f64;
+        let (x, _) = Lens::Fov { omega }.distort(0.5, 0.0);
+        assert!((x - (2.0 * 0.5 * (omega / 2.0).tan()).atan() / omega).abs() < 1e-15);
+        // beyond the field of view FOV images nothing: no ideal point
+        assert_eq!(Lens::Fov { omega }.undistort(std::f64::consts::FRAC_PI_2 / omega + 0.01, 0.0), None);
+        assert_eq!(Lens::Fov { omega: 0.0 }.simplified(), Lens::Pinhole);
     }
 
     #[test]
