@@ -387,13 +387,52 @@ fn nerfstudio_masks_leave_their_pixels_out_at_every_downscale() {
     let flat = load(&d, Split::Test, LoadOptions { undistort: true, ..opts(Format::Auto) }).unwrap();
     let m = &flat.views[0].mask;
     assert!(m.iter().enumerate().all(|(i, &k)| (i % 16 > 3 || !k) && (i % 16 < 8 || k)));
+    // a resampled pixel is kept exactly when every photo pixel it blends (weight above 10⁻⁴) is
+    let (lens, c) = (full.views[0].lens, full.views[0].camera);
+    for (i, &k) in m.iter().enumerate() {
+        let (x, y) = ((i % 16) as f64 + 0.5 - c.cx as f64, (i / 16) as f64 + 0.5 - c.cy as f64);
+        let (xd, _) = lens.distort(x / c.fx as f64, y / c.fy as f64);
+        let su = (xd * c.fx as f64 + c.cx as f64 - 0.5).clamp(0.0, 15.0);
+        let (u0, a) = (su.floor() as usize, su.fract());
+        let blended = [(u0, 1.0 - a), ((u0 + 1).min(15), a)];
+        let kept = blended.iter().all(|&(u, w)| w < 1e-4 || u >= 5);
+        assert_eq!(k, kept, "pixel {i}: source column {su}");
+    }
+    // a held-out photo whose mask hides it whole is left out, and the split says so
+    image::GrayImage::new(16, 16).save(d.join("masks/img_000.png")).unwrap();
+    let e = load(&d, Split::Test, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("no images in the test split") && e.contains("1 hidden whole by their masks"), "{e}");
+    // split files with Blender's camera_angle_x and masks load with their masks
+    let mut t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("transforms.json")).unwrap()).unwrap();
+    for k in ["k1", "k2", "p1", "p2"] {
+        t[k] = 0.0.into();
+    }
+    t["camera_angle_x"] = 0.69.into();
+    // the frames whose photo is there (the Blender loader reads every frame it lists)
+    let there: Vec<serde_json::Value> = t["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| d.join(f["file_path"].as_str().unwrap()).is_file())
+        .cloned()
+        .collect();
+    t["frames"] = there.into();
+    mask.save(d.join("masks/img_000.png")).unwrap();
+    std::fs::write(d.join("transforms_train.json"), t.to_string()).unwrap();
+    assert_eq!(nerf_train::dataset::detect(&d).unwrap(), Format::Ngp);
+    let split = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert_eq!(split.views.iter().filter(|v| !v.mask.is_empty()).count(), 1);
+    let e = load(&d, Split::Train, opts(Format::Blender)).unwrap();
+    assert!(e.notes.iter().any(|n| n.contains("--format blender does not apply")), "{:?}", e.notes);
+    std::fs::remove_file(d.join("transforms_train.json")).unwrap();
     // the training views have no mask: every pixel kept
     let train = load(&d, Split::Train, opts(Format::Auto)).unwrap();
     assert!(train.views.iter().all(|v| v.mask.is_empty()));
     // a mask of another size, or one that is not there, is an error naming it
     image::GrayImage::new(8, 16).save(d.join("masks/img_000.png")).unwrap();
     let e = load(&d, Split::Test, opts(Format::Auto)).unwrap_err().to_string();
-    assert!(e.contains("img_000.png") && e.contains("mask is 8x16 but its photo is 16x16"), "{e}");
+    assert!(e.contains("img_000.png") && e.contains("mask is 8x16 but its photo") && e.contains("is 16x16"), "{e}");
     std::fs::remove_file(d.join("masks/img_000.png")).unwrap();
     let e = load(&d, Split::Test, opts(Format::Auto)).unwrap_err().to_string();
     assert!(e.contains("mask_path") && e.contains("img_000.png") && e.contains("not a file"), "{e}");
@@ -418,7 +457,13 @@ fn colmap_captures_take_masks_from_a_masks_folder_named_as_colmap_or_nerfstudio_
     // a mask of another size is an error naming it
     top(8).save(d.join("masks/img_006.png")).unwrap();
     let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
-    assert!(e.contains("img_006.png") && e.contains("mask is 8x8 but its photo is 16x16"), "{e}");
+    assert!(e.contains("img_006.png") && e.contains("mask is 8x8 but its photo") && e.contains("is 16x16"), "{e}");
+    // a masks/ folder none of whose files is named as a photo's mask is reported
+    std::fs::remove_file(d.join("masks/img_006.png")).unwrap();
+    std::fs::rename(d.join("masks/img_002.jpg.png"), d.join("masks/img_002_mask.png")).unwrap();
+    let data = load(&d, Split::Train, opts(Format::Auto)).unwrap();
+    assert!(data.notes.iter().any(|n| n.contains("no masks applied")), "{:?}", data.notes);
+    assert!(data.views.iter().all(|v| v.mask.is_empty()));
 }
 
 #[test]

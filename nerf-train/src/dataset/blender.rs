@@ -115,7 +115,7 @@ fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
 /// capture split into files rather than a Blender synthetic split: a file
 /// without `camera_angle_x` (its focal length in other keys), or one whose
 /// lens the Blender loader would drop (a distortion coefficient other than
-/// 0, a fisheye), or whose frames carry intrinsics of their own. A
+/// 0, a fisheye), or whose frames carry intrinsics or masks of their own. A
 /// Blender-layout file that also states its pinhole's `fl_x`, `cx`, `w`, …
 /// (as BlenderNeRF writes) stays Blender. A file that does not parse counts
 /// as Blender, whose loader then names the fault.
@@ -125,7 +125,7 @@ pub(super) fn is_ngp_split(dir: &Path) -> bool {
     // a lens other than a pinhole, or one the ngp loader refuses (it then names the fault)
     let lens = |f: &Frame| ngp_lens(&path, "", &f.intr, &t.intr).map_or(true, |l| l != Lens::Pinhole);
     let own = |i: &Intrinsics| [i.fl_x, i.fl_y, i.cx, i.cy, i.w, i.h].iter().any(Option::is_some);
-    t.camera_angle_x.is_none() || t.frames.iter().any(|f| lens(f) || own(&f.intr))
+    t.camera_angle_x.is_none() || t.frames.iter().any(|f| lens(f) || own(&f.intr) || f.mask_path.is_some())
 }
 
 struct SceneDefaults {
@@ -216,7 +216,16 @@ pub fn load_blender(dir: &Path, split: Split, downscale: u32) -> Result<Dataset,
     let scene = scene_from(&path, &t, SceneDefaults { near: 2.0, far: 6.0, half: 1.5, white: true })?;
     let frames: Vec<&Frame> = t.frames.iter().collect();
     let views = load_frames(&path, dir, &t, &frames, downscale, scene.white_background)?;
-    Ok(Dataset { scene, views, downscale, notes: Vec::new(), capture: None })
+    let masked = t.frames.iter().filter(|f| f.mask_path.is_some()).count();
+    let notes = match masked {
+        0 => Vec::new(),
+        n => vec![format!(
+            "{}: {n} frames name a mask_path, which --format blender does not apply (leave --format out, or give \
+             --format ngp, to apply the masks)",
+            path.display()
+        )],
+    };
+    Ok(Dataset { scene, views, downscale, notes, capture: None })
 }
 
 /// Loads an instant-ngp / nerfstudio capture: `transforms_{split}.json` if

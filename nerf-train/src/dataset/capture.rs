@@ -159,7 +159,7 @@ pub fn build(
     // names among the views a split can hold: all of them (the record of a hold-out names them all), or
     // the split's own
     let names: Vec<String> = vec![String::new(); first].into_iter().chain(view_names(&all[first..])).collect();
-    let mut views = Vec::new();
+    let (mut views, mut hidden) = (Vec::new(), Vec::new());
     for (i, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
         // the image's shape must be the camera's (the downscale crops at most n − 1 pixels a side); a photo
         // turned by its EXIF orientation, or another photo, is not what the poses were computed on: checked
@@ -195,7 +195,7 @@ pub fn build(
         let camera = Camera::new(w, h, fx as f32, fy as f32, cx as f32, cy as f32, c2w)
             .map_err(|_| DataError::new(&v.image, "invalid camera (intrinsics or pose)"))?;
         let mut mask = match &v.mask {
-            Some(m) => load_mask(m, opts.downscale, opts.upright, (fw, fh))?,
+            Some(m) => load_mask(m, opts.downscale, opts.upright, (&v.image, fw, fh))?,
             None => Vec::new(),
         };
         let (mut rgb, mut lens) = (rgb, if opts.lens { v.lens } else { Lens::Pinhole });
@@ -211,6 +211,11 @@ pub fn build(
             lens = Lens::Pinhole;
         }
         let (name, file, alpha) = (names[i].clone(), v.image.clone(), Vec::new());
+        // a held-out photo its mask hides whole has nothing to score
+        if opts.split != Split::Train && !mask.is_empty() && !mask.contains(&true) {
+            hidden.push(name);
+            continue;
+        }
         views.push(View { name, file, camera, rgb, alpha, lens, mask });
     }
     if views.is_empty() {
@@ -221,6 +226,10 @@ pub fn build(
                 if all.len() < 2 { ": a capture needs at least two" } else { ": give a larger --llffhold" }
             ),
             Selection::From(_) => String::new(),
+        };
+        let hint = match hidden.len() {
+            0 => hint,
+            n => format!("{hint} ({n} hidden whole by their masks)"),
         };
         return Err(DataError::new(path, format!("no images in the {} split{hint}", opts.split.name())));
     }
@@ -242,7 +251,16 @@ pub fn build(
         Frame::Forward(_) => ndc_scene(&views[0].camera),
     };
     scene.white_background = opts.white_background;
-    Ok(Dataset { scene, views, downscale: opts.downscale, notes: Vec::new(), capture })
+    let notes = match hidden.len() {
+        0 => Vec::new(),
+        n => vec![format!(
+            "{}: {n} {} photos left out, their masks hiding every pixel ({})",
+            path.display(),
+            opts.split.name(),
+            hidden.join(", ")
+        )],
+    };
+    Ok(Dataset { scene, views, downscale: opts.downscale, notes, capture })
 }
 
 /// The nearest scene depth of a forward-facing capture (capture units):

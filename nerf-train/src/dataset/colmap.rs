@@ -60,6 +60,9 @@ pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), Error> {
             k([p[0], p[1]], [p[2], p[3]]),
             Lens::ThinPrismFisheye { k: [p[4], p[5], p[8], p[9]], p: [p[6], p[7]], s: [p[10], p[11]] }.simplified(),
         ),
+        CameraModel::Fov if p[4].abs() >= std::f64::consts::PI => {
+            return Err(Error::Camera(format!("FOV camera's field of view ω = {} is not within (−π, π)", p[4])))
+        }
         CameraModel::Fov => (k([p[0], p[1]], [p[2], p[3]]), Lens::Fov { omega: p[4] }.simplified()),
         m => {
             return Err(Error::Camera(format!(
@@ -173,6 +176,13 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         data.notes.push(format!("{}: {unregistered} images not registered by COLMAP, skipped", img_dir.display()));
     }
     let masked = views.iter().filter(|v| v.mask.is_some()).count();
+    if masked == 0 && dir.join("masks").is_dir() {
+        data.notes.push(format!(
+            "{}: no file there is named as a registered photo's mask (0001.jpg.png or 0001.png for \
+             images/0001.jpg): no masks applied",
+            dir.join("masks").display()
+        ));
+    }
     if masked > 0 {
         data.notes.push(format!(
             "{}: {masked} of the {} registered photos have a mask there: their pixels at 0 neither train nor are \
@@ -239,6 +249,8 @@ mod tests {
         assert_eq!((lens, intr.focal), (Lens::Fov { omega: 0.9 }, [300.0, 310.0]));
         let (_, lens) = camera_lens(&camera(CameraModel::Fov, &[300.0, 310.0, 320.0, 240.0, 0.0])).unwrap();
         assert_eq!(lens, Lens::Pinhole);
+        let e = camera_lens(&camera(CameraModel::Fov, &[300.0, 310.0, 320.0, 240.0, 3.2])).unwrap_err();
+        assert!(e.to_string().contains("ω = 3.2"), "{e}");
     }
 
     #[test]

@@ -158,16 +158,21 @@ fn rgba_of(
 /// belongs to is loaded (each `n × n` block, the remainder at the
 /// right/bottom cropped): a block is kept only if every pixel in it is, so
 /// no kept pixel mixes in what the mask hides. Read as stored, or after its
-/// EXIF orientation if `upright` (as the photo). `size` is the photo's size
-/// (width, height, full resolution, as read); a mask of another size is
-/// refused. Returns one flag per loaded pixel, row-major, true where kept.
-pub fn load_mask(path: &Path, downscale: u32, upright: bool, size: (u32, u32)) -> Result<Vec<bool>, DataError> {
+/// EXIF orientation if `upright` (as the photo). `photo` is the photo's file
+/// and size (width, height, full resolution, as read); a mask of another
+/// size is refused. Returns one flag per loaded pixel, row-major, true where kept.
+pub fn load_mask(path: &Path, downscale: u32, upright: bool, photo: (&Path, u32, u32)) -> Result<Vec<bool>, DataError> {
     let img = read_image(path, upright)?.to_rgba16();
     let (w, h) = img.dimensions();
-    if (w, h) != size {
+    if (w, h) != (photo.1, photo.2) {
         return Err(DataError::new(
             path,
-            format!("mask is {w}x{h} but its photo is {}x{}: a mask must have its photo's size", size.0, size.1),
+            format!(
+                "mask is {w}x{h} but its photo {} is {}x{}: a mask must have its photo's size",
+                photo.0.display(),
+                photo.1,
+                photo.2
+            ),
         ));
     }
     let n = downscale.max(1);

@@ -128,9 +128,12 @@ impl Lens {
     }
 
     /// The ideal normalised point that [`Lens::distort`] maps to `(xd, yd)`:
-    /// Newton's method from the distorted point (at most 50 steps, stopping
-    /// below 10⁻¹² normalised units). Returns `None` if it does not converge
-    /// (a point outside the region where the model is invertible).
+    /// in closed form for [`Lens::Fov`]; otherwise by Newton's method (at
+    /// most 50 steps, stopping below 10⁻¹² normalised units) from the
+    /// distorted point, from the angle solving the fisheye's polynomial, or
+    /// for the thin-prism fisheye from its fisheye part's inverse. Returns
+    /// `None` if it does not converge or the point lies beyond what the
+    /// lens images (a point outside the region where the model is invertible).
     pub fn undistort(&self, xd: f64, yd: f64) -> Option<(f64, f64)> {
         match *self {
             Lens::Pinhole => Some((xd, yd)),
@@ -349,6 +352,16 @@ mod tests {
         let th = 0.5f64.atan();
         let (x, y) = lens.distort(0.5, 0.0);
         assert!((x - (th + 0.01 * th * th)).abs() < 1e-15 && (y + 0.02 * th * th).abs() < 1e-15, "{x} {y}");
+        // the tangential terms alone, as OpenCV's on the equidistant point (u, v) = (θ/r)(x, y)
+        let lens = Lens::ThinPrismFisheye { k: [0.0; 4], p: [0.01, -0.02], s: [0.0; 2] };
+        let (r, t) = ((0.3f64 * 0.3 + 0.4 * 0.4).sqrt(), (0.3f64 * 0.3 + 0.4 * 0.4).sqrt().atan());
+        let (u, v) = (0.3 * t / r, 0.4 * t / r);
+        let (x, y) = lens.distort(0.3, 0.4);
+        let want = (
+            u + 2.0 * 0.01 * u * v - 0.02 * (t * t + 2.0 * u * u),
+            v - 2.0 * 0.02 * u * v + 0.01 * (t * t + 2.0 * v * v),
+        );
+        assert!((x - want.0).abs() < 1e-15 && (y - want.1).abs() < 1e-15, "{x} {y} {want:?}");
         // FOV: a point at radius r lands at atan(2 r tan(ω/2)) / ω
         let omega = 0.9f64;
         let (x, _) = Lens::Fov { omega }.distort(0.5, 0.0);

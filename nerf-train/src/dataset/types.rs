@@ -233,8 +233,8 @@ impl Dataset {
         let kept = self.views.iter().map(|v| v.rgb.len() - v.mask.iter().filter(|&&k| !k).count()).sum::<usize>();
         if (kept as f64) < 0.01 * self.pixel_count() as f64 {
             return Err(Error::Camera(format!(
-                "the masks leave {kept} of the {} pixels to train on (a pixel whose mask is 0 is left out): \
-                 check the masks' mask_path, or that they are not inverted",
+                "the photos' masks leave {kept} of the {} pixels to train on (a pixel whose mask is 0 is left \
+                 out): check that the masks are the photos' own and not inverted",
                 self.pixel_count()
             )));
         }

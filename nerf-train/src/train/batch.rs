@@ -63,9 +63,10 @@ impl Trainer {
     /// may differ in size), through each view's lens: through the pixel's
     /// centre, or with `how.jitter` through a uniformly random point of it.
     /// Pixels whose ray misses the scene, or that their view's mask leaves
-    /// out ([`crate::dataset::View::mask`]), are drawn again, at most `64 n`
+    /// out ([`crate::dataset::View::mask`]), are drawn again, at most `128 n`
     /// draws in all: [`crate::dataset::Dataset::check_rays`] makes sure at
-    /// load time that enough rays meet the scene, so a short batch is rare.
+    /// load time that at least 1 % of the pixels train and meet the scene
+    /// (`100 n` draws expected at 1 %), so a short batch is rare.
     ///
     /// A share `how.random_background` (in `[0, 1]`) of the pixels of views
     /// with an alpha channel gets a uniformly random background colour,
@@ -92,7 +93,7 @@ impl Trainer {
         }
         let scene_bg = data.scene.background();
         let mut out = Vec::with_capacity(n);
-        for _ in 0..n.saturating_mul(64) {
+        for _ in 0..n.saturating_mul(128) {
             if out.len() == n || total == 0 {
                 break;
             }
