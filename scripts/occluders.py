@@ -13,7 +13,9 @@ and its photos), for measuring what nerfstudio's masks (mask_path) buy:
 The training photos are the ones `nerf train --llffhold HOLDOUT` trains
 on (the photos that exist, every HOLDOUT-th held out); held-out photos are
 never painted, so all three score on the same views. The capture's own
-files are only read. Needs Pillow.
+files are only read. Frames must name their photos with the extension
+(as fox's do), and photos in different folders must not share a name.
+Needs Pillow.
 
   scripts/occluders.py DATA_DIR OUT [HOLDOUT] [SEED]
 """
