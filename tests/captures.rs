@@ -387,17 +387,31 @@ fn nerfstudio_masks_leave_their_pixels_out_at_every_downscale() {
     let flat = load(&d, Split::Test, LoadOptions { undistort: true, ..opts(Format::Auto) }).unwrap();
     let m = &flat.views[0].mask;
     assert!(m.iter().enumerate().all(|(i, &k)| (i % 16 > 3 || !k) && (i % 16 < 8 || k)));
-    // a resampled pixel is kept exactly when every photo pixel it blends (weight above 10⁻⁴) is
+    // a resampled pixel is kept exactly when the lens imaged it (its source lies in the photo) and every
+    // photo pixel it blends (weight above 10⁻⁴) is kept
     let (lens, c) = (full.views[0].lens, full.views[0].camera);
+    let mut unimaged = 0;
     for (i, &k) in m.iter().enumerate() {
         let (x, y) = ((i % 16) as f64 + 0.5 - c.cx as f64, (i / 16) as f64 + 0.5 - c.cy as f64);
-        let (xd, _) = lens.distort(x / c.fx as f64, y / c.fy as f64);
-        let su = (xd * c.fx as f64 + c.cx as f64 - 0.5).clamp(0.0, 15.0);
+        let (xd, yd) = lens.distort(x / c.fx as f64, y / c.fy as f64);
+        let (sx, sy) = (xd * c.fx as f64 + c.cx as f64, yd * c.fy as f64 + c.cy as f64);
+        let imaged = (0.0..=16.0).contains(&sx) && (0.0..=16.0).contains(&sy);
+        unimaged += !imaged as usize;
+        let su = (sx - 0.5).clamp(0.0, 15.0);
         let (u0, a) = (su.floor() as usize, su.fract());
         let blended = [(u0, 1.0 - a), ((u0 + 1).min(15), a)];
-        let kept = blended.iter().all(|&(u, w)| w < 1e-4 || u >= 5);
-        assert_eq!(k, kept, "pixel {i}: source column {su}");
+        let kept = imaged && blended.iter().all(|&(u, w)| w < 1e-4 || u >= 5);
+        assert_eq!(k, kept, "pixel {i}: source ({sx}, {sy})");
     }
+    assert_eq!(unimaged, 0, "this lens images every pixel of the pinhole photo");
+    // a pincushion lens leaves the pinhole photo's corners unimaged: they train on no photo's pixels
+    let orig = std::fs::read_to_string(d.join("transforms.json")).unwrap();
+    edit_transforms(&d, |v| v["k1"] = 0.4.into());
+    let pin = load(&d, Split::Train, LoadOptions { undistort: true, ..opts(Format::Auto) }).unwrap();
+    for v in &pin.views {
+        assert!(!v.mask[0] && !v.mask[255] && v.mask[8 * 16 + 8], "{}", v.name);
+    }
+    std::fs::write(d.join("transforms.json"), orig).unwrap();
     // a held-out photo whose mask hides it whole is left out, and the split says so
     image::GrayImage::new(16, 16).save(d.join("masks/img_000.png")).unwrap();
     let e = load(&d, Split::Test, opts(Format::Auto)).unwrap_err().to_string();

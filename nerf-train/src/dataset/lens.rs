@@ -237,11 +237,29 @@ pub struct Pixels {
     pub cy: f64,
 }
 
+/// Which pixels of the pinhole photo [`undistort_image`] makes of a `w × h`
+/// photo the lens imaged (row-major): those whose ideal point the lens
+/// puts within the photo (its pixels' extent, half a pixel beyond the
+/// outer centres). The others repeat the photo's nearest edge.
+pub fn imaged(w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<bool> {
+    let mut out = Vec::with_capacity(w * h);
+    for v in 0..h {
+        for u in 0..w {
+            let (x, y) = ((u as f64 + 0.5 - k.cx) / k.fx, (v as f64 + 0.5 - k.cy) / k.fy);
+            let (xd, yd) = lens.distort(x, y);
+            let (su, sv) = (xd * k.fx + k.cx, yd * k.fy + k.cy);
+            out.push((0.0..=w as f64).contains(&su) && (0.0..=h as f64).contains(&sv));
+        }
+    }
+    out
+}
+
 /// The photo `rgb` (`w × h`, row-major) as an ideal pinhole camera with the
 /// same intrinsics would have taken it: each output pixel's ideal point is
 /// distorted by `lens` and the photo sampled there bilinearly (clamped at
-/// the borders, so pixels the lens did not image repeat the nearest edge).
-/// COLMAP's `image_undistorter` does the same, cropping those borders.
+/// the borders, so pixels the lens did not image, [`imaged`], repeat the
+/// nearest edge). COLMAP's `image_undistorter` does the same, cropping
+/// those borders.
 pub fn undistort_image(rgb: &[[f32; 3]], w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<[f32; 3]> {
     let at = |x: usize, y: usize| rgb[y.min(h - 1) * w + x.min(w - 1)];
     let mut out = Vec::with_capacity(w * h);
@@ -305,6 +323,19 @@ mod tests {
             "largest difference from the pinhole photo: {before} before, {after} after"
         );
         assert_eq!(undistort_image(&photo, w, h, k, Lens::Pinhole), photo);
+    }
+
+    #[test]
+    fn a_pincushion_lens_leaves_the_pinhole_photos_corners_unimaged() {
+        let (w, h) = (64usize, 48usize);
+        let k = Pixels { fx: 40.0, fy: 40.0, cx: 32.0, cy: 24.0 };
+        assert!(imaged(w, h, k, Lens::Pinhole).iter().all(|&i| i));
+        // pincushion (k1 > 0) pushes the corners' ideal points out of the photo
+        let pin = imaged(w, h, k, Lens::opencv(0.3, 0.0, 0.0, 0.0));
+        assert!(!pin[0] && !pin[w - 1] && !pin[(h - 1) * w] && !pin[w * h - 1]);
+        assert!(pin[(h / 2) * w + w / 2]);
+        // barrel (k1 < 0) pulls them in: every pixel imaged
+        assert!(imaged(w, h, k, Lens::opencv(-0.1, 0.0, 0.0, 0.0)).iter().all(|&i| i));
     }
 
     /// Pixels of a 640×480 camera, f = 500: project an ideal point,
