@@ -198,7 +198,7 @@ fn write_jpeg(path: &Path, img: &image::RgbImage, exif: Option<Vec<u8>>) {
 }
 
 #[test]
-fn jpeg_loads_upright_with_its_exif_orientation_and_bmp_and_tga_load() {
+fn jpeg_loads_upright_with_its_exif_orientation_and_bmp_tga_tiff_and_webp_load() {
     let d = tmp("jpeg");
     // 16×8, left half black, right half white
     let img = image::RgbImage::from_fn(16, 8, |x, _| if x < 8 { image::Rgb([0; 3]) } else { image::Rgb([255; 3]) });
@@ -216,13 +216,18 @@ fn jpeg_loads_upright_with_its_exif_orientation_and_bmp_and_tga_load() {
     grey.save(d.join("grey16.png")).unwrap();
     let (_, _, px) = load_rgb(&d.join("grey16.png"), 2, false).unwrap();
     assert!((px[0][0] - 0.5).abs() < 1e-3 && px[0][0] == px[0][2]);
-    // BMP and TGA, which COLMAP and instant-ngp read too
-    for ext in ["bmp", "tga"] {
+    // BMP, TGA, TIFF and WebP, which COLMAP reads too
+    for ext in ["bmp", "tga", "tif", "tiff", "webp"] {
         img.save(d.join(format!("plain.{ext}"))).unwrap();
         let (w, h, px) = load_rgb(&d.join(format!("plain.{ext}")), 1, false).unwrap();
         assert_eq!((w, h), (16, 8), "{ext}");
         assert!(px[0][0] == 0.0 && px[15][0] == 1.0, "{ext}");
     }
+    // a 16-bit TIFF, as raw converters write: its full precision kept
+    let deep = image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_pixel(4, 4, image::Rgb([1000, 32768, 65535]));
+    deep.save(d.join("deep.tiff")).unwrap();
+    let (_, _, px) = load_rgb(&d.join("deep.tiff"), 1, false).unwrap();
+    assert!((px[0][0] - 1000.0 / 65535.0).abs() < 1e-6 && px[0][2] == 1.0, "{:?}", px[0]);
     // a file that is not an image is named
     std::fs::write(d.join("bad.jpg"), b"not a jpeg").unwrap();
     let e = load_rgb(&d.join("bad.jpg"), 1, false).unwrap_err().to_string();

@@ -101,7 +101,8 @@ fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
         s.push(ext);
         std::path::PathBuf::from(s)
     };
-    const EXTENSIONS: [&str; 8] = [".png", ".jpg", ".jpeg", ".PNG", ".JPG", ".JPEG", ".bmp", ".tga"];
+    const EXTENSIONS: [&str; 11] =
+        [".png", ".jpg", ".jpeg", ".PNG", ".JPG", ".JPEG", ".bmp", ".tga", ".tif", ".tiff", ".webp"];
     EXTENSIONS.iter().map(|e| with(e)).find(|q| q.is_file()).unwrap_or_else(|| {
         if p.extension().is_some() {
             p.clone()

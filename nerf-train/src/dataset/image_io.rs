@@ -1,4 +1,4 @@
-//! Image reading (PNG and JPEG: 8/16-bit, grey, RGB, RGBA; EXIF
+//! Image reading (PNG, JPEG, TIFF, WebP, BMP, TGA: 8/16-bit, grey, RGB, RGBA; EXIF
 //! orientation applied) with compositing and area downscaling, masks, and
 //! PNG writing.
 
