@@ -213,7 +213,9 @@ TREATMENTS = """- `auto`: no flag but the preset; the scene model (object box, f
   (`--ignore-distortion`); `lens`: rays bent through the lens (the default);
   `undistort`: photos resampled without distortion once at load
   (`--undistort`), scored against the photos as taken or, where the
-  treatment says so, against the resampled photos.
+  treatment says so, against the resampled photos (from 377aef6 on over
+  the pixels the lens imaged, which alone train; before, over every
+  pixel, those beyond the lens repeating the photo's edge).
 - `features`: the default preset (`features`); the other treatments of
   `scripts/captures.sh` train `--preset fast`.
 - `scene-colmap` / `scene-room`: the built-in scene written by `nerf scene`

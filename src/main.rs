@@ -29,7 +29,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Train a model on a dataset (Blender, LLFF, instant-ngp or COLMAP layout; PNG, JPEG, TIFF, WebP, BMP or TGA photos).
+    /// Train a model on a dataset (Blender, LLFF, instant-ngp or COLMAP layout; PNG or JPEG photos, and TIFF, WebP, BMP or TGA outside LLFF).
     Train(cmd::train::Args),
     /// Render a split and print PSNR, SSIM and cost as one JSON object.
     Eval(cmd::eval::Args),

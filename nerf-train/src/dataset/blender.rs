@@ -101,8 +101,10 @@ fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
         s.push(ext);
         std::path::PathBuf::from(s)
     };
-    const EXTENSIONS: [&str; 11] =
-        [".png", ".jpg", ".jpeg", ".PNG", ".JPG", ".JPEG", ".bmp", ".tga", ".tif", ".tiff", ".webp"];
+    const EXTENSIONS: [&str; 14] = [
+        ".png", ".jpg", ".jpeg", ".PNG", ".JPG", ".JPEG", ".bmp", ".tga", ".tif", ".tiff", ".TIF", ".TIFF", ".webp",
+        ".WEBP",
+    ];
     EXTENSIONS.iter().map(|e| with(e)).find(|q| q.is_file()).unwrap_or_else(|| {
         if p.extension().is_some() {
             p.clone()
@@ -116,7 +118,8 @@ fn image_path(dir: &Path, file: &str) -> std::path::PathBuf {
 /// capture split into files rather than a Blender synthetic split: a file
 /// without `camera_angle_x` (its focal length in other keys), or one whose
 /// lens the Blender loader would drop (a distortion coefficient other than
-/// 0, a fisheye), or whose frames carry intrinsics or masks of their own. A
+/// 0, a fisheye), or whose frames carry intrinsics of their own; or a
+/// capture one of whose split files names masks (`mask_path`). A
 /// Blender-layout file that also states its pinhole's `fl_x`, `cx`, `w`, …
 /// (as BlenderNeRF writes) stays Blender. A file that does not parse counts
 /// as Blender, whose loader then names the fault.
@@ -126,7 +129,11 @@ pub(super) fn is_ngp_split(dir: &Path) -> bool {
     // a lens other than a pinhole, or one the ngp loader refuses (it then names the fault)
     let lens = |f: &Frame| ngp_lens(&path, "", &f.intr, &t.intr).map_or(true, |l| l != Lens::Pinhole);
     let own = |i: &Intrinsics| [i.fl_x, i.fl_y, i.cx, i.cy, i.w, i.h].iter().any(Option::is_some);
-    t.camera_angle_x.is_none() || t.frames.iter().any(|f| lens(f) || own(&f.intr) || f.mask_path.is_some())
+    let masks = [Split::Train, Split::Val, Split::Test].iter().any(|s| {
+        let file = read_transforms(&dir.join(format!("transforms_{}.json", s.name())));
+        file.is_ok_and(|f| f.frames.iter().any(|f| f.mask_path.is_some()))
+    });
+    t.camera_angle_x.is_none() || masks || t.frames.iter().any(|f| lens(f) || own(&f.intr))
 }
 
 struct SceneDefaults {
@@ -221,8 +228,8 @@ pub fn load_blender(dir: &Path, split: Split, downscale: u32) -> Result<Dataset,
     let notes = match masked {
         0 => Vec::new(),
         n => vec![format!(
-            "{}: {n} frames name a mask_path, which --format blender does not apply (leave --format out, or give \
-             --format ngp, to apply the masks)",
+            "{}: {n} frames name a mask_path, which the Blender loader does not apply (give --format ngp to apply \
+             the masks)",
             path.display()
         )],
     };

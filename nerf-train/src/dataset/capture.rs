@@ -239,7 +239,10 @@ pub fn build(
         };
         let hint = match hidden.len() {
             0 => hint,
-            n => format!("{hint} ({n} hidden whole by their masks)"),
+            n => format!(
+                " (all {n} of its photos hidden whole by their masks at this size: check the masks{})",
+                if matches!(opts.select, Selection::Holdout(_)) { ", or give a smaller --llffhold" } else { "" }
+            ),
         };
         return Err(DataError::new(path, format!("no images in the {} split{hint}", opts.split.name())));
     }
@@ -264,7 +267,7 @@ pub fn build(
     let notes = match hidden.len() {
         0 => Vec::new(),
         n => vec![format!(
-            "{}: {n} {} photos left out, their masks hiding every pixel ({})",
+            "{}: {n} {} photo(s) left out, their masks hiding every pixel at this size ({})",
             path.display(),
             opts.split.name(),
             hidden.join(", ")
