@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
-# What nerfstudio's masks (mask_path) buy on a capture with something moving
-# through its photos: scripts/occluders.py paints a rectangle of a random
-# colour over a tenth of every training photo of an instant-ngp capture
-# (DATA_DIR with transforms.json; held-out photos untouched), and the
-# capture is trained as it is, painted, and painted with masks that leave
-# the rectangles out, each for ITERS steps at 1/8 size (seed 0, default
-# flags), then scored on its held-out views. Appends rows to
+# What masks buy on a capture with something moving through its photos:
+# scripts/occluders.py paints a rectangle of a random colour over a tenth
+# of every training photo of an instant-ngp or COLMAP capture (held-out
+# photos untouched), and the capture is trained as it is, painted, and
+# painted with masks that leave the rectangles out (nerfstudio's mask_path
+# in transforms.json, a masks/ folder beside a COLMAP capture's images/),
+# each for ITERS steps at 1/8 size (seed 0, default flags), then scored on
+# its held-out views. Appends rows to
 # docs/masks.csv: date, commit, CPU, cores, capture, copy, steps, seconds
 # of training, PSNR, SSIM. Needs Pillow (pip install pillow).
 #
 #   scripts/masks.sh DATA_DIR ITERS
 #   scripts/masks.sh ../shared/data/fox 2000
+#   scripts/masks.sh ../shared/data/bird 2000
 set -euo pipefail
 data=$(realpath "$1")
 iters=$2

@@ -32,7 +32,7 @@ steps=(
   "capture-ff|20|scripts/capture_ab.sh llff 3000 '{}' '{\"distortion\": 0.001}' && scripts/capture_ab.sh llff 5m '{}' '{\"distortion\": 0.001}'"
   "capture-5m|55|for c in ROOT/bird ROOT/fox; do scripts/capture_ab.sh \$c 5m '{}' '{\"distortion\": 0.001}' '{\"n_main\": 16}'; done && scripts/capture_ab.sh room 5m '{}' '{\"distortion\": 0.001}' '{\"n_coarse\": 192, \"n_main\": 48}'"
   "capture-pose|35|for c in ROOT/bird ROOT/fox; do scripts/capture_ab.sh \$c 2000 '{}' '{\"pose_refine\": true, \"pose_lr\": 1e-4}' '{\"pose_refine\": true, \"pose_lr\": 6e-4}'; done && scripts/pose_perturbed.sh ROOT 2000 0.5 0.01"
-  "masks|8|scripts/masks.sh ROOT/fox 2000"
+  "masks|15|scripts/masks.sh ROOT/fox 2000 && scripts/masks.sh ROOT/bird 2000"
   "room-region|17|scripts/room_region.sh 5m 0 '{}' '{\"feature_max_res\": 1024}'"
   "layouts|10|scripts/llff_layout.sh ROOT 1500 && scripts/capture_bird.sh ROOT 1500"
   "plain-build|12|scripts/plain_build_lego.sh ROOT 10"

@@ -516,11 +516,12 @@ def masks_section():
     t = table(["<capture", "<training photos", "steps", "s", "PSNR", "SSIM", "<run"], body)
     return ("Masks: something moving through the photos", "masks", """`scripts/masks.sh DATA ITERS`:
 `scripts/occluders.py` paints a rectangle of a random colour over a
-tenth of every training photo of an instant-ngp capture (a quarter of
-its width, two fifths of its height, at a random place: something that
-moved through the shot; the held-out photos untouched), and the capture
-is trained as captured, painted, and painted with nerfstudio masks
-(`mask_path`) that leave the rectangles out, each at 1/8 size with the
+tenth of every training photo of a capture (a quarter of its width, two
+fifths of its height, at a random place: something that moved through
+the shot; the held-out photos untouched), and the capture is trained as
+captured, painted, and painted with masks that leave the rectangles out
+(fox: nerfstudio's `mask_path` in its `transforms.json`; bird: a
+`masks/` folder beside its COLMAP `images/`), each at 1/8 size with the
 default flags and seed 0, and scored on its held-out views. Seconds:
 the run's wall time, loading included.""", t if rs else missing("masks"))
 
