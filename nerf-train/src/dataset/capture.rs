@@ -69,7 +69,7 @@ pub struct CaptureOptions {
     pub lens: bool,
     /// With `lens`: resample each distorted photo to a pinhole photo once
     /// instead ([`super::lens::undistort_image`]), leaving the pixels the
-    /// lens did not image out of its mask ([`super::lens::imaged`]).
+    /// lens did not image out of its mask ([`super::lens::undistort_mask`]).
     pub undistort: bool,
     /// Composite photos with an alpha channel on white (and render the
     /// scene on white) instead of black.
@@ -204,20 +204,10 @@ pub fn build(
             let px = super::lens::Pixels { fx, fy, cx, cy };
             let (w, h) = (w as usize, h as usize);
             rgb = super::lens::undistort_image(&rgb, w, h, px, lens);
-            if !mask.is_empty() {
-                // a resampled pixel is kept only if every photo pixel it blends is
-                let m: Vec<[f32; 3]> = mask.iter().map(|&k| [k as u8 as f32; 3]).collect();
-                let m = super::lens::undistort_image(&m, w, h, px, lens);
-                mask = m.iter().map(|p| p[0] > 0.9999).collect();
-            }
-            // and only if the lens imaged it: the rest repeats the photo's edge
-            let imaged = super::lens::imaged(w, h, px, lens);
-            if imaged.contains(&false) {
-                mask = match mask.is_empty() {
-                    true => imaged,
-                    false => mask.iter().zip(&imaged).map(|(&m, &i)| m && i).collect(),
-                };
-            }
+            // a resampled pixel is kept only if the lens imaged it (the rest repeats the photo's edge) and
+            // every photo pixel it blends is kept
+            let kept = super::lens::undistort_mask(&mask, w, h, px, lens);
+            mask = if kept.contains(&false) { kept } else { Vec::new() };
             lens = Lens::Pinhole;
         }
         let (name, file, alpha) = (names[i].clone(), v.image.clone(), Vec::new());

@@ -237,18 +237,39 @@ pub struct Pixels {
     pub cy: f64,
 }
 
-/// Which pixels of the pinhole photo [`undistort_image`] makes of a `w × h`
-/// photo the lens imaged (row-major): those whose ideal point the lens
-/// puts within the photo (its pixels' extent, half a pixel beyond the
-/// outer centres). The others repeat the photo's nearest edge.
-pub fn imaged(w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<bool> {
+/// Where `lens` puts the ideal point of the pinhole photo's pixel `(u, v)`:
+/// the position in the photo, pixels from its top-left corner.
+fn source(u: usize, v: usize, k: Pixels, lens: Lens) -> (f64, f64) {
+    let (x, y) = ((u as f64 + 0.5 - k.cx) / k.fx, (v as f64 + 0.5 - k.cy) / k.fy);
+    let (xd, yd) = lens.distort(x, y);
+    (xd * k.fx + k.cx, yd * k.fy + k.cy)
+}
+
+/// The bilinear sample of a `w × h` photo (row-major, read through `at`) at
+/// `(sx, sy)` (pixels from its top-left corner), clamped at the borders.
+fn bilinear(at: impl Fn(usize, usize) -> [f32; 3], w: usize, h: usize, sx: f64, sy: f64) -> [f32; 3] {
+    // position in pixel-centre units, clamped to the photo
+    let su = (sx - 0.5).clamp(0.0, (w - 1) as f64);
+    let sv = (sy - 0.5).clamp(0.0, (h - 1) as f64);
+    let (u0, v0) = (su.floor() as usize, sv.floor() as usize);
+    let (a, b) = ((su - u0 as f64) as f32, (sv - v0 as f64) as f32);
+    let (p00, p10, p01, p11) = (at(u0, v0), at(u0 + 1, v0), at(u0, v0 + 1), at(u0 + 1, v0 + 1));
+    std::array::from_fn(|c| (p00[c] * (1.0 - a) + p10[c] * a) * (1.0 - b) + (p01[c] * (1.0 - a) + p11[c] * a) * b)
+}
+
+/// The mask of the pinhole photo [`undistort_image`] makes of a `w × h`
+/// photo whose own mask is `mask` (row-major, true where kept; empty: every
+/// pixel kept): a pixel is kept if the lens imaged it (its ideal point lies
+/// within the photo's pixels' extent; the others repeat the photo's
+/// nearest edge) and every photo pixel it blends (weight above 10⁻⁴) is kept.
+pub fn undistort_mask(mask: &[bool], w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<bool> {
+    let at = |x: usize, y: usize| [mask[y.min(h - 1) * w + x.min(w - 1)] as u8 as f32; 3];
     let mut out = Vec::with_capacity(w * h);
     for v in 0..h {
         for u in 0..w {
-            let (x, y) = ((u as f64 + 0.5 - k.cx) / k.fx, (v as f64 + 0.5 - k.cy) / k.fy);
-            let (xd, yd) = lens.distort(x, y);
-            let (su, sv) = (xd * k.fx + k.cx, yd * k.fy + k.cy);
-            out.push((0.0..=w as f64).contains(&su) && (0.0..=h as f64).contains(&sv));
+            let (sx, sy) = source(u, v, k, lens);
+            let imaged = (0.0..=w as f64).contains(&sx) && (0.0..=h as f64).contains(&sy);
+            out.push(imaged && (mask.is_empty() || bilinear(at, w, h, sx, sy)[0] > 0.9999));
         }
     }
     out
@@ -257,7 +278,7 @@ pub fn imaged(w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<bool> {
 /// The photo `rgb` (`w × h`, row-major) as an ideal pinhole camera with the
 /// same intrinsics would have taken it: each output pixel's ideal point is
 /// distorted by `lens` and the photo sampled there bilinearly (clamped at
-/// the borders, so pixels the lens did not image, [`imaged`], repeat the
+/// the borders, so pixels the lens did not image, [`undistort_mask`], repeat the
 /// nearest edge). COLMAP's `image_undistorter` does the same, cropping
 /// those borders.
 pub fn undistort_image(rgb: &[[f32; 3]], w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<[f32; 3]> {
@@ -265,17 +286,8 @@ pub fn undistort_image(rgb: &[[f32; 3]], w: usize, h: usize, k: Pixels, lens: Le
     let mut out = Vec::with_capacity(w * h);
     for v in 0..h {
         for u in 0..w {
-            let (x, y) = ((u as f64 + 0.5 - k.cx) / k.fx, (v as f64 + 0.5 - k.cy) / k.fy);
-            let (xd, yd) = lens.distort(x, y);
-            // source position in pixel-centre units, clamped to the photo
-            let su = (xd * k.fx + k.cx - 0.5).clamp(0.0, (w - 1) as f64);
-            let sv = (yd * k.fy + k.cy - 0.5).clamp(0.0, (h - 1) as f64);
-            let (u0, v0) = (su.floor() as usize, sv.floor() as usize);
-            let (a, b) = ((su - u0 as f64) as f32, (sv - v0 as f64) as f32);
-            let (p00, p10, p01, p11) = (at(u0, v0), at(u0 + 1, v0), at(u0, v0 + 1), at(u0 + 1, v0 + 1));
-            out.push(std::array::from_fn(|c| {
-                (p00[c] * (1.0 - a) + p10[c] * a) * (1.0 - b) + (p01[c] * (1.0 - a) + p11[c] * a) * b
-            }));
+            let (sx, sy) = source(u, v, k, lens);
+            out.push(bilinear(at, w, h, sx, sy));
         }
     }
     out
@@ -329,13 +341,13 @@ mod tests {
     fn a_pincushion_lens_leaves_the_pinhole_photos_corners_unimaged() {
         let (w, h) = (64usize, 48usize);
         let k = Pixels { fx: 40.0, fy: 40.0, cx: 32.0, cy: 24.0 };
-        assert!(imaged(w, h, k, Lens::Pinhole).iter().all(|&i| i));
+        assert!(undistort_mask(&[], w, h, k, Lens::Pinhole).iter().all(|&i| i));
         // pincushion (k1 > 0) pushes the corners' ideal points out of the photo
-        let pin = imaged(w, h, k, Lens::opencv(0.3, 0.0, 0.0, 0.0));
+        let pin = undistort_mask(&[], w, h, k, Lens::opencv(0.3, 0.0, 0.0, 0.0));
         assert!(!pin[0] && !pin[w - 1] && !pin[(h - 1) * w] && !pin[w * h - 1]);
         assert!(pin[(h / 2) * w + w / 2]);
         // barrel (k1 < 0) pulls them in: every pixel imaged
-        assert!(imaged(w, h, k, Lens::opencv(-0.1, 0.0, 0.0, 0.0)).iter().all(|&i| i));
+        assert!(undistort_mask(&[], w, h, k, Lens::opencv(-0.1, 0.0, 0.0, 0.0)).iter().all(|&i| i));
     }
 
     /// Pixels of a 640×480 camera, f = 500: project an ideal point,
