@@ -11,7 +11,7 @@ pub const SECTIONS: [&str; 6] = ["model", "features", "sampling", "grid", "optim
 
 /// Each field's flat name (a `--config` file without sections), its
 /// section and its name there.
-pub const FLAT_NAMES: [(&str, &str, &str); 42] = [
+pub const FLAT_NAMES: [(&str, &str, &str); 43] = [
     ("pos_freqs", "model", "pos_freqs"),
     ("dir_freqs", "model", "dir_freqs"),
     ("include_input", "model", "include_input"),
@@ -52,6 +52,7 @@ pub const FLAT_NAMES: [(&str, &str, &str); 42] = [
     ("ema_decay", "optimiser", "ema_decay"),
     ("distortion", "loss", "distortion"),
     ("density_l1", "loss", "density_l1"),
+    ("near_gradient", "loss", "near_gradient"),
     ("appearance", "loss", "appearance"),
     ("pose_refine", "loss", "pose_refine"),
 ];

@@ -52,7 +52,13 @@ impl TrainConfig {
                 feature_decay: 0.0,
                 ema_decay: 0.0,
             },
-            loss: LossConfig { distortion: 0.0, density_l1: 0.0, appearance: false, pose_refine: false },
+            loss: LossConfig {
+                distortion: 0.0,
+                density_l1: 0.0,
+                near_gradient: 0.0,
+                appearance: false,
+                pose_refine: false,
+            },
         }
     }
 

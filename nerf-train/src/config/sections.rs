@@ -187,6 +187,13 @@ pub struct LossConfig {
     /// that no photo needs (inside solids, below surfaces the cameras never
     /// see from the side) fades, where the colour loss keeps what a photo shows.
     pub density_l1: f32,
+    /// Distance `d₀` from the camera (world units: in a fitted capture the
+    /// median camera is 1 from the centre) within which a sample's gradient
+    /// is scaled by `(d/d₀)²` ("Floaters No More", Philip & Deschaintre
+    /// 2023): space right in front of a lens covers many pixels of that one
+    /// photo and few of any other, so the colour loss would otherwise grow
+    /// floaters there that no other view explains. 0: off (every preset).
+    pub near_gradient: f32,
     /// Fit a colour correction per training photo beside the model
     /// ([`crate::appearance`]: `A·c + b` on each pixel's composited colour)
     /// for photos that differ in exposure or white balance; the model and

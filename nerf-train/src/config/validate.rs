@@ -66,6 +66,12 @@ impl TrainConfig {
         if !(self.loss.distortion.is_finite() && self.loss.distortion >= 0.0) {
             return Err(Error::Config(format!("loss.distortion {} must be a finite weight ≥ 0", self.loss.distortion)));
         }
+        if !(self.loss.near_gradient.is_finite() && self.loss.near_gradient >= 0.0) {
+            return Err(Error::Config(format!(
+                "loss.near_gradient {} must be a finite distance ≥ 0",
+                self.loss.near_gradient
+            )));
+        }
         if !(self.loss.density_l1.is_finite() && self.loss.density_l1 >= 0.0) {
             return Err(Error::Config(format!("loss.density_l1 {} must be a finite weight ≥ 0", self.loss.density_l1)));
         }

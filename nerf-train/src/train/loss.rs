@@ -93,4 +93,24 @@ impl Trainer {
         let (acts, w) = if fine { (&ws.acts_f, &mut ws.w_f) } else { (&ws.acts_c, &mut ws.w_c) };
         loss_gradients(rays, &ws.offs, scale, acts, &ws.delta, priors, corr, w, &mut ws.dw, &mut ws.dsig, &mut ws.drgb)
     }
+
+    /// Scales the gradient (`dsig`, `drgb`) of each sample of the coarse or
+    /// only pass that lies within [`LossConfig::near_gradient`](crate::config::LossConfig::near_gradient)
+    /// `d₀` of its camera by `(d/d₀)²`, `d` its distance in world units;
+    /// forward-facing scenes, whose rays run in NDC, are left alone.
+    pub(super) fn scale_near_gradients(&self, rays: &[Sample], ws: &mut Workspace) {
+        let d0 = self.cfg.loss.near_gradient;
+        if d0 <= 0.0 || self.scene.ndc.is_some() {
+            return;
+        }
+        let nc = self.main_samples();
+        for (i, Sample { ray, .. }) in rays.iter().enumerate() {
+            for k in ws.offs[i]..ws.offs[i + 1] {
+                let d = ws.t_c[i * nc + ws.kept[k] as usize] * ray.dir_len;
+                let f = (d / d0).min(1.0).powi(2);
+                ws.dsig[k] *= f;
+                ws.drgb[3 * k..3 * k + 3].iter_mut().for_each(|g| *g *= f);
+            }
+        }
+    }
 }

@@ -202,6 +202,7 @@ impl Trainer {
             timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
         }
         let sq_c = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, false));
+        self.scale_near_gradients(rays, ws);
         ws.acts_c.keep_input_gradient(self.poses.is_some() && self.refines_poses());
         if let Some(pg) = &self.proposal {
             // the interlevel loss, a mean over the batch's rays as the colour loss is
