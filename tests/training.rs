@@ -422,3 +422,30 @@ fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() 
         }
     }
 }
+
+#[test]
+fn gradients_shrink_only_within_the_near_gradient_distance_of_the_camera() {
+    let d = support::TestDir::new("near-gradient-test");
+    write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let probe = Trainer::draw_batch(&data, 256, Draw::CENTRES, &mut Rng::new(5));
+    let gradient = |d0: f32| {
+        let cfg = small_config().with(|c| {
+            c.sampling.n_fine = 0;
+            c.loss.near_gradient = d0;
+        });
+        Trainer::new(cfg, data.scene, 1, 3).gradients(&probe, 1).0
+    };
+    let norm = |g: &[f32]| g.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
+    let off = gradient(0.0);
+    let (near, far) = (data.scene.near, data.scene.far);
+    assert!(near > 0.0 && norm(&off) > 0.0);
+    // every sample lies beyond the near plane: a distance inside it changes nothing
+    assert_eq!(gradient(0.5 * near), off);
+    // every sample within it: each sample's gradient shrinks by (d/d₀)² ≤ 10⁻⁴
+    let all = gradient(100.0 * far);
+    assert!(norm(&all) < 1e-2 * norm(&off), "{} against {}", norm(&all), norm(&off));
+    // half way: the nearer samples shrink, the farther keep theirs
+    let half = gradient(0.5 * (near + far));
+    assert!(half != off && norm(&half) > norm(&all), "{} against {}", norm(&half), norm(&all));
+}
