@@ -3,14 +3,16 @@
 
 mod support;
 
+use nerf_infer::format::Scene;
 use nerf_infer::{Model, RenderOptions};
-use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
+use nerf_train::config::TrainConfig;
+use nerf_train::dataset::synthetic::{write_blender, write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::View;
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::{score_rendered, score_view, Rendered};
 use nerf_train::export::{trainer_model, Prune};
 use nerf_train::rng::Rng;
-use nerf_train::train::{Draw, Trainer};
+use nerf_train::train::{Draw, Sample, Trainer};
 use support::small_config;
 
 #[test]
@@ -423,29 +425,41 @@ fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() 
     }
 }
 
+/// The gradient over `probe` of a fresh run (seed 3) of `cfg` on `scene`
+/// with `loss.near_gradient` at `d0`, the batch in one chunk (one sum, the
+/// same at every call).
+fn near_gradient(cfg: &TrainConfig, scene: Scene, probe: &[Sample], d0: f32) -> Vec<f32> {
+    let cfg = cfg.clone().with(|c| {
+        c.sampling.chunk_rays = probe.len();
+        c.loss.near_gradient = d0;
+    });
+    Trainer::new(cfg, scene, 1, 3).gradients(probe, 1).0
+}
+
 #[test]
 fn gradients_shrink_only_within_the_near_gradient_distance_of_the_camera() {
-    let d = support::TestDir::new("near-gradient-test");
-    write_blender(&d, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
-    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
-    let probe = Trainer::draw_batch(&data, 256, Draw::CENTRES, &mut Rng::new(5));
-    let gradient = |d0: f32| {
-        let cfg = small_config().with(|c| {
-            c.sampling.n_fine = 0;
-            c.loss.near_gradient = d0;
-        });
-        Trainer::new(cfg, data.scene, 1, 3).gradients(&probe, 1).0
-    };
+    let object = support::TestDir::new("near-gradient-test");
+    write_blender(&object, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
+    let room = support::TestDir::new("near-gradient-room-test");
+    write_colmap(&room, SceneSpec { size: 16, train: 6, val: 1, test: 0 }, ColmapText::Binary, true).unwrap();
     let norm = |g: &[f32]| g.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
-    let off = gradient(0.0);
-    let (near, far) = (data.scene.near, data.scene.far);
-    assert!(near > 0.0 && norm(&off) > 0.0);
-    // every sample lies beyond the near plane: a distance inside it changes nothing
-    assert_eq!(gradient(0.5 * near), off);
-    // every sample within it: each sample's gradient shrinks by (d/d₀)² ≤ 10⁻⁴
-    let all = gradient(100.0 * far);
-    assert!(norm(&all) < 1e-2 * norm(&off), "{} against {}", norm(&all), norm(&off));
-    // half way: the nearer samples shrink, the farther keep theirs
-    let half = gradient(0.5 * (near + far));
-    assert!(half != off && norm(&half) > norm(&all), "{} against {}", norm(&half), norm(&all));
+    // an object scene's stratified samples, and an unbounded scene's placed by a proposal grid
+    let one = small_config().with(|c| c.sampling.n_fine = 0);
+    let proposed = one.clone().with(|c| c.sampling.proposal_res = 16);
+    for (dir, cfg) in [(&object, one), (&room, proposed)] {
+        let data = load(dir, Split::Train, LoadOptions::default()).unwrap();
+        assert_eq!(data.scene.unbounded.is_some(), cfg.sampling.proposal_res > 0);
+        let probe = Trainer::draw_batch(&data, 256, Draw::CENTRES, &mut Rng::new(5));
+        let (near, far) = (data.scene.near, data.scene.far);
+        let off = near_gradient(&cfg, data.scene, &probe, 0.0);
+        assert!(near > 0.0 && norm(&off) > 0.0);
+        // every sample lies beyond the near plane: a distance inside it changes nothing
+        assert_eq!(near_gradient(&cfg, data.scene, &probe, 0.5 * near), off);
+        // a hundred times the far plane: every sample's gradient shrinks by (d/d₀)² ≤ 10⁻⁴
+        let all = near_gradient(&cfg, data.scene, &probe, 100.0 * far);
+        assert!(norm(&all) < 1e-2 * norm(&off), "{} against {}", norm(&all), norm(&off));
+        // half way: the nearer samples shrink, the farther keep theirs
+        let half = near_gradient(&cfg, data.scene, &probe, 0.5 * (near + far));
+        assert!(half != off && norm(&half) > norm(&all), "{} against {}", norm(&half), norm(&all));
+    }
 }

@@ -193,6 +193,8 @@ pub struct LossConfig {
     /// 2023): space right in front of a lens covers many pixels of that one
     /// photo and few of any other, so the colour loss would otherwise grow
     /// floaters there that no other view explains. 0: off (every preset).
+    /// Runs with one network only (`sampling.n_fine` = 0); forward-facing
+    /// scenes, whose rays run in NDC, are left alone.
     pub near_gradient: f32,
     /// Fit a colour correction per training photo beside the model
     /// ([`crate::appearance`]: `A·c + b` on each pixel's composited colour)

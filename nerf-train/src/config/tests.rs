@@ -46,6 +46,22 @@ fn the_regularisers_weights_must_be_finite_and_not_negative() {
 }
 
 #[test]
+fn the_near_gradient_distance_is_finite_not_negative_and_needs_one_network() {
+    let with = |d0: f32| TrainConfig::features().with(|c| c.loss.near_gradient = d0);
+    assert!(with(0.0).validate().is_ok());
+    assert!(with(0.5).validate().is_ok());
+    for d0 in [-0.1, f32::NAN, f32::INFINITY] {
+        let e = with(d0).validate().unwrap_err().to_string();
+        assert!(e.contains("near_gradient"), "{e}");
+    }
+    // the fine pass is not scaled: a two-network run is refused
+    let two = TrainConfig::fast().with(|c| c.loss.near_gradient = 0.5);
+    assert!(TrainConfig::fast().validate().is_ok());
+    let e = two.validate().unwrap_err().to_string();
+    assert!(e.contains("near_gradient") && e.contains("n_fine"), "{e}");
+}
+
+#[test]
 fn the_footprint_starts_at_a_share_of_the_run_in_0_to_1() {
     let with = |footprint_from: f32| TrainConfig::features().with(|c| c.features.footprint_from = footprint_from);
     assert!(with(0.0).validate().is_ok() && with(0.5).validate().is_ok());

@@ -134,6 +134,9 @@ impl TrainConfig {
                 return Err(Error::Config("a feature grid needs one network (sampling.n_fine = 0)".into()));
             }
         }
+        if self.loss.near_gradient > 0.0 && self.sampling.n_fine > 0 {
+            return Err(Error::Config("loss.near_gradient needs one network (sampling.n_fine = 0)".into()));
+        }
         if self.loss.pose_refine && self.sampling.n_fine > 0 {
             return Err(Error::Config("loss.pose_refine needs one network (sampling.n_fine = 0)".into()));
         }

@@ -11,7 +11,7 @@ use nerf_infer::Error as FormatError;
 pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 
 /// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 17;
+pub const CHECKPOINT_VERSION: u16 = 18;
 
 /// The scene as a checkpoint holds it: [`Scene`] in the model format's
 /// encoding, then its unbounded space, which that encoding leaves to a
