@@ -108,7 +108,8 @@ def main():
         print(f"all views, {r}: {psnr(e, n):.2f} dB over {n} px, {100 * e / sq:.0f} % of the squared error")
     print(f"all views, every pixel: {psnr(sq, n_all):.2f} dB over {n_all} px")
     for r, (e, n) in parts.items():
-        print(f"all views, {r}: {psnr(e, n):.2f} dB over {n} px")
+        share = 100 * e / total["object"][0] if total["object"][0] > 0 else 0
+        print(f"all views, {r}: {psnr(e, n):.2f} dB over {n} px, {share:.0f} % of the object's squared error")
 
 
 if __name__ == "__main__":
