@@ -12,6 +12,7 @@ fn main() {
     for p in ["nerf-web/src", "nerf-web/Cargo.toml", "nerf-infer/src", "nerf-infer/Cargo.toml", "nerf-infer/build.rs"] {
         println!("cargo::rerun-if-changed={p}");
     }
+    commit();
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let cargo = std::env::var_os("CARGO").expect("cargo sets CARGO");
     let rustc = std::env::var_os("RUSTC").unwrap_or_else(|| "rustc".into());
@@ -53,4 +54,30 @@ fn main() {
     let wasm = target_dir.join("wasm32-unknown-unknown/release/nerf_web.wasm");
     std::fs::copy(&wasm, out.join("nerf_web.wasm")).expect("copy the WebAssembly module");
     println!("cargo::rustc-cfg=web_viewer");
+}
+
+/// Sets `NERF_COMMIT` to the commit this checkout is at (`git rev-parse
+/// --short HEAD`; `unknown` outside a git checkout), which `nerf bench`
+/// stamps on its rows; rebuilt when HEAD or the branch it names moves.
+fn commit() {
+    let git = |args: &[&str]| {
+        Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+    };
+    if let Some(dir) = git(&["rev-parse", "--git-dir"]) {
+        let dir = PathBuf::from(dir);
+        let branch = git(&["symbolic-ref", "-q", "HEAD"]).map(|b| dir.join(b));
+        // only files that exist: a missing one would rerun this script at every build
+        for f in [Some(dir.join("HEAD")), branch, Some(dir.join("packed-refs"))].into_iter().flatten() {
+            if f.is_file() {
+                println!("cargo::rerun-if-changed={}", f.display());
+            }
+        }
+    }
+    let hash = git(&["rev-parse", "--short", "HEAD"]).unwrap_or_else(|| "unknown".into());
+    println!("cargo::rustc-env=NERF_COMMIT={hash}");
 }

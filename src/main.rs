@@ -37,6 +37,9 @@ enum Command {
     Render(cmd::render::Args),
     /// Write the model with 32-, 16- or 8-bit weights.
     Export(cmd::export::Args),
+    /// Train and score every scene of a suite at its published protocol (the NeRF paper's table): one table
+    /// and plot; one scene per --task for job arrays, --gather for the table.
+    Bench(cmd::bench::Args),
     /// Try model sizes and samples per ray cheapest first; keep the fastest that reaches a target PSNR.
     Fit(cmd::fit::Args),
     /// Sweep weight bits, samples and early termination: PSNR against µs/ray.
@@ -83,6 +86,7 @@ fn dispatch(command: Command) -> cmd::CmdResult {
         Command::Mesh(a) => cmd::mesh::run(a),
         Command::Web(a) => cmd::web::run(a),
         Command::Fit(a) => cmd::fit::run(a),
+        Command::Bench(a) => cmd::bench::run(a),
         Command::Scene(a) => cmd::scene::run(a),
         Command::Capture(a) => cmd::capture::run(a),
         Command::Demo(a) => cmd::demo::run(a),

@@ -92,6 +92,66 @@ pub fn scatter(path: &std::path::Path, title: &str, xlabel: &str, ylabel: &str, 
     crate::atomic::write_png(path, &img).map_err(Error::io(path))
 }
 
+/// One panel of [`panels`]: a curve and a reference level.
+#[derive(Clone, Debug)]
+pub struct Panel {
+    /// Title drawn above the panel.
+    pub title: String,
+    /// The curve's points (x, y), in order of x; non-finite points are left out.
+    pub curve: Vec<(f64, f64)>,
+    /// A level drawn as a dashed horizontal line (a published figure), if any.
+    pub reference: Option<f64>,
+}
+
+/// Writes one panel per entry of `panels` to `path` (PNG, up to four
+/// panels a row), each a curve in blue with its last point marked and its
+/// reference as a dashed red line; the y range holds both.
+pub fn panels(path: &std::path::Path, title: &str, panels: &[Panel]) -> Result<(), Error> {
+    register_font()?;
+    let cols = panels.len().clamp(1, 4);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let (pw, ph) = (360u32, 280u32);
+    let (w, h) = (pw * cols as u32, ph * rows as u32 + 40);
+    let (red, blue) = (RGBColor(210, 40, 40), RGBColor(40, 90, 200));
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    let draw = |buf: &mut [u8]| -> Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::with_buffer(buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let root = root.titled(title, ("sans-serif", 20))?;
+        for (area, p) in root.split_evenly((rows, cols)).iter().zip(panels) {
+            let pts: Vec<(f64, f64)> =
+                p.curve.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+            let ys = pts.iter().map(|q| q.1).chain(p.reference);
+            let (y0, y1) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
+            let (y0, y1) = if y0 > y1 { (0.0, 1.0) } else { (y0 - 1.0, y1 + 1.0) };
+            let x1 = pts.iter().map(|q| q.0).fold(0.0, f64::max).max(1e-3) * 1.05;
+            let mut chart = ChartBuilder::on(area)
+                .caption(&p.title, ("sans-serif", 16))
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(44)
+                .build_cartesian_2d(0.0..x1, y0..y1)?;
+            chart
+                .configure_mesh()
+                .x_desc("minutes")
+                .y_desc("PSNR (dB)")
+                .label_style(("sans-serif", 12))
+                .axis_desc_style(("sans-serif", 13))
+                .draw()?;
+            if let Some(r) = p.reference {
+                chart.draw_series(DashedLineSeries::new([(0.0, r), (x1, r)], 6, 4, red.stroke_width(2)))?;
+            }
+            chart.draw_series(LineSeries::new(pts.iter().copied(), blue.stroke_width(2)))?;
+            chart.draw_series(pts.last().map(|&q| Circle::new(q, 4, blue.filled())))?;
+        }
+        root.present()?;
+        Ok(())
+    };
+    draw(&mut buf).map_err(|e| Error::Plot(format!("{}: cannot draw the plot: {e}", path.display())))?;
+    let img = RgbImage::from_raw(w, h, buf).ok_or_else(|| Error::Plot("plot buffer size".into()))?;
+    crate::atomic::write_png(path, &img).map_err(Error::io(path))
+}
+
 /// Marks the points no other point beats on both axes (higher y at lower
 /// or equal x, or equal y at lower x).
 pub fn pareto(points: &mut [Point]) {
@@ -125,5 +185,24 @@ mod tests {
         let count = |c: [u8; 3]| img.pixels().filter(|p| p.0 == c).count();
         assert!(count([210, 40, 40]) > 100, "the front (red) is drawn");
         assert!(count([40, 90, 200]) > 20, "the other point (blue) is drawn");
+    }
+
+    #[test]
+    fn panels_draw_each_curve_and_its_reference() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("panels.png");
+        let curve = vec![(1.0, 20.0), (2.0, 24.0), (3.0, 25.0)];
+        let with = Panel { title: "lego".into(), curve: curve.clone(), reference: Some(32.5) };
+        let without = Panel { title: "bird".into(), curve, reference: None };
+        panels(&path, "PSNR", &[with.clone()]).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        let count = |img: &RgbImage, c: [u8; 3]| img.pixels().filter(|p| p.0 == c).count();
+        assert!(count(&img, [210, 40, 40]) > 100, "the reference (red) is drawn");
+        assert!(count(&img, [40, 90, 200]) > 100, "the curve (blue) is drawn");
+        panels(&path, "PSNR", &[without]).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(count(&img, [210, 40, 40]), 0, "no reference, no red");
+        panels(&path, "PSNR", &[with.clone(), with.clone(), with.clone(), with.clone(), with]).unwrap();
+        assert_eq!(image::open(&path).unwrap().to_rgb8().dimensions(), (4 * 360, 2 * 280 + 40));
     }
 }

@@ -1,0 +1,157 @@
+//! `nerf bench`: every scene of a suite trained and scored at its
+//! published protocol, one table (Markdown, CSV, JSON) and one plot.
+//!
+//! The output folder is the only meeting point of a bench's parts:
+//! `bench.json` records the suite and the flags (every task checks it),
+//! `scenes/NAME/` holds a scene's run, its int8 export and its row
+//! (`result.json`, written last and atomically), and each scene folder is
+//! locked while a task works in it. A run without `--task` runs each scene
+//! not yet done as a task of its own (a child process, so each scene's peak
+//! memory is its own and a crash is one failed row), then gathers.
+
+use super::{num_in, CmdResult};
+use nerf_train::config::Preset;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+mod record;
+mod score;
+pub mod suite;
+mod table;
+mod task;
+
+pub use record::Settings;
+
+/// Arguments of `nerf bench`.
+#[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("budget").args(["iters", "minutes"])))]
+pub struct Args {
+    /// Suite folder: scene folders (nerf_synthetic, nerf_llff_data or captures of your own), or one scene.
+    /// Scenes are run in order of folder name; `--list` prints them with their task index.
+    pub(crate) suite: PathBuf,
+    /// Output folder (created; outside the suite): bench.json, scenes/NAME/ (run, int8 model, result.json),
+    /// table.md, table.csv, table.json, psnr_minutes.png.
+    #[arg(long, required_unless_present = "list")]
+    pub(crate) out: Option<PathBuf>,
+    /// Train each scene for this many minutes of training.
+    #[arg(long, value_name = "0.001..=100000.0", value_parser = num_in(0.001f64, 100_000.0))]
+    pub(crate) minutes: Option<f64>,
+    /// Train each scene for this many steps.
+    #[arg(long, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
+    pub(crate) iters: Option<u64>,
+    /// Run only the scene of this index (0-based, in `--list`'s order) into --out: one task of a job
+    /// array ($SLURM_ARRAY_TASK_ID, $JOB_COMPLETION_INDEX). `--gather` writes the table afterwards.
+    #[arg(long, value_name = "I", conflicts_with_all = ["gather", "list"])]
+    pub(crate) task: Option<usize>,
+    /// Write the table from what the tasks left in --out, naming the scenes with no result or a failed one.
+    #[arg(long, conflicts_with = "list")]
+    pub(crate) gather: bool,
+    /// Print the suite's scenes with their task index, kind and protocol, and their count; run nothing.
+    #[arg(long)]
+    pub(crate) list: bool,
+    /// Downscale of the captures of your own (COLMAP, instant-ngp, nerfstudio); the paper's suites keep
+    /// their protocol (synthetic at full size, LLFF at 1/4).
+    #[arg(long, default_value_t = 8, value_name = "1..=64", value_parser = num_in(1u32, 64))]
+    pub(crate) downscale: u32,
+    /// Named configuration for every scene [default: features].
+    #[arg(long, value_enum)]
+    pub(crate) preset: Option<Preset>,
+    /// Configuration as JSON for every scene (as `nerf train --config`).
+    #[arg(long)]
+    pub(crate) config: Option<PathBuf>,
+    /// Seed of every scene's training.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Worker threads of training and scoring (0: all cores); µs per ray is always timed on one.
+    #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
+    pub(crate) threads: usize,
+}
+
+/// Interrupt signals received by a run that runs its tasks as children.
+static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
+/// The running child's process id (0: none), to pass an interrupt on.
+static CHILD: AtomicU32 = AtomicU32::new(0);
+
+/// Runs `nerf bench`.
+pub fn run(a: Args) -> CmdResult {
+    if a.list {
+        return list(&a);
+    }
+    let out = a.out.clone().ok_or("--out is required")?;
+    if a.gather {
+        let settings = Settings::read(&out)?;
+        return table::gather(&settings, &out);
+    }
+    if a.minutes.is_none() && a.iters.is_none() {
+        return Err("give a training budget per scene: --minutes or --iters".into());
+    }
+    super::refuse_inside(&out, "--out", &a.suite)?;
+    let settings = Settings::from_args(&a)?;
+    settings.claim(&out)?;
+    match a.task {
+        Some(i) => task::run(&settings, i, &out, a.threads),
+        None => sequential(&settings, &out),
+    }
+}
+
+/// `--list`: the scenes, one line each, then their count.
+fn list(a: &Args) -> CmdResult {
+    let scenes = suite::discover(&a.suite, a.downscale)?;
+    for (i, s) in scenes.iter().enumerate() {
+        out!(
+            "{i}\t{}\t{}\t1/{} size\t{} split\t{}",
+            s.name,
+            s.kind.name(),
+            s.downscale,
+            s.scored_split().name(),
+            s.dir.display()
+        );
+    }
+    eprintln!("{} scenes: tasks 0 to {}", scenes.len(), scenes.len() - 1);
+    Ok(())
+}
+
+/// Every scene not yet done as a task of its own (this program again with
+/// `--task I`), one after the other, then the table.
+fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find this program to run its tasks: {e}"))?;
+    let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
+    let _ = ctrlc::set_handler(|| {
+        INTERRUPTS.fetch_add(1, Ordering::SeqCst);
+        let child = CHILD.load(Ordering::SeqCst);
+        if child != 0 {
+            // a SIGTERM sent to this process alone reaches the task too (Ctrl-C reaches both already)
+            #[cfg(unix)]
+            // SAFETY: sends a signal to the child this process started and waits for; no memory is shared.
+            unsafe {
+                libc::kill(child as libc::pid_t, libc::SIGTERM);
+            }
+        }
+    });
+    let n = settings.scenes.len();
+    for (i, s) in settings.scenes.iter().enumerate() {
+        if task::done(out, s) {
+            eprintln!("[{}/{n}] {}: done before, kept", i + 1, s.name);
+            continue;
+        }
+        eprintln!("[{}/{n}] {} ({}, 1/{} size)", i + 1, s.name, s.kind.name(), s.downscale);
+        let mut child = std::process::Command::new(&exe)
+            .args(&args)
+            .args(["--task", &i.to_string()])
+            .spawn()
+            .map_err(|e| format!("cannot start task {i} ({}): {e}", exe.display()))?;
+        CHILD.store(child.id(), Ordering::SeqCst);
+        let status = child.wait().map_err(|e| format!("task {i}: {e}"))?;
+        CHILD.store(0, Ordering::SeqCst);
+        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+            return Err(format!(
+                "interrupted during scene {}: the same command resumes the suite where it stopped",
+                s.name
+            ));
+        }
+        if !status.success() {
+            eprintln!("[{}/{n}] {}: failed (its row says why); going on", i + 1, s.name);
+        }
+    }
+    table::gather(settings, out)
+}

@@ -1,0 +1,146 @@
+//! `OUT/bench.json`: the suite and the flags a bench runs with, written by
+//! its first task and checked by every later one, so that tasks started
+//! apart (a job array) score the same scenes the same way and a rerun with
+//! other flags never mixes its rows with an earlier run's.
+
+use super::suite::{self, Scene};
+use super::Args;
+use std::path::{Path, PathBuf};
+
+/// The record's file name in the output folder.
+pub const RECORD: &str = "bench.json";
+
+/// What a bench runs: the scenes, in task order, and the flags.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Settings {
+    /// The suite folder, absolute.
+    pub suite: PathBuf,
+    /// Its scenes in task order.
+    pub scenes: Vec<Scene>,
+    /// Training minutes per scene.
+    pub minutes: Option<f64>,
+    /// Training steps per scene.
+    pub iters: Option<u64>,
+    /// Seed of every scene's training.
+    pub seed: u64,
+    /// `--preset`, as named on the command line.
+    pub preset: Option<String>,
+    /// `--config`: the file as given and its contents.
+    pub config: Option<(PathBuf, String)>,
+}
+
+impl Settings {
+    /// The settings of a run with `a`'s flags (its scenes discovered now).
+    pub fn from_args(a: &Args) -> Result<Self, String> {
+        let config = match &a.config {
+            Some(p) => {
+                let text = nerf_train::userfile::read_user_text(p, nerf_train::userfile::MAX_JSON, "--config")?;
+                let abs = std::path::absolute(p).unwrap_or_else(|_| p.clone());
+                Some((abs, text))
+            }
+            None => None,
+        };
+        Ok(Self {
+            suite: std::path::absolute(&a.suite).unwrap_or_else(|_| a.suite.clone()),
+            scenes: suite::discover(&a.suite, a.downscale)?,
+            minutes: a.minutes,
+            iters: a.iters,
+            seed: a.seed,
+            preset: a.preset.map(|p| clap::ValueEnum::to_possible_value(&p).map(|v| v.get_name().to_owned())).flatten(),
+            config,
+        })
+    }
+
+    /// Reads the record of the bench in `out` (for `--gather`).
+    pub fn read(out: &Path) -> Result<Self, String> {
+        let path = out.join(RECORD);
+        if !path.is_file() {
+            return Err(format!(
+                "{}: no bench has run here (no {RECORD}): run `nerf bench SUITE --out {}` or its --task I first",
+                out.display(),
+                out.display()
+            ));
+        }
+        let text = nerf_train::userfile::read_user_text(&path, nerf_train::userfile::MAX_JSON, "bench record")?;
+        serde_json::from_str(&text).map_err(|e| format!("{}: not a bench record: {e}", path.display()))
+    }
+
+    /// Makes `out` this bench's folder: creates it and writes the record,
+    /// or checks the record already there. Refuses a folder that holds
+    /// files and no record (not a bench's), and a record of other scenes
+    /// or flags, naming what differs.
+    pub fn claim(&self, out: &Path) -> Result<(), String> {
+        super::super::create_dir(out)?;
+        let path = out.join(RECORD);
+        if !path.exists() {
+            let foreign = std::fs::read_dir(out)
+                .map_err(|e| format!("{}: cannot list: {e}", out.display()))?
+                .filter_map(|e| e.ok())
+                .find(|e| !e.file_name().to_string_lossy().starts_with(".tmp"));
+            if let Some(f) = foreign {
+                return Err(format!(
+                    "--out {}: holds {} and no {RECORD}: not a bench's folder; choose an empty or new one",
+                    out.display(),
+                    f.file_name().to_string_lossy()
+                ));
+            }
+            let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
+            // written beside, then linked into place: of tasks starting together one record wins, whole
+            let tmp = out.join(format!(".tmp-{RECORD}-{}", std::process::id()));
+            super::super::write_atomic(&tmp, text.as_bytes())?;
+            let linked = std::fs::hard_link(&tmp, &path);
+            let _ = std::fs::remove_file(&tmp);
+            if let Err(e) = linked {
+                if e.kind() != std::io::ErrorKind::AlreadyExists {
+                    return Err(format!("{}: cannot write: {e}", path.display()));
+                }
+            }
+        }
+        let there = Self::read(out)?;
+        match self.difference(&there) {
+            None => Ok(()),
+            Some(d) => Err(format!(
+                "--out {}: holds a bench run {d}; rerun with its flags to resume it, or choose another --out",
+                out.display()
+            )),
+        }
+    }
+
+    /// How `there` (a record on disk) differs from these settings, in words.
+    fn difference(&self, there: &Settings) -> Option<String> {
+        if self.suite != there.suite {
+            return Some(format!("of the suite {}", there.suite.display()));
+        }
+        if self.scenes != there.scenes {
+            let names = |s: &Settings| s.scenes.iter().map(|s| s.name.clone()).collect::<Vec<_>>();
+            let (now, then) = (names(self), names(there));
+            let added: Vec<&String> = now.iter().filter(|n| !then.contains(n)).collect();
+            let gone: Vec<&String> = then.iter().filter(|n| !now.contains(n)).collect();
+            return Some(match (added.is_empty(), gone.is_empty()) {
+                (true, true) => "of the same scenes at another --downscale".to_string(),
+                _ => format!("of other scenes (the suite has gained {added:?} and lost {gone:?} since)"),
+            });
+        }
+        let budget = |s: &Settings| match (s.minutes, s.iters) {
+            (Some(m), _) => format!("--minutes {m}"),
+            (None, Some(n)) => format!("--iters {n}"),
+            _ => "no budget".into(),
+        };
+        if (self.minutes, self.iters) != (there.minutes, there.iters) {
+            return Some(format!("with {}", budget(there)));
+        }
+        if self.seed != there.seed {
+            return Some(format!("with --seed {}", there.seed));
+        }
+        if self.preset != there.preset {
+            return Some(format!("with --preset {}", there.preset.as_deref().unwrap_or("(default)")));
+        }
+        if self.config != there.config {
+            return Some(match &there.config {
+                Some((p, _)) => format!("with --config {} as it was then", p.display()),
+                None => "without --config".into(),
+            });
+        }
+        None
+    }
+}

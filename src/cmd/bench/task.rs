@@ -1,0 +1,178 @@
+//! One task: one scene trained (resumed where a checkpoint is), exported
+//! to int8, scored, and its row written to `scenes/NAME/result.json`.
+
+use super::score::{self, Scores};
+use super::suite::{self, Scene};
+use super::Settings;
+use crate::cmd::{export, train, CmdResult};
+use nerf_train::train::Trainer;
+use std::path::{Path, PathBuf};
+
+/// A row's file in its scene folder, written last: its presence without
+/// an error is what "done" means.
+const RESULT: &str = "result.json";
+
+/// One row of the table: a scene's protocol, its training and its scores,
+/// or the error that stopped it.
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+pub struct Row {
+    /// Task index (the scene's place in the suite).
+    pub index: usize,
+    /// Scene name.
+    pub scene: String,
+    /// Kind, which sets the protocol (`synthetic`, `forward-facing`, `capture`).
+    pub kind: String,
+    /// Downscale factor of training and scoring.
+    pub downscale: u32,
+    /// The split scored (`test`, or `val` where a synthetic scene ships no test split).
+    pub split: String,
+    /// Width and height of the scored views, pixels (of the first one).
+    pub size: Option<(u32, u32)>,
+    /// Views scored.
+    pub views: usize,
+    /// Training steps.
+    pub steps: Option<u64>,
+    /// Training minutes (the steps' time, validation renders excluded).
+    pub minutes: Option<f64>,
+    /// Scores of the f32 model.
+    pub f32: Option<Scores>,
+    /// Scores of its int8 export (`nerf export --bits 8`).
+    pub int8: Option<Scores>,
+    /// The task's peak resident memory (training and scoring), MiB.
+    pub peak_mib: Option<f64>,
+    /// The 2020 NeRF's published PSNR (dB) and SSIM at this protocol, if any.
+    pub published: Option<(f64, f64)>,
+    /// Validation PSNR (dB, the first two held-out views) against training
+    /// minutes, from the run's log, then the scored PSNR at the end.
+    pub curve: Vec<(f64, f64)>,
+    /// Date (UTC, `YYYY-MM-DD`), the build's commit and the CPU the task ran on.
+    pub stamp: super::table::Stamp,
+    /// Why the scene failed; `None` for a scene done.
+    pub error: Option<String>,
+}
+
+/// The folder of `scene`'s task in `out`.
+pub fn scene_dir(out: &Path, scene: &Scene) -> PathBuf {
+    out.join("scenes").join(&scene.name)
+}
+
+/// The row a task left for `scene` in `out`, if any.
+pub fn read_row(out: &Path, scene: &Scene) -> Option<Result<Row, String>> {
+    let path = scene_dir(out, scene).join(RESULT);
+    let text = std::fs::read_to_string(&path).ok()?;
+    Some(serde_json::from_str(&text).map_err(|e| format!("{}: not a result: {e}", path.display())))
+}
+
+/// Whether `scene`'s task finished without error.
+pub fn done(out: &Path, scene: &Scene) -> bool {
+    matches!(read_row(out, scene), Some(Ok(r)) if r.error.is_none())
+}
+
+/// Runs task `index` of `settings` into `out`: nothing if its scene is
+/// done; otherwise trains (resuming), exports, scores and writes its row,
+/// a failed row naming the error if any step fails (and the task fails).
+pub fn run(settings: &Settings, index: usize, out: &Path, threads: usize) -> CmdResult {
+    let n = settings.scenes.len();
+    let scene = settings.scenes.get(index).ok_or_else(|| {
+        format!("--task {index}: the suite {} has {n} scenes (tasks 0 to {})", settings.suite.display(), n - 1)
+    })?;
+    let dir = scene_dir(out, scene);
+    super::super::create_dir(&dir)?;
+    let _lock = super::super::lock_run_dir(&dir).map_err(|_| {
+        format!("--task {index} (scene {}): another process is running this task in {}", scene.name, dir.display())
+    })?;
+    if done(out, scene) {
+        eprintln!("task {index} (scene {}): done before, kept ({})", scene.name, dir.join(RESULT).display());
+        return Ok(());
+    }
+    let mut row = Row {
+        index,
+        scene: scene.name.clone(),
+        kind: scene.kind.name().into(),
+        downscale: scene.downscale,
+        split: scene.scored_split().name().into(),
+        published: suite::published(scene.kind, &scene.name),
+        stamp: super::table::Stamp::now(),
+        ..Row::default()
+    };
+    let result = run_scene(settings, scene, &dir, threads, &mut row);
+    row.peak_mib = peak_mib();
+    if let Err(e) = &result {
+        row.error = Some(e.clone());
+    }
+    let text = serde_json::to_string_pretty(&row).map_err(|e| e.to_string())?;
+    super::super::write_atomic(&dir.join(RESULT), text.as_bytes())?;
+    result.map_err(|e| format!("scene {}: {e}", scene.name))
+}
+
+/// Trains, exports and scores `scene` in `dir`, filling `row`.
+fn run_scene(settings: &Settings, scene: &Scene, dir: &Path, threads: usize, row: &mut Row) -> CmdResult {
+    let run = dir.join("run");
+    let ckpt = run.join("checkpoint.bin");
+    let read_trainer = || -> Result<Trainer, String> {
+        let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
+        Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))
+    };
+    let finished = |tr: &Trainer| match (settings.iters, settings.minutes) {
+        (Some(n), _) => tr.step >= n,
+        (None, Some(m)) => tr.elapsed >= m * 60.0,
+        _ => true,
+    };
+    let resume = ckpt.is_file();
+    if !(resume && finished(&read_trainer()?)) {
+        let mut a = train::Args::new(scene.dir.clone(), settings.minutes.unwrap_or(1.0), run.clone());
+        a.minutes = settings.minutes;
+        a.iters = settings.iters;
+        a.capture.downscale = Some(scene.downscale);
+        a.preset = settings.preset.as_deref().map(|p| clap::ValueEnum::from_str(p, false)).transpose()?;
+        a.config = settings.config.as_ref().map(|(p, _)| p.clone());
+        a.seed = settings.seed;
+        a.threads = threads;
+        a.resume = resume;
+        // a run that left no checkpoint starts over
+        a.force = !resume;
+        // about ten validation points per curve
+        a.val_secs = settings.minutes.map_or(30.0, |m| (m * 6.0).max(1.0));
+        train::run(a)?;
+    }
+    let tr = read_trainer()?;
+    row.steps = Some(tr.step);
+    row.minutes = Some(tr.elapsed / 60.0);
+    row.curve = curve(&run.join("train.jsonl"));
+    let f32_model = run.join("model.nerf");
+    let int8_model = dir.join("model_int8.nerf");
+    export::run(export::Args::new(f32_model.clone(), nerf_infer::Scheme::I8, int8_model.clone()))?;
+    let data = score::load_scored(scene)?;
+    let (w, h) = data.views.first().map(|v| (v.camera.width, v.camera.height)).unwrap_or((0, 0));
+    row.size = Some((w, h));
+    row.views = data.views.len();
+    let f = score::score(&f32_model, &data, threads, Some(&dir.join("first_view.png")))?;
+    row.curve.push((tr.elapsed / 60.0, f.psnr));
+    row.f32 = Some(f);
+    row.int8 = Some(score::score(&int8_model, &data, threads, None)?);
+    Ok(())
+}
+
+/// The validation PSNR logged in `log` (`train.jsonl`) against training minutes.
+fn curve(log: &Path) -> Vec<(f64, f64)> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter_map(|v| Some((v["train_secs"].as_f64()? / 60.0, v["val_psnr"].as_f64()?)))
+        .collect()
+}
+
+/// This process's peak resident memory so far, MiB.
+fn peak_mib() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        // SAFETY: getrusage writes into the struct it is given; a zeroed rusage is a valid value.
+        let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+        // SAFETY: as above; RUSAGE_SELF names this process.
+        if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) } == 0 {
+            // kilobytes on Linux
+            return Some(u.ru_maxrss as f64 / 1024.0);
+        }
+    }
+    None
+}
