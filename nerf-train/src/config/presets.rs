@@ -163,7 +163,8 @@ impl TrainConfig {
     /// footprints) along the bounds' longest side, at most
     /// [`MAX_MARCH`](nerf_infer::format::MAX_MARCH), whether or not a
     /// feature grid is sized to them. Only a one-pass configuration with
-    /// an occupancy grid is changed, and only upwards; returns whether
+    /// an occupancy grid and no proposal grid (whose stratified samples
+    /// are at most 256 and set apart) is changed, and only upwards; returns whether
     /// anything changed. The occupancy grid's density threshold follows
     /// the step ([`Trainer::grid_threshold`](crate::train::Trainer::grid_threshold)):
     /// at 512 samples it is 512/192 times the preset's. On lego at 800×800
@@ -171,7 +172,11 @@ impl TrainConfig {
     /// (docs/EXPERIMENTS.md).
     pub fn fit_samples_to(&mut self, cells: u32) -> bool {
         let fitted = (cells / Self::FITTED_CELLS_PER_SAMPLE).min(nerf_infer::format::MAX_MARCH as u32) as u16;
-        if self.grid.res == 0 || self.sampling.n_fine > 0 || fitted <= self.sampling.n_coarse {
+        if self.grid.res == 0
+            || self.sampling.n_fine > 0
+            || self.sampling.proposal_res > 0
+            || fitted <= self.sampling.n_coarse
+        {
             return false;
         }
         self.sampling.n_coarse = fitted;

@@ -251,7 +251,20 @@ pub fn build(
     let mut scene = match frame {
         Frame::Fixed(s) => s,
         Frame::Fitted(f) => f.scene,
-        Frame::Forward(_) => ndc_scene(&views[0].camera),
+        Frame::Forward(f) => {
+            // the cameras the frame is fitted on, as pinholes at their own size (NDC is scale-free)
+            let cameras: Vec<Camera> = fit_on
+                .iter()
+                .filter_map(|v| {
+                    let k = &v.intrinsics;
+                    let [w, h] = [k.size[0] as u32, k.size[1] as u32];
+                    let c2w = f.apply(&v.pose);
+                    Camera::new(w, h, k.focal[0] as f32, k.focal[1] as f32, k.centre[0] as f32, k.centre[1] as f32, c2w)
+                        .ok()
+                })
+                .collect();
+            ndc_scene(&views[0].camera, &cameras)
+        }
     };
     scene.white_background = opts.white_background;
     let notes = match hidden.len() {

@@ -6,17 +6,48 @@ use glam::{DMat3, DVec3};
 use nerf_infer::camera::Camera;
 use nerf_infer::format::{CameraConvention, Ndc, Scene};
 
-/// The NDC scene of a forward-facing capture whose first view is `v0`:
-/// bounds `[−1, 1]³`, `t ∈ [0, 1]`, black background.
-pub(super) fn ndc_scene(v0: &Camera) -> Scene {
+/// NDC depth (z) of the nearest scene depth of a [`ForwardFrame`]: its
+/// scale puts the nearest depth at 1/0.75 and the near plane at 1, and NDC
+/// z is `1 − 2 / depth`.
+const NEAREST_NDC_Z: f32 = -0.5;
+/// Room left around the rays in x and y (a fraction of the extent): the
+/// corners of a distorted photo and the downscale's crop.
+const NDC_MARGIN: f32 = 1.05;
+
+/// The NDC scene of a forward-facing capture whose first view is `v0`,
+/// its box holding every ray of `cameras` (pinholes in the normalised
+/// frame) from the nearest scene depth to infinity: `t ∈ [0, 1]`, black
+/// background. NDC is built on the mean pose, so the rays of a camera away
+/// from it leave `[−1, 1]` in x and y; a box of `[−1, 1]³` cut them (a
+/// held-out photo's edge rendered the background). z spans `[−1, 1]`, x
+/// and y the rays' extent with a margin ([`NDC_MARGIN`]), at least `[−1, 1]`.
+pub(super) fn ndc_scene(v0: &Camera, cameras: &[Camera]) -> Scene {
+    let ndc = Ndc { focal: v0.fx, width: v0.width as f32, height: v0.height as f32 };
+    let mut half = glam::Vec2::ONE;
+    for c in cameras {
+        let (w, h) = (c.width as f32, c.height as f32);
+        for (u, v) in [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)] {
+            let (o, d) = c.ray_at(u, v);
+            let Some((o, d)) = nerf_infer::camera::ndc_ray(ndc.width, ndc.height, ndc.focal, 1.0, o, d) else {
+                continue;
+            };
+            // the nearest depth's point, and the one at infinity (t = 1)
+            let near = o + d * ((NEAREST_NDC_Z - o.z) / d.z);
+            for p in [near, o + d] {
+                if p.is_finite() {
+                    half = half.max(glam::Vec2::new(p.x.abs(), p.y.abs()) * NDC_MARGIN);
+                }
+            }
+        }
+    }
     Scene {
-        bounds_min: [-1.0; 3],
-        bounds_max: [1.0; 3],
+        bounds_min: [-half.x, -half.y, -1.0],
+        bounds_max: [half.x, half.y, 1.0],
         near: 0.0,
         far: 1.0,
         white_background: false,
         convention: CameraConvention::OpenGl,
-        ndc: Some(Ndc { focal: v0.fx, width: v0.width as f32, height: v0.height as f32 }),
+        ndc: Some(ndc),
         unbounded: None,
     }
 }

@@ -189,15 +189,22 @@ impl Dataset {
     /// what these photos resolve: two cells per pixel footprint (the
     /// median over the views of the distance from the camera to the
     /// bounds' centre over the focal length, world units) along the bounds'
-    /// longest side, rounded up to a power of two. `None` where the bounds'
-    /// centre is not what the cameras look at from outside: forward-facing
-    /// (NDC) and unbounded scenes, bounds that hold half the cameras or
-    /// more (an instant-ngp capture with `near`/`far` and no `aabb`), and
-    /// datasets without views.
+    /// longest side, rounded up to a power of two. In a forward-facing
+    /// (NDC) scene a pixel of the reference camera spans `2 / width` in NDC
+    /// x at every depth (`2 / height` in y): two cells per pixel along the
+    /// box's x and y. `None` where the bounds' centre is not what the
+    /// cameras look at from outside: unbounded scenes, bounds that hold
+    /// half the cameras or more (an instant-ngp capture with `near`/`far`
+    /// and no `aabb`), and datasets without views.
     pub fn resolvable_cells(&self) -> Option<u32> {
         let s = &self.scene;
-        if s.ndc.is_some() || s.unbounded.is_some() || self.views.is_empty() {
+        if s.unbounded.is_some() || self.views.is_empty() {
             return None;
+        }
+        if let Some(n) = s.ndc {
+            let cells =
+                ((s.bounds_max[0] - s.bounds_min[0]) * n.width).max((s.bounds_max[1] - s.bounds_min[1]) * n.height);
+            return cells.is_finite().then(|| (cells.ceil().min(1e6) as u32).max(1).next_power_of_two());
         }
         let (lo, hi) = (glam::Vec3::from(s.bounds_min), glam::Vec3::from(s.bounds_max));
         let inside =
