@@ -54,7 +54,10 @@ fn the_cells_photos_resolve_follow_their_pixel_footprint() {
     // forward-facing scenes live in NDC, where a world-space footprint says nothing
     write_llff(&d.join("llff"), spec()).unwrap();
     let llff = load(&d.join("llff"), Split::Train, opts(Format::Llff, 1)).unwrap();
-    assert_eq!(llff.resolvable_cells(), None);
+    // forward-facing: two cells per pixel of the reference camera along the NDC box's x and y
+    let (s, n) = (&llff.scene, llff.scene.ndc.unwrap());
+    let cells = ((s.bounds_max[0] - s.bounds_min[0]) * n.width).max((s.bounds_max[1] - s.bounds_min[1]) * n.height);
+    assert_eq!(llff.resolvable_cells(), Some((cells.ceil() as u32).next_power_of_two()));
 }
 
 #[test]
@@ -71,7 +74,34 @@ fn llff_layout_loads_in_ndc_with_holdout() {
     let (o, dir) = v.camera.ray(8, 6);
     let r = nerf_infer::Ray::new(&train.scene, o, dir).unwrap();
     let p = r.at(0.5);
-    assert!(p.abs().max_element() <= 1.01, "{p:?}");
+    assert!(p.abs().max_element() <= 1.01, "{p:?} (normalised to the box)");
+}
+
+/// The cameras of a forward-facing capture spread about their mean pose,
+/// as LLFF's do, and NDC is built on that mean: a held-out camera away
+/// from it sees the scene's box through every pixel, from the nearest
+/// scene depth (NDC z −0.5) to infinity (t = 1), so no pixel renders the
+/// background for want of a box (the black edge of a cut box).
+#[test]
+fn forward_facing_rays_of_every_camera_stay_in_the_box_from_the_nearest_depth_to_infinity() {
+    let d = tmp("llff_spread");
+    write_llff(&d, SceneSpec { size: 32, train: 18, val: 1, test: 1 }).unwrap();
+    for split in [Split::Train, Split::Test] {
+        let data = load(&d, split, opts(Format::Llff, 1)).unwrap();
+        let (scene, n) = (&data.scene, data.scene.ndc.unwrap());
+        for v in &data.views {
+            let (w, h) = (v.camera.width, v.camera.height);
+            for (x, y) in (0..h).flat_map(|y| (0..w).map(move |x| (x, y))) {
+                let (o, dir) = v.camera.ray(x, y);
+                let r = nerf_infer::Ray::new(scene, o, dir);
+                let r = r.unwrap_or_else(|| panic!("{} pixel ({x}, {y}): the ray misses the box", v.name));
+                let (o2, d2) = nerf_infer::camera::ndc_ray(n.width, n.height, n.focal, 1.0, o, dir).unwrap();
+                let nearest = (-0.5 - o2.z) / d2.z;
+                assert!(r.far >= 1.0 - 1e-6, "{} pixel ({x}, {y}): leaves the box at t = {}", v.name, r.far);
+                assert!(r.near <= nearest + 1e-6, "{} pixel ({x}, {y}): enters at t = {} > {nearest}", v.name, r.near);
+            }
+        }
+    }
 }
 
 #[test]

@@ -87,6 +87,10 @@ pub fn run(a: Args) -> CmdResult {
     }
     super::refuse_inside(&out, "--out", &a.suite)?;
     let settings = Settings::from_args(&a)?;
+    let n = settings.scenes.len();
+    if let Some(i) = a.task.filter(|&i| i >= n) {
+        return Err(format!("--task {i}: the suite {} has {n} scenes (tasks 0 to {})", a.suite.display(), n - 1));
+    }
     settings.claim(&out)?;
     match a.task {
         Some(i) => task::run(&settings, i, &out, a.threads),

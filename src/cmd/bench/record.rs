@@ -41,7 +41,7 @@ impl Settings {
             None => None,
         };
         Ok(Self {
-            suite: std::path::absolute(&a.suite).unwrap_or_else(|_| a.suite.clone()),
+            suite: a.suite.canonicalize().unwrap_or_else(|_| a.suite.clone()),
             scenes: suite::discover(&a.suite, a.downscale)?,
             minutes: a.minutes,
             iters: a.iters,

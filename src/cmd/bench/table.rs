@@ -101,8 +101,17 @@ pub fn gather(settings: &Settings, out: &Path) -> CmdResult {
     for f in &failed {
         eprintln!("warning: {f}");
     }
-    eprintln!("wrote {} ({} rows of {} scenes)", out.join("table.md").display(), rows.len(), settings.scenes.len());
-    Ok(())
+    let n = settings.scenes.len();
+    eprintln!("wrote {} ({} rows of {n} scenes)", out.join("table.md").display(), rows.len());
+    if failed.is_empty() && missing.is_empty() {
+        return Ok(());
+    }
+    Err(format!(
+        "{} of {n} scenes failed, {} have no result yet (named above); {} holds the rest",
+        failed.len(),
+        missing.len(),
+        out.join("table.md").display()
+    ))
 }
 
 /// `x` with `d` decimals, or blank.
