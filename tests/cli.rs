@@ -451,6 +451,9 @@ fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
     let (res, distortion, err) = train("llff", "{}", "forward", &[]);
     assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, TrainConfig::PROPOSAL_DISTORTION));
     assert!(err.contains("forward-facing") && err.contains("the distortion loss at 0.001"), "{err}");
+    // and rendered at the network samples it trains with
+    assert_eq!(render("forward"), 32);
+    assert!(err.contains("the model renders at 32 unless told otherwise"), "{err}");
     // the same photos as an object scene: neither
     let (res, distortion, _) = train("colmap", "{}", "object", &["--scene", "object"]);
     assert_eq!((res, distortion), (0, 0.0));

@@ -132,8 +132,9 @@ impl TrainConfig {
 
     /// The network samples per ray that a model renders with by default
     /// ([`SamplingConfig::n_main_render`]) where `nerf train` turns the
-    /// proposal grid on (unless the configuration names it or
-    /// `sampling.n_main`): 16 of the 32 it trains with. On bird, fox and the
+    /// proposal grid on in an unbounded scene (unless the configuration
+    /// names it or `sampling.n_main`; a forward-facing scene renders at the
+    /// 32 it trains with): 16 of the 32 it trains with. On bird, fox and the
     /// built-in room a model trained at 32 renders 0.23–0.28 dB lower at 16
     /// in about 0.6 of the time, and a model trained at 16 scores 0.6–2.2 dB
     /// lower than one trained at 32
