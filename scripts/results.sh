@@ -18,6 +18,7 @@ names=()
 steps=(
   "default|25|scripts/lego_default.sh ROOT 10 0 1 && scripts/lego_default.sh ROOT 1 0 1"
   "full|95|scripts/lego_full.sh ROOT 90 1"
+  "paper|90|scripts/paper_table.sh ROOT/flower 20 ROOT/lego 60"
   "tradeoff|12|scripts/tradeoff.sh ROOT 10"
   "fast-int8|35|scripts/fast_int8.sh ROOT 60000"
   "int8-loss|15|scripts/int8_loss.sh ROOT 3"
