@@ -57,8 +57,9 @@ fn main() {
 }
 
 /// Sets `NERF_COMMIT` to the commit this checkout is at (`git rev-parse
-/// --short HEAD`; `unknown` outside a git checkout), which `nerf bench`
-/// stamps on its rows; rebuilt when HEAD or the branch it names moves.
+/// --short HEAD`, with `-dirty` when tracked files differ from it;
+/// `unknown` outside a git checkout), which `nerf bench` stamps on its
+/// rows; rerun when HEAD or the branch it names moves, or a source changes.
 fn commit() {
     let git = |args: &[&str]| {
         Command::new("git")
@@ -68,16 +69,20 @@ fn commit() {
             .filter(|o| o.status.success())
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
     };
-    if let Some(dir) = git(&["rev-parse", "--git-dir"]) {
-        let dir = PathBuf::from(dir);
-        let branch = git(&["symbolic-ref", "-q", "HEAD"]).map(|b| dir.join(b));
-        // only files that exist: a missing one would rerun this script at every build
-        for f in [Some(dir.join("HEAD")), branch, Some(dir.join("packed-refs"))].into_iter().flatten() {
-            if f.is_file() {
-                println!("cargo::rerun-if-changed={}", f.display());
-            }
-        }
+    let branch = git(&["symbolic-ref", "-q", "HEAD"]);
+    // --git-path: the files as this worktree sees them (a linked worktree keeps its refs in the common folder)
+    let mut watched: Vec<String> =
+        ["HEAD", "packed-refs"].iter().filter_map(|f| git(&["rev-parse", "--git-path", f])).collect();
+    watched.extend(branch.and_then(|b| git(&["rev-parse", "--git-path", &b])));
+    // only files that exist: a missing one would rerun this script at every build
+    for f in watched.iter().filter(|f| std::path::Path::new(f).is_file()) {
+        println!("cargo::rerun-if-changed={f}");
+    }
+    // edited sources make the build dirty (nerf-infer's are watched above)
+    for p in ["src", "nerf-train/src", "Cargo.toml", "nerf-train/Cargo.toml"] {
+        println!("cargo::rerun-if-changed={p}");
     }
     let hash = git(&["rev-parse", "--short", "HEAD"]).unwrap_or_else(|| "unknown".into());
-    println!("cargo::rustc-env=NERF_COMMIT={hash}");
+    let dirty = git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    println!("cargo::rustc-env=NERF_COMMIT={hash}{}", if dirty { "-dirty" } else { "" });
 }

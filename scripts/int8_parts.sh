@@ -66,7 +66,7 @@ if [ "$layers" = "--layers" ]; then
   echo "layer_at_int8_precision,psnr"
   n=$("$work/nerf-$c" info "$model" --json | python3 -c 'import json,sys; print(len(json.load(sys.stdin)["coarse"]["layers"]))')
   for l in $(seq 0 $((n - 1))) "$(seq -s, 0 $((n - 1)))"; do
-    "$work/nerf-$c" export "$model" --bits 16 --int8-layers "$l" --out "$work/l.nerf" >&2
+    "$work/nerf-$c" export "$model" --bits 16 --int8-layers "$l" --out "$work/l.nerf" --force >&2
     "$work/nerf-$c" eval "$work/l.nerf" --data "$root/lego" --split val --early-stop 1e-3 > "$work/l.json"
     printf '"%s",%.3f\n' "$l" "$(field "$work/l.json" psnr)"
   done

@@ -242,3 +242,91 @@ fn umask_of_children() -> u32 {
     let out = Command::new("sh").args(["-c", "umask"]).output().unwrap();
     u32::from_str_radix(String::from_utf8_lossy(&out.stdout).trim(), 8).unwrap()
 }
+
+/// A model never replaces a run's checkpoint, and another model or a mesh
+/// replaces a file only with `--force`; a configuration with a key written
+/// twice, a learning rate out of range, or one that an open scene's
+/// proposal grid cannot serve is refused at start, naming the field.
+#[test]
+fn outputs_replace_only_what_force_allows_and_configurations_are_checked_at_start() {
+    let d = tmp("hostile-force");
+    let data = blender_scene(&d, 16, 4);
+    let run = d.join("run");
+    ok(&["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"]);
+    let (model, ckpt) = (run.join("model.nerf"), run.join("checkpoint.bin"));
+    let before = std::fs::read(&ckpt).unwrap();
+    for force in [&[][..], &["--force"][..]] {
+        let args = [&["export", s(&model), "--bits", "8", "--out", s(&ckpt)][..], force].concat();
+        fails_naming(&args, &["checkpoint.bin", "training checkpoint"]);
+    }
+    assert_eq!(std::fs::read(&ckpt).unwrap(), before);
+    let other = d.join("other.nerf");
+    ok(&["export", s(&model), "--bits", "8", "--out", s(&other)]);
+    let int8 = std::fs::read(&other).unwrap();
+    fails_naming(&["export", s(&model), "--bits", "16", "--out", s(&other)], &["other.nerf", "--force"]);
+    assert_eq!(std::fs::read(&other).unwrap(), int8);
+    ok(&["export", s(&model), "--bits", "16", "--out", s(&other), "--force"]);
+    assert_ne!(std::fs::read(&other).unwrap(), int8);
+    // a mesh over a file of the user's, or a folder
+    let mesh = d.join("notes.ply");
+    std::fs::write(&mesh, b"mine").unwrap();
+    fails_naming(&["mesh", s(&model), "--out", s(&mesh), "--resolution", "8"], &["notes.ply", "--force"]);
+    assert_eq!(std::fs::read(&mesh).unwrap(), b"mine");
+    std::fs::create_dir_all(d.join("folder.ply")).unwrap();
+    fails_naming(&["mesh", s(&model), "--out", s(&d.join("folder.ply")), "--resolution", "8"], &["is a folder"]);
+    ok(&["mesh", s(&model), "--out", s(&mesh), "--resolution", "8", "--force"]);
+    assert_ne!(std::fs::read(&mesh).unwrap(), b"mine");
+    // configurations
+    let config = |name: &str, text: &str| {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let train = |data: &Path, cfg: &Path, out: &str| {
+        let (data, cfg, out) = (s(data).to_owned(), s(cfg).to_owned(), s(&d.join(out)).to_owned());
+        fails(&["train", "--data", &data, "--config", &cfg, "--iters", "2", "--out", &out])
+    };
+    let twice = config("twice.json", r#"{"sampling": {"n_coarse": 8}, "sampling": {"n_main": 8}}"#);
+    let e = train(&data, &twice, "r1");
+    assert!(e.contains("twice.json") && e.contains("the key `sampling` appears twice"), "{e}");
+    for (lr, shown) in [("1e30", "1e30"), ("1e308", "inf"), ("0", "0"), ("-0.5", "-0.5")] {
+        let e = train(&data, &config("lr.json", &format!(r#"{{"lr": {lr}}}"#)), "r2");
+        assert!(e.contains(&format!("optimiser.lr {shown} must be a step size in (0, 1]")), "{lr}: {e}");
+    }
+    let llff = d.join("scene/llff");
+    for n_main in ["0", "65535"] {
+        let e = train(&llff, &config("main.json", &format!(r#"{{"n_main": {n_main}}}"#)), "r3");
+        assert!(e.contains("sampling.n_main must be 1..=255") && e.contains("proposal_res 0"), "{n_main}: {e}");
+    }
+    assert!(!d.join("r1").join("model.nerf").exists() && !d.join("r3").join("model.nerf").exists());
+}
+
+/// Messages that lead somewhere: a folder holding only a model is not told
+/// to resume, a resume with another seed is refused, a failed run leaves no
+/// empty folder behind, and `web` writes nothing for a damaged model.
+#[test]
+fn messages_point_to_what_works_and_failures_leave_no_folders() {
+    let d = tmp("hostile-messages");
+    let data = blender_scene(&d, 16, 4);
+    let run = d.join("run");
+    ok(&["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"]);
+    fails_naming(
+        &["train", "--data", s(&data), "--iters", "4", "--out", s(&run), "--resume", "--seed", "7"],
+        &["--seed 7 differs from the checkpoint's 0"],
+    );
+    let only_model = d.join("only_model");
+    std::fs::create_dir_all(&only_model).unwrap();
+    std::fs::copy(run.join("model.nerf"), only_model.join("model.nerf")).unwrap();
+    let e = fails(&["train", "--data", s(&data), "--iters", "2", "--out", s(&only_model)]);
+    assert!(e.contains("no checkpoint to resume from") && e.contains("--force") && !e.contains("--resume"), "{e}");
+    // a run that fails at its start (its data missing) leaves no folder
+    let gone = d.join("gone");
+    fails(&["train", "--data", s(&d.join("no-such-data")), "--iters", "2", "--out", s(&gone)]);
+    assert!(!gone.exists());
+    let broken = d.join("broken.nerf");
+    std::fs::write(&broken, b"NERF and then nothing").unwrap();
+    let site = d.join("site");
+    let o = nerf(&["web", s(&broken), "--out", s(&site)]);
+    assert!(!o.status.success());
+    assert!(!site.exists(), "web made its folder for a damaged model");
+}

@@ -57,6 +57,29 @@ pub fn write(path: &Path, bytes: &[u8]) -> io::Result<()> {
     Ok(())
 }
 
+/// Writes `bytes` to `path` atomically if nothing is there yet: the file
+/// appears whole, and of several processes creating it at once (on one
+/// machine or over a network file system) exactly one succeeds. Returns
+/// `Ok(false)`, writing nothing, when `path` already exists.
+pub fn write_new(path: &Path, bytes: &[u8]) -> io::Result<bool> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".tmp");
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let mut tmp = builder.tempfile_in(dir)?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    match tmp.persist_noclobber(path) {
+        Ok(_) => Ok(true),
+        Err(e) if e.error.kind() == io::ErrorKind::AlreadyExists => Ok(false),
+        Err(e) => Err(e.error),
+    }
+}
+
 /// Encodes `img` as PNG in memory and writes it atomically to `path`.
 pub fn write_png<P, C>(path: &Path, img: &image::ImageBuffer<P, C>) -> io::Result<()>
 where

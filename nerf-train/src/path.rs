@@ -7,7 +7,7 @@
 //! Poses are camera-to-world in the model's frame (OpenGL axes, as
 //! nerfstudio's), fields of view in degrees.
 
-use crate::error::Error;
+use crate::error::{number as shown, Error};
 use glam::{Mat3, Quat, Vec3};
 use nerf_infer::Camera;
 use std::path::Path;
@@ -141,6 +141,10 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
                 return Err(bad(format!("its matrix has {} numbers (16 or 12)", m.len())));
             }
             let m = if keyed && m.len() == 16 { row_major(m) } else { m };
+            if m.len() == 16 && [m[12], m[13], m[14], m[15] - 1.0].iter().any(|x| x.abs() > 1e-6) {
+                let row = m[12..].iter().map(|&x| shown(x)).collect::<Vec<_>>().join(" ");
+                return Err(bad(format!("its matrix's bottom row is {row}, not 0 0 0 1 (not a rigid transform)")));
+            }
             let field = |k: &str| match c.get(k) {
                 None | Some(serde_json::Value::Null) => Ok(None),
                 Some(x) => x.as_f64().map(Some).ok_or_else(|| bad(format!("{k} is not a number: {x}"))),
@@ -148,13 +152,13 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
             let fov =
                 field("fov")?.ok_or_else(|| bad("fov is missing (the vertical field of view, degrees)".into()))?;
             if !(1.0..179.0).contains(&fov) {
-                return Err(bad(format!("fov {fov}° is out of range (1 to 179 degrees, vertical)")));
+                return Err(bad(format!("fov {}° is out of range (1 to 179 degrees, vertical)", shown(fov))));
             }
             let aspect = field("aspect")?.or(default_aspect).ok_or_else(|| {
                 bad("aspect is missing (width / height), and the file has no render_width and render_height".into())
             })?;
             if !(0.01..100.0).contains(&aspect) {
-                return Err(bad(format!("aspect {aspect} is out of range (0.01 to 100, width / height)")));
+                return Err(bad(format!("aspect {} is out of range (0.01 to 100, width / height)", shown(aspect))));
             }
             let mut c2w = [[0f32; 4]; 3];
             for (r, row) in c2w.iter_mut().enumerate() {
@@ -173,15 +177,20 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
     let fps = number("fps")?.ok_or_else(|| bad("keyframes without fps (frames per second)".into()))?;
     let seconds = number("seconds")?.ok_or_else(|| bad("keyframes without seconds (the video's length)".into()))?;
     if !(fps > 0.0 && seconds > 0.0) {
-        return Err(bad(format!("fps {fps} and seconds {seconds} must both be positive")));
+        return Err(bad(format!("fps {} and seconds {} must both be positive", shown(fps), shown(seconds))));
     }
     let frames = (fps * seconds).round();
     if !(1.0..=100_000.0).contains(&frames) {
-        return Err(bad(format!("fps {fps} × seconds {seconds} gives {frames} frames (1 to 100000 are rendered)")));
+        return Err(bad(format!(
+            "fps {} × seconds {} gives {} frames (1 to 100000 are rendered)",
+            shown(fps),
+            shown(seconds),
+            shown(frames)
+        )));
     }
     let smoothness = number("smoothness_value")?.unwrap_or(0.5);
     if !(-1.0..=1.0).contains(&smoothness) {
-        return Err(bad(format!("smoothness_value {smoothness} is out of range (-1 to 1)")));
+        return Err(bad(format!("smoothness_value {} is out of range (-1 to 1)", shown(smoothness))));
     }
     let cycle = match v.get("is_cycle") {
         None | Some(serde_json::Value::Null) => false,
@@ -326,5 +335,23 @@ mod tests {
         std::fs::write(&p, r#"{"keyframes": [{"matrix": [1, 0]}]}"#).unwrap();
         let e = read_camera_path(&p, 40).unwrap_err().to_string();
         assert!(e.contains("keyframe 0") && e.contains("2 numbers"), "{e}");
+    }
+
+    #[test]
+    fn a_matrix_with_another_bottom_row_and_huge_times_are_refused_in_a_line_a_reader_can_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("path.json");
+        let m = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 4, 1, 1, 1, 5];
+        let key = serde_json::json!({ "matrix": m, "fov": 40.0, "aspect": 1.0 });
+        let file = serde_json::json!({ "keyframes": [key], "fps": 5, "seconds": 1 });
+        std::fs::write(&p, file.to_string()).unwrap();
+        let e = read_camera_path(&p, 40).unwrap_err().to_string();
+        assert!(e.contains("keyframe 0") && e.contains("bottom row is 1 1 1 5, not 0 0 0 1"), "{e}");
+        let m = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 4, 0, 0, 0, 1];
+        let key = serde_json::json!({ "matrix": m, "fov": 40.0, "aspect": 1.0 });
+        let file = serde_json::json!({ "keyframes": [key], "fps": 5, "seconds": 1e308 });
+        std::fs::write(&p, file.to_string()).unwrap();
+        let e = read_camera_path(&p, 40).unwrap_err().to_string();
+        assert!(e.contains("seconds 1e308") && e.len() < 200, "{e}");
     }
 }

@@ -38,7 +38,8 @@ pub fn run(a: Args) -> CmdResult {
     let model = run_dir.join("model.nerf");
     for bits in [Scheme::I16, Scheme::I8] {
         let file = run_dir.join(format!("model_int{}.nerf", bits.bits()));
-        super::export::run(super::export::Args::new(model.clone(), bits, file))?;
+        // the demo's own exports of an earlier run, beside the run it has just replaced
+        super::export::run(super::export::Args { force: true, ..super::export::Args::new(model.clone(), bits, file) })?;
     }
     eprintln!("4/6 rendering the test views");
     let mut rows = Vec::new();

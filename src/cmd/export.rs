@@ -39,7 +39,7 @@ pub struct Args {
     /// head leaves it at 16 bits). Listing every layer renders exactly as
     /// `--bits 8` does.
     #[arg(long, value_delimiter = ',')]
-    int8_layers: Vec<usize>,
+    pub(crate) int8_layers: Vec<usize>,
     /// Set the model's default stratified samples per ray (2..=1024, at
     /// most 256 with a fine network; what a renderer uses unless told
     /// otherwise): fewer samples, less time per ray, some PSNR (measure
@@ -56,18 +56,37 @@ pub struct Args {
     /// Output file.
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// Replace the model file already at --out (never another kind of file, nor a training checkpoint).
+    #[arg(long)]
+    pub(crate) force: bool,
 }
 
 /// An existing `--out` is replaced only if it is a model file (starts with
-/// the `NERF` magic): a photo or any other file of the user's is kept.
-fn refuse_foreign_file(out: &std::path::Path) -> CmdResult {
+/// the `NERF` magic) and `--force` is given: a photo or any other file of
+/// the user's is kept, and so is a training checkpoint (`NERFCKPT`: a run
+/// that could no longer resume), with or without `--force`.
+fn refuse_existing(out: &std::path::Path, force: bool) -> CmdResult {
     use std::io::Read;
     // only a regular file is opened (a FIFO would block); the atomic write refuses the rest
     let regular = std::fs::symlink_metadata(out).is_ok_and(|m| m.is_file());
     if let Some(mut f) = regular.then(|| std::fs::File::open(out).ok()).flatten() {
-        let mut magic = [0u8; 4];
-        if !(f.read_exact(&mut magic).is_ok() && &magic == b"NERF") {
+        let mut magic = [0u8; 8];
+        let n = f.read(&mut magic).unwrap_or(0);
+        if n == 8 && magic == nerf_infer::format::CHECKPOINT_MAGIC {
+            return Err(format!(
+                "--out {}: is a training checkpoint (a run resumes from it); a model never replaces one: choose \
+                 another file",
+                out.display()
+            ));
+        }
+        if !(n >= 4 && &magic[..4] == b"NERF") {
             return Err(format!("--out {}: exists and is not a model file; refusing to replace it", out.display()));
+        }
+        if !force {
+            return Err(format!(
+                "--out {}: holds a model already; replace it with --force, or choose another file",
+                out.display()
+            ));
         }
     }
     Ok(())
@@ -86,6 +105,7 @@ impl Args {
             coarse: None,
             fine: None,
             out,
+            force: false,
         }
     }
 }
@@ -105,7 +125,7 @@ pub fn run(a: Args) -> CmdResult {
         return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
     }
     super::refuse_same_file(&a.out, "--out", &a.model)?;
-    refuse_foreign_file(&a.out)?;
+    refuse_existing(&a.out, a.force)?;
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let mut owned = match a.bits {

@@ -14,9 +14,12 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     /// Model file (.nerf): f32, int16 or int8 (the mesh follows the network the renderer runs).
     pub(crate) model: PathBuf,
-    /// Output mesh: `.ply` (binary) or `.obj` (text), by extension.
+    /// Output mesh: `.ply` (binary) or `.obj` (text), by extension; an existing file only with --force.
     #[arg(long)]
     pub(crate) out: PathBuf,
+    /// Replace the file already at --out.
+    #[arg(long)]
+    pub(crate) force: bool,
     /// Lattice cells per axis over the scene's bounds; memory grows as its cube (256: 68 MB).
     #[arg(long, default_value_t = 256, value_name = "2..=1024", value_parser = num_in(2usize, 1024))]
     pub(crate) resolution: usize,
@@ -77,6 +80,15 @@ fn kind(out: &Path) -> Result<Kind, String> {
 pub fn run(a: Args) -> CmdResult {
     let kind = kind(&a.out)?;
     refuse_same_file(&a.out, "--out", &a.model)?;
+    match std::fs::symlink_metadata(&a.out) {
+        Ok(m) if m.is_dir() => {
+            return Err(format!("--out {}: is a folder; give a file ending in .ply or .obj", a.out.display()))
+        }
+        Ok(_) if !a.force => {
+            return Err(format!("--out {}: exists; replace it with --force, or choose another file", a.out.display()))
+        }
+        _ => {}
+    }
     if !(a.threshold.is_finite() && a.threshold > 0.0) {
         return Err(format!("--threshold {}: must be a positive density", a.threshold));
     }

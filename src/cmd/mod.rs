@@ -316,7 +316,7 @@ pub fn lock_run_dir(dir: &Path) -> Result<std::fs::File, String> {
         // SAFETY: flock on a file descriptor this function owns; no memory is shared.
         let r = unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
         if r != 0 {
-            return Err(format!("{}: another process is using this run folder", dir.display()));
+            return Err(format!("{}: another process is using this folder", dir.display()));
         }
     }
     Ok(f)

@@ -47,9 +47,10 @@ fn module() -> Result<&'static [u8], String> {
 /// Runs `nerf web`.
 pub fn run(a: Args) -> CmdResult {
     let wasm = module()?;
-    let _out = super::outdir::OutDir::claim(&a.out, "--out", "web", super::outdir::Earlier::Replace, a.force)?;
+    // the model read before the folder is made: a damaged model leaves nothing behind
     let bytes = read_model(&a.model)?;
     let m = decode(&a.model, &bytes)?;
+    let _out = super::outdir::OutDir::claim(&a.out, "--out", "web", super::outdir::Earlier::Replace, a.force)?;
     let o = Orbit::of(&m);
     let cam =
         o.camera(0.0, CHECK_SIZE, CHECK_SIZE).map_err(|e| format!("{}: the model's orbit: {e}", a.model.display()))?;

@@ -29,5 +29,9 @@ array=$(sbatch --parsable ${SBATCH_ARGS:-} --array="0-$((n - 1))" --output="nerf
     "$here/bench-task.sbatch" "$suite" "$out" "$@")
 # shellcheck disable=SC2086
 gather=$(sbatch --parsable ${SBATCH_ARGS:-} --dependency="afterany:${array%%;*}" --output="nerf-bench-gather-%j.log" \
-    "$here/bench-gather.sbatch" "$suite" "$out")
-echo "array ${array%%;*} ($n tasks), gather $gather"
+    "$here/bench-gather.sbatch" "$suite" "$out") || {
+    echo "submit.sh: the gather job was not submitted; the array ${array%%;*} runs: gather later with" \
+        "nerf bench $suite --out $out --gather" >&2
+    exit 1
+}
+echo "array ${array%%;*} ($n tasks), gather ${gather%%;*}"

@@ -185,3 +185,14 @@ fn every_field_has_one_flat_name_that_reads_back_to_it() {
         assert_eq!(changed.differing_fields(&base), [format!("{section}.{field}")], "{flat}");
     }
 }
+
+#[test]
+fn a_key_written_twice_is_refused_by_name() {
+    let e = super::json::parse(r#"{"sampling": {"n_coarse": 64}, "sampling": {"n_main": 8}}"#).unwrap_err();
+    assert!(e.to_string().contains("the key `sampling` appears twice"), "{e}");
+    let e = super::json::parse(r#"{"sampling": {"n_coarse": 64, "n_coarse": 8}}"#).unwrap_err();
+    assert!(e.to_string().contains("the key `n_coarse` appears twice"), "{e}");
+    let v = super::json::parse(r#"{"a": [1, -2, 0.5, "x", null, true, {"b": {}}]}"#).unwrap();
+    assert_eq!(v, serde_json::json!({"a": [1, -2, 0.5, "x", null, true, {"b": {}}]}));
+    assert!(super::json::parse(r#"{"a": 1} trailing"#).is_err());
+}

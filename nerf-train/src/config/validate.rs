@@ -92,6 +92,7 @@ impl TrainConfig {
                 self.features.footprint_from
             )));
         }
+        self.validate_optimiser()?;
         // every step scales the table by 1 − optimiser.lr·optimiser.feature_decay: it must stay in [0, 1]
         if !(self.optimiser.feature_decay >= 0.0 && self.optimiser.lr * self.optimiser.feature_decay <= 1.0) {
             return Err(Error::Config(format!(
@@ -146,17 +147,29 @@ impl TrainConfig {
                 self.optimiser.pose_lr
             )));
         }
-        let pos = |v: f32| v.is_finite() && v > 0.0;
-        if !pos(self.optimiser.lr)
-            || !pos(self.optimiser.lr_final_ratio)
-            || !pos(self.optimiser.eps)
-            || !(0.0..1.0).contains(&self.optimiser.beta1)
-            || !(0.0..1.0).contains(&self.optimiser.beta2)
-        {
-            return Err(Error::Config(
-                "optimiser.lr, optimiser.lr_final_ratio and optimiser.eps must be positive, optimiser.beta1 and optimiser.beta2 in [0, 1)".into(),
-            ));
-        }
         Ok(())
+    }
+
+    /// The optimiser's rates and decays, each named with its value and
+    /// range when out of it (checked before anything that divides by one):
+    /// a step size above 1 sends Adam's parameters to infinity within a
+    /// few steps.
+    fn validate_optimiser(&self) -> Result<(), Error> {
+        let o = &self.optimiser;
+        let rate = |v: f32| v.is_finite() && v > 0.0 && v <= 1.0;
+        let checks: [(&str, f32, bool, &str); 6] = [
+            ("lr", o.lr, rate(o.lr), "a step size in (0, 1]"),
+            ("lr_final_ratio", o.lr_final_ratio, rate(o.lr_final_ratio), "a share of optimiser.lr in (0, 1]"),
+            ("eps", o.eps, rate(o.eps), "in (0, 1]"),
+            ("beta1", o.beta1, (0.0..1.0).contains(&o.beta1), "a decay in [0, 1)"),
+            ("beta2", o.beta2, (0.0..1.0).contains(&o.beta2), "a decay in [0, 1)"),
+            ("proposal_lr", o.proposal_lr, rate(o.proposal_lr), "a step size in (0, 1]"),
+        ];
+        match checks.iter().find(|c| !c.2) {
+            Some((name, v, _, range)) => {
+                Err(Error::Config(format!("optimiser.{name} {} must be {range}", crate::error::number(*v))))
+            }
+            None => Ok(()),
+        }
     }
 }

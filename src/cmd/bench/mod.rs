@@ -24,7 +24,7 @@ pub use record::Settings;
 
 /// Arguments of `nerf bench`.
 #[derive(clap::Args, Debug)]
-#[command(group(clap::ArgGroup::new("budget").args(["iters", "minutes"])))]
+#[command(group(clap::ArgGroup::new("budget").args(["iters", "minutes"])), args_override_self = true)]
 pub struct Args {
     /// Suite folder: scene folders (nerf_synthetic, nerf_llff_data or captures of your own), or one scene.
     /// Scenes are run in order of folder name; `--list` prints them with their task index.
@@ -116,15 +116,21 @@ fn list(a: &Args) -> CmdResult {
 }
 
 /// Every scene not yet done as a task of its own (this program again with
-/// `--task I`), one after the other, then the table.
+/// `--task I`, in its own process group so that a Ctrl-C reaches it once,
+/// passed on by this process), one after the other, then the table.
 fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find this program to run its tasks: {e}"))?;
+    // on Linux the running binary itself, even if a rebuild has replaced its file since
+    let exe = match std::path::Path::new("/proc/self/exe") {
+        p if cfg!(target_os = "linux") && p.exists() => p.to_path_buf(),
+        _ => std::env::current_exe().map_err(|e| format!("cannot find this program to run its tasks: {e}"))?,
+    };
+    // `bench` first, then `--task I`, then the rest as given (a `--` among them stays last)
     let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
+    let at = args.iter().position(|a| a == "bench").map_or(0, |i| i + 1);
     let _ = ctrlc::set_handler(|| {
         INTERRUPTS.fetch_add(1, Ordering::SeqCst);
         let child = CHILD.load(Ordering::SeqCst);
         if child != 0 {
-            // a SIGTERM sent to this process alone reaches the task too (Ctrl-C reaches both already)
             #[cfg(unix)]
             // SAFETY: sends a signal to the child this process started and waits for; no memory is shared.
             unsafe {
@@ -132,28 +138,34 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
             }
         }
     });
+    let interrupted = |name: &str| {
+        Err(format!("interrupted during scene {name}: the same command resumes the suite where it stopped"))
+    };
     let n = settings.scenes.len();
     for (i, s) in settings.scenes.iter().enumerate() {
+        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+            return interrupted(&s.name);
+        }
         if task::done(out, s) {
             eprintln!("[{}/{n}] {}: done before, kept", i + 1, s.name);
             continue;
         }
         eprintln!("[{}/{n}] {} ({}, 1/{} size)", i + 1, s.name, s.kind.name(), s.downscale);
-        let mut child = std::process::Command::new(&exe)
-            .args(&args)
-            .args(["--task", &i.to_string()])
-            .spawn()
-            .map_err(|e| format!("cannot start task {i} ({}): {e}", exe.display()))?;
+        let mut task_args = args.clone();
+        task_args.splice(at..at, ["--task".into(), i.to_string().into()]);
+        let mut cmd = std::process::Command::new(&exe);
+        cmd.args(&task_args);
+        #[cfg(unix)]
+        std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
+        let mut child = cmd.spawn().map_err(|e| format!("cannot start task {i} ({}): {e}", exe.display()))?;
         CHILD.store(child.id(), Ordering::SeqCst);
         let status = child.wait().map_err(|e| format!("task {i}: {e}"))?;
         CHILD.store(0, Ordering::SeqCst);
         if INTERRUPTS.load(Ordering::SeqCst) > 0 {
-            return Err(format!(
-                "interrupted during scene {}: the same command resumes the suite where it stopped",
-                s.name
-            ));
+            return interrupted(&s.name);
         }
         if !status.success() {
+            task::record_crash(out, s, i, status)?;
             eprintln!("[{}/{n}] {}: failed (its row says why); going on", i + 1, s.name);
         }
     }

@@ -40,13 +40,15 @@ impl Settings {
             }
             None => None,
         };
+        // the suite as one path, however it is reached (a link, `..`): tasks started elsewhere compare equal
+        let suite_dir = a.suite.canonicalize().unwrap_or_else(|_| a.suite.clone());
         Ok(Self {
-            suite: a.suite.canonicalize().unwrap_or_else(|_| a.suite.clone()),
-            scenes: suite::discover(&a.suite, a.downscale)?,
+            scenes: suite::discover(&suite_dir, a.downscale)?,
+            suite: suite_dir,
             minutes: a.minutes,
             iters: a.iters,
             seed: a.seed,
-            preset: a.preset.map(|p| clap::ValueEnum::to_possible_value(&p).map(|v| v.get_name().to_owned())).flatten(),
+            preset: a.preset.and_then(|p| clap::ValueEnum::to_possible_value(&p)).map(|v| v.get_name().to_owned()),
             config,
         })
     }
@@ -62,7 +64,12 @@ impl Settings {
             ));
         }
         let text = nerf_train::userfile::read_user_text(&path, nerf_train::userfile::MAX_JSON, "bench record")?;
-        serde_json::from_str(&text).map_err(|e| format!("{}: not a bench record: {e}", path.display()))
+        let s: Self =
+            serde_json::from_str(&text).map_err(|e| format!("{}: not a bench record: {e}", path.display()))?;
+        if s.scenes.is_empty() {
+            return Err(format!("{}: not a bench record: it names no scene", path.display()));
+        }
+        Ok(s)
     }
 
     /// Makes `out` this bench's folder: creates it and writes the record,
@@ -73,28 +80,22 @@ impl Settings {
         super::super::create_dir(out)?;
         let path = out.join(RECORD);
         if !path.exists() {
+            // a folder of someone else's: refused; what tasks starting at the same time write is not someone else's
             let foreign = std::fs::read_dir(out)
                 .map_err(|e| format!("{}: cannot list: {e}", out.display()))?
                 .filter_map(|e| e.ok())
-                .find(|e| !e.file_name().to_string_lossy().starts_with(".tmp"));
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .find(|n| n != RECORD && n != "scenes" && !n.starts_with(".tmp"));
             if let Some(f) = foreign {
                 return Err(format!(
-                    "--out {}: holds {} and no {RECORD}: not a bench's folder; choose an empty or new one",
-                    out.display(),
-                    f.file_name().to_string_lossy()
+                    "--out {}: holds {f} and no {RECORD}: not a bench's folder; choose an empty or new one",
+                    out.display()
                 ));
             }
             let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
-            // written beside, then linked into place: of tasks starting together one record wins, whole
-            let tmp = out.join(format!(".tmp-{RECORD}-{}", std::process::id()));
-            super::super::write_atomic(&tmp, text.as_bytes())?;
-            let linked = std::fs::hard_link(&tmp, &path);
-            let _ = std::fs::remove_file(&tmp);
-            if let Err(e) = linked {
-                if e.kind() != std::io::ErrorKind::AlreadyExists {
-                    return Err(format!("{}: cannot write: {e}", path.display()));
-                }
-            }
+            // of tasks starting together exactly one writes the record, whole; the others compare with it
+            nerf_train::atomic::write_new(&path, text.as_bytes())
+                .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         }
         let there = Self::read(out)?;
         match self.difference(&there) {
@@ -116,9 +117,16 @@ impl Settings {
             let (now, then) = (names(self), names(there));
             let added: Vec<&String> = now.iter().filter(|n| !then.contains(n)).collect();
             let gone: Vec<&String> = then.iter().filter(|n| !now.contains(n)).collect();
-            return Some(match (added.is_empty(), gone.is_empty()) {
-                (true, true) => "of the same scenes at another --downscale".to_string(),
-                _ => format!("of other scenes (the suite has gained {added:?} and lost {gone:?} since)"),
+            if !added.is_empty() || !gone.is_empty() {
+                return Some(format!("of other scenes (the suite has gained {added:?} and lost {gone:?} since)"));
+            }
+            let (a, b) = self.scenes.iter().zip(&there.scenes).find(|(a, b)| a != b)?;
+            return Some(if a.downscale != b.downscale {
+                format!("whose scene {} was at 1/{} size (--downscale)", b.name, b.downscale)
+            } else if a.kind != b.kind {
+                format!("whose scene {} was a {} scene", b.name, b.kind.name())
+            } else {
+                format!("whose scene {} was in {}", b.name, b.dir.display())
             });
         }
         let budget = |s: &Settings| match (s.minutes, s.iters) {

@@ -3,7 +3,7 @@
 //! against training minutes, a panel per scene, the published figure as a
 //! dashed line).
 
-use super::task::{read_row, scene_dir, Row};
+use super::task::{read_row, Row};
 use super::Settings;
 use crate::cmd::{write_atomic, CmdResult};
 use std::fmt::Write as _;
@@ -69,7 +69,10 @@ pub fn gather(settings: &Settings, out: &Path) -> CmdResult {
                 }
                 rows.push(r);
             }
-            Some(Err(e)) => failed.push(format!("task {i} ({}): {e}", s.name)),
+            Some(Err(e)) => {
+                failed.push(format!("task {i} ({}): {e}", s.name));
+                rows.push(Row { error: Some(e), ..Row::of(s, i) });
+            }
             None => missing.push(format!("task {i} ({})", s.name)),
         }
     }
@@ -78,7 +81,7 @@ pub fn gather(settings: &Settings, out: &Path) -> CmdResult {
             "{}: no task has left a result yet ({} scenes; none of {}/NAME/result.json exists)",
             out.display(),
             settings.scenes.len(),
-            scene_dir(out, &settings.scenes[0]).parent().unwrap_or(out).display()
+            out.join("scenes").display()
         ));
     }
     write_atomic(&out.join("table.md"), markdown(settings, &rows, &missing).as_bytes())?;
@@ -137,7 +140,8 @@ fn markdown(settings: &Settings, rows: &[Row], missing: &[String]) -> String {
         settings.preset.as_deref().unwrap_or("default"),
         settings.config.as_ref().map(|(p, _)| format!(", --config {}", p.display())).unwrap_or_default()
     );
-    let mut stamps: Vec<&super::table::Stamp> = rows.iter().map(|r| &r.stamp).collect();
+    let mut stamps: Vec<&Stamp> = rows.iter().map(|r| &r.stamp).filter(|s| !s.date.is_empty()).collect();
+    stamps.sort_by(|a, b| (&a.date, &a.commit, &a.cpu).cmp(&(&b.date, &b.commit, &b.cpu)));
     stamps.dedup();
     for st in stamps {
         let _ = writeln!(s, "- {}, commit {}, {}", st.date, st.commit, st.cpu);
@@ -197,7 +201,7 @@ fn field(v: &str) -> String {
 fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
         "index,scene,kind,downscale,split,width,height,views,steps,minutes,psnr_f32,ssim_f32,us_per_ray_f32,\
-         psnr_int8,ssim_int8,us_per_ray_int8,bytes_f32,bytes_int8,peak_mib,nerf_psnr,nerf_ssim,date,commit,cpu,error\n",
+         psnr_int8,ssim_int8,us_per_ray_int8,bytes_f32,bytes_int8,peak_mib,nerf_psnr,nerf_ssim,date,commit,cpu,threads,error\n",
     );
     for r in rows {
         let (f, q) = (r.f32.as_ref(), r.int8.as_ref());
@@ -226,6 +230,7 @@ fn csv(rows: &[Row]) -> String {
             r.stamp.date.clone(),
             r.stamp.commit.clone(),
             r.stamp.cpu.clone(),
+            r.threads.to_string(),
             r.error.clone().unwrap_or_default(),
         ];
         let line: Vec<String> = cells.iter().map(|c| field(c)).collect();

@@ -20,8 +20,10 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
+mod new_run;
 mod report;
 mod resume;
+use new_run::*;
 use report::*;
 use resume::*;
 
@@ -81,98 +83,6 @@ pub struct Args {
     pub(crate) prune: Prune,
 }
 
-/// A new run's configuration, from `--preset` and `--config`.
-#[derive(Debug)]
-struct NewRun {
-    /// The preset with the file's fields on top.
-    cfg: TrainConfig,
-    /// Size the feature grid to the photos ([`TrainConfig::fit_features_to`]):
-    /// unless `--config` names `features.max_res` or `features.log2_table`.
-    fit_features: bool,
-    /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]),
-    /// or to [`TrainConfig::PROPOSAL_COARSE`] where a proposal grid is
-    /// turned on: unless `--config` names `sampling.n_coarse`.
-    fit_samples: bool,
-    /// Place the network's samples with a proposal grid in unbounded and
-    /// forward-facing scenes ([`SamplingConfig::proposal_res`](nerf_train::config::SamplingConfig::proposal_res)): unless
-    /// `--config` names `sampling.proposal_res`.
-    fit_proposal: bool,
-    /// Turn the distortion loss on ([`TrainConfig::PROPOSAL_DISTORTION`])
-    /// where the proposal grid is turned on (unbounded and forward-facing
-    /// scenes): unless `--config` names `loss.distortion`.
-    fit_distortion: bool,
-    /// Render the model at [`TrainConfig::PROPOSAL_RENDER_MAIN`] network
-    /// samples by default where the proposal grid is turned on in an
-    /// unbounded scene (a forward-facing one renders at the samples it
-    /// trains with): unless
-    /// `--config` names `sampling.n_main_render` or `sampling.n_main` (a
-    /// chosen training count renders at itself).
-    fit_render: bool,
-}
-
-impl NewRun {
-    /// The configuration to train on `data`: with `fit_features`, its feature
-    /// grid sized to what the photos resolve; with `fit_samples`, its
-    /// samples per ray set for them.
-    fn for_data(&self, data: &Dataset) -> TrainConfig {
-        let mut cfg = self.cfg.clone();
-        let open = data.scene.unbounded.is_some() || data.scene.ndc.is_some();
-        // one network over an occupancy grid: the presets whose stratified samples the proposal replaces
-        if self.fit_proposal && open && cfg.sampling.proposal_res == 0 && cfg.sampling.n_fine == 0 && cfg.grid.res > 0 {
-            // only a configuration the grid can serve (sampling.n_coarse 3..=256, sampling.n_main 1..=255) gets it
-            let mut with = cfg.clone().with(|c| c.sampling.proposal_res = TrainConfig::PROPOSAL_RES);
-            if self.fit_samples {
-                // the grid composited at fewer stratified samples than the occupancy grid's
-                with.sampling.n_coarse = TrainConfig::PROPOSAL_COARSE;
-            }
-            if self.fit_distortion {
-                with.loss.distortion = TrainConfig::PROPOSAL_DISTORTION;
-            }
-            // forward-facing scenes render at the samples they train with (flower at 1008×756: +0.27 dB at
-            // 32 against 16, docs/RESULTS.md "The paper's protocol"); unbounded ones at fewer, for speed
-            if self.fit_render && data.scene.ndc.is_none() {
-                with.sampling.n_main_render = TrainConfig::PROPOSAL_RENDER_MAIN;
-            }
-            if with.validate().is_ok() {
-                cfg = with;
-            }
-        }
-        if let Some(cells) = data.resolvable_cells() {
-            if self.fit_features {
-                cfg.fit_features_to(cells);
-            }
-            if self.fit_samples {
-                cfg.fit_samples_to(cells);
-            }
-        }
-        cfg
-    }
-}
-
-fn load_config(a: &Args) -> Result<NewRun, String> {
-    let base = a.preset.unwrap_or_default().config();
-    let (mut fit_features, mut fit_samples, mut fit_proposal, mut fit_distortion, mut fit_render) =
-        (true, true, true, true, true);
-    let cfg = match &a.config {
-        None => base,
-        Some(path) => {
-            let bad = |e: &dyn std::fmt::Display| format!("{}: invalid configuration: {e}", path.display());
-            let text = nerf_train::userfile::read_user_text(path, nerf_train::userfile::MAX_JSON, "--config")?;
-            let over: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(&e))?;
-            let names = |section, field| nerf_train::config::json::names(&over, section, field);
-            fit_features = !names("features", "max_res") && !names("features", "log2_table");
-            fit_samples = !names("sampling", "n_coarse");
-            fit_proposal = !names("sampling", "proposal_res");
-            fit_distortion = !names("loss", "distortion");
-            fit_render = !names("sampling", "n_main_render") && !names("sampling", "n_main");
-            // the preset's fields, then the file's on top of them
-            base.overlay(&over).map_err(|e| bad(&e))?
-        }
-    };
-    cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    Ok(NewRun { cfg, fit_features, fit_samples, fit_proposal, fit_distortion, fit_render })
-}
-
 /// The validation views, or none if the dataset has no such split.
 fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
     if a.val_views == 0 {
@@ -197,16 +107,25 @@ fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::S
 /// model records how its capture was split and the orbit fitted to its
 /// cameras).
 fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Prune, data: &Dataset) -> CmdResult {
-    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes().map_err(|e| e.to_string())?)?;
     let cams: Vec<_> = data.views.iter().map(|v| v.camera).collect();
     let orbit = fit_orbit(&data.scene, &cams);
     let model = OwnedModel { capture: data.capture, orbit, ..trainer_model(tr, calib, prune) };
     let bytes = model.to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
-    write_atomic(&out.join("model.nerf"), &bytes)
+    // the model first: a checkpoint on disk always has its model beside it (a run stopped between the two
+    // resumes from the earlier checkpoint and writes the model again)
+    write_atomic(&out.join("model.nerf"), &bytes)?;
+    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes().map_err(|e| e.to_string())?)
 }
 
 /// Interrupt signals (Ctrl-C, SIGTERM) received during training.
 static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
+
+/// Whether an interrupt (Ctrl-C, SIGTERM) has reached this process since a
+/// training run installed its handler: a command that goes on after
+/// training (`nerf bench`) stops too.
+pub fn interrupted() -> bool {
+    INTERRUPTS.load(Ordering::SeqCst) > 0
+}
 
 /// The first Ctrl-C or SIGTERM asks the loop to checkpoint and stop after
 /// the current step; a second one exits at once (outputs are atomic).
@@ -265,17 +184,36 @@ pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
     with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
 
+/// Trains into `a.out`; a run folder this call created is removed again
+/// if the run fails before writing anything into it.
 fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
     refuse_inside(&a.out, "--out", &a.data)?;
+    let created = !a.out.exists();
+    let out = a.out.clone();
+    let result = train_in(a, new_run);
+    if result.is_err() && created && std::fs::read_dir(&out).is_ok_and(|mut d| d.next().is_none()) {
+        let _ = std::fs::remove_dir(&out);
+    }
+    result
+}
+
+fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     create_dir(&a.out)?;
     let _lock = lock_run_dir(&a.out)?;
     let ckpt = a.out.join("checkpoint.bin");
     let held = ["checkpoint.bin", "model.nerf", "train.jsonl"].into_iter().find(|f| a.out.join(f).exists());
     if let (Some(f), false, false) = (held, a.resume, a.force) {
-        return Err(format!(
-            "{}: holds a run ({f}): continue it with --resume, or start over with --force",
-            a.out.display()
-        ));
+        return Err(match ckpt.is_file() {
+            true => {
+                format!("{}: holds a run ({f}): continue it with --resume, or start over with --force", a.out.display())
+            }
+            // a model without its checkpoint (copied, or exported there) cannot be continued
+            false => format!(
+                "{}: holds {f} and no checkpoint to resume from: start over with --force (replacing it), or choose \
+                 another --out",
+                a.out.display()
+            ),
+        });
     }
     let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
     let (mut tr, data) = if a.resume && ckpt.is_file() {
@@ -291,7 +229,7 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
         let run = new_run.ok_or("a configuration for a new run")?;
         let downscale = a.capture.downscale.unwrap_or(1);
         let data = load(downscale)?;
-        let cfg = run.for_data(&data);
+        let cfg = run.for_data(&data)?;
         if cfg.features.max_res != run.cfg.features.max_res {
             eprintln!(
                 "feature grid sized to the photos: finest level {} cells per axis (was {}), 2^{} table entries per \
@@ -418,7 +356,8 @@ fn train(a: Args, new_run: Option<NewRun>) -> CmdResult {
             Some(_) => tr.step,
             None => (tr.elapsed * 1000.0) as u64,
         });
-        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        // an interrupt at the last step lets the run finish: there would be nothing left to resume
+        if INTERRUPTS.load(Ordering::SeqCst) > 0 && progress_of(&tr) < 1.0 {
             pb.finish_and_clear();
             save(&tr, &a.out, &calib, a.prune, &data)?;
             return Err(format!(

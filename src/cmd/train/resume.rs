@@ -17,6 +17,10 @@ pub(super) fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
     if let Some(d) = a.capture.downscale.filter(|&d| d != tr.downscale) {
         return Err(format!("--downscale {d} differs from the checkpoint's {}: resume without it", tr.downscale));
     }
+    // a run resumes with its own seed (its random streams go on where they stopped)
+    if a.seed != 0 && a.seed != tr.seed {
+        return Err(format!("--seed {} differs from the checkpoint's {}: resume without it", a.seed, tr.seed));
+    }
     Ok(())
 }
 
@@ -25,7 +29,7 @@ pub(super) fn check_resume(a: &Args, tr: &Trainer) -> CmdResult {
 /// to `data` as a new run's would be).
 pub(super) fn check_resume_config(a: &Args, tr: &Trainer, data: &Dataset) -> CmdResult {
     if a.preset.is_some() || a.config.is_some() {
-        let cfg = load_config(a)?.for_data(data);
+        let cfg = load_config(a)?.for_data(data)?;
         if cfg != tr.cfg {
             let differ = cfg.differing_fields(&tr.cfg);
             return Err(format!(
