@@ -39,6 +39,7 @@ steps=(
   "plain-build|12|scripts/plain_build_lego.sh ROOT 10"
   "bench|12|scripts/bench.sh"
   "step|3|scripts/train_step.sh ROOT 3000 features grid"
+  "step-sizes|8|scripts/step_sizes.sh ROOT 1500 8 1"
   "mesh|12|scripts/mesh.sh ROOT"
   "mcu|25|scripts/mcu.sh ROOT"
   "web|13|scripts/web.sh models/scene_int8.nerf 'built-in scene, int8' && scripts/web.sh models/scene.nerf 'built-in scene, f32' && scripts/web.sh --lego ROOT"

@@ -692,7 +692,7 @@ thread.""", t if rs else missing("web"))
 
 def paper_section():
     rs = latest(rows("paper_table.csv"), "scene", "minutes")
-    body = [[r["scene"], f"{r['width']}×{r['height']}, {r['split']} ({r['views']} views)", r["minutes"],
+    body = [[r["scene"], f"{r['width']}×{r['height']}, {r['split']} ({r['views']} views)", f"{float(r['minutes']):.1f}",
              thousands(r["steps"]), f"**{float(r['psnr_f32']):.2f}**", f"{float(r['ssim_f32']):.3f}",
              f"{float(r['psnr_int8']):.2f}", f"{float(r['us_per_ray_f32']):.2f}", f"{float(r['us_per_ray_int8']):.2f}",
              f"{float(r['peak_mib']):.0f}", r["nerf_psnr"], r["nerf_ssim"], run(r)] for r in rs]
@@ -711,8 +711,32 @@ bench's: validation PSNR on two held-out views against training minutes,
 the scored PSNR last, the paper's figure dashed.""", (t + plots) if rs else missing("paper"))
 
 
+def step_sizes_section():
+    rs = latest(rows("step_sizes.csv"), "downscale", "config")
+    base = {r["config"]: r for r in rs if r["downscale"] == "8"}
+    body = []
+    for r in rs:
+        b = base.get("small")
+        ratio = f"{float(r['rays_per_sec']) / float(b['rays_per_sec']):.2f}" if b and b["commit"] == r["commit"] else ""
+        size = {"8": "100×100", "1": "800×800"}.get(r["downscale"], f"1/{r['downscale']}")
+        what = {"default": "sized to the photos", "small": "the 100×100 configuration"}.get(r["config"], r["config"])
+        body.append([size, what, thousands(r["rays_per_sec"]), ratio, r["samples_per_ray"], r["ms_per_step"], r["chunks"],
+                     r["scatter"], r["adam"], r["grid"], r["draw"], r["peak_mib"], run(r)])
+    t = table(["<photos", "<configuration", "rays/s", "× 100×100", "samples/ray", "ms/step", "chunks", "scatter", "Adam",
+               "grid", "draw", "peak MiB", "<run"], body)
+    return ("Training throughput against photo size", "step-sizes", """`scripts/step_sizes.sh DATA_ROOT 1500 8 1`:
+lego trained 1 500 steps at 100×100 and at 800×800, each with the default
+flags (the feature grid and the samples per ray sized to the photos: at
+800×800 a 2 048-cell finest level, 2¹⁸ entries per level and 512
+stratified samples) and with the configuration the 100×100 photos get
+(so that only the photos differ); rays per second, network samples per
+ray and the step's wall-clock stages in ms over the last 500 steps, and
+the run's peak memory. × 100×100: rays per second against the 100×100
+run with the same configuration.""", t if rs else missing("step-sizes"))
+
+
 SECTIONS = [default_section, full_section, paper_section, tradeoff_section, fast_int8_section, int8_section, table_bits_section, captures_section, proposal_section,
-            proposal_samples_section, main_samples_section, room_region_section, seeds_section, ray_instructions_section, capture_ab_section, masks_section, plain_build_section, bench_section, train_step_section,
+            proposal_samples_section, main_samples_section, room_region_section, seeds_section, ray_instructions_section, capture_ab_section, masks_section, plain_build_section, bench_section, train_step_section, step_sizes_section,
             mesh_section,
             mcu_section, web_section]
 
