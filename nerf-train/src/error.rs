@@ -135,6 +135,18 @@ impl fmt::Display for MeshError {
 
 impl std::error::Error for MeshError {}
 
+/// `v` as a message shows it: plain for ordinary magnitudes, in exponent
+/// form for the huge and the tiny (1e308 is not written out in 309 digits).
+/// An `f32` is written as its own shortest form (1e30, not the nearest f64).
+pub fn number<T: Into<f64> + Copy + fmt::Display + fmt::LowerExp>(v: T) -> String {
+    let x: f64 = v.into();
+    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,17 +161,5 @@ mod tests {
         );
         let source = std::error::Error::source(&e).and_then(|s| s.downcast_ref::<std::io::Error>());
         assert_eq!(source.map(|s| s.kind()), Some(std::io::ErrorKind::PermissionDenied));
-    }
-}
-
-/// `v` as a message shows it: plain for ordinary magnitudes, in exponent
-/// form for the huge and the tiny (1e308 is not written out in 309 digits).
-/// An `f32` is written as its own shortest form (1e30, not the nearest f64).
-pub fn number<T: Into<f64> + Copy + fmt::Display + fmt::LowerExp>(v: T) -> String {
-    let x: f64 = v.into();
-    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
     }
 }

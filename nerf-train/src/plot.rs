@@ -194,7 +194,7 @@ mod tests {
         let curve = vec![(1.0, 20.0), (2.0, 24.0), (3.0, 25.0)];
         let with = Panel { title: "lego".into(), curve: curve.clone(), reference: Some(32.5) };
         let without = Panel { title: "bird".into(), curve, reference: None };
-        panels(&path, "PSNR", &[with.clone()]).unwrap();
+        panels(&path, "PSNR", std::slice::from_ref(&with)).unwrap();
         let img = image::open(&path).unwrap().to_rgb8();
         let count = |img: &RgbImage, c: [u8; 3]| img.pixels().filter(|p| p.0 == c).count();
         assert!(count(&img, [210, 40, 40]) > 100, "the reference (red) is drawn");
