@@ -7,19 +7,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use support::cli::{fails, nerf, ok, s, tmp, BIN};
 
-/// A suite of two scenes of the built-in scene at 16×16: `lego` (Blender
-/// layout, so the paper's lego figure stands beside it) and `object` (a
-/// COLMAP capture); returns the suite folder and a tiny configuration.
 fn suite(d: &Path) -> (PathBuf, PathBuf) {
-    let scene = d.join("scene");
-    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
-    let suite = d.join("suite");
-    std::fs::create_dir_all(&suite).unwrap();
-    std::fs::rename(scene.join("blender"), suite.join("lego")).unwrap();
-    std::fs::rename(scene.join("colmap"), suite.join("object")).unwrap();
-    let cfg = d.join("tiny.json");
-    std::fs::write(&cfg, r#"{"depth": 2, "width": 16, "view_width": 8, "pos_freqs": 4, "batch_rays": 64}"#).unwrap();
-    (suite, cfg)
+    support::cli::bench_suite(d)
 }
 
 /// `nerf bench SUITE --out OUT` with the tiny configuration, `iters`

@@ -11,7 +11,7 @@ mod support;
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
-use support::cli::{ok, s, tmp, BIN};
+use support::cli::{s, tmp, BIN};
 
 /// Stops the cluster whose state lives in `dir` when dropped, however the test ends.
 struct Cluster(std::path::PathBuf);
@@ -30,14 +30,7 @@ fn repo() -> &'static Path {
 #[ignore = "needs root, Debian's Slurm packages and ports 6817-6818: run by .ci/run"]
 fn the_shipped_job_array_and_its_gather_job_write_the_table() {
     let d = tmp("slurm");
-    let scene = d.join("scene");
-    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
-    let suite = d.join("suite");
-    std::fs::create_dir_all(&suite).unwrap();
-    std::fs::rename(scene.join("blender"), suite.join("lego")).unwrap();
-    std::fs::rename(scene.join("colmap"), suite.join("object")).unwrap();
-    let cfg = d.join("tiny.json");
-    std::fs::write(&cfg, r#"{"depth": 2, "width": 16, "view_width": 8, "pos_freqs": 4, "batch_rays": 64}"#).unwrap();
+    let (suite, cfg) = support::cli::bench_suite(&d);
 
     let state = d.join("slurm");
     let started =

@@ -37,24 +37,36 @@ pub fn check_replaceable(path: &Path) -> io::Result<()> {
 /// the temporary file is removed and `path` is left as it was.
 pub fn write(path: &Path, bytes: &[u8]) -> io::Result<()> {
     check_replaceable(path)?;
-    let dir = match path.parent() {
+    let tmp = written_beside(path, bytes)?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    // the rename is durable once the directory is flushed (not possible on every platform: best effort)
+    if let Ok(d) = std::fs::File::open(folder_of(path)) {
+        let _ = d.sync_all();
+    }
+    Ok(())
+}
+
+/// The folder `path` is in (`.` for a bare file name).
+fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
-    };
+    }
+}
+
+/// `bytes` in a new temporary file beside `path` (`.tmpXXXXXX`, created
+/// exclusively, mode 0666 less the umask), flushed to disk; removed when
+/// dropped unless persisted.
+fn written_beside(path: &Path, bytes: &[u8]) -> io::Result<tempfile::NamedTempFile> {
     let mut builder = tempfile::Builder::new();
     builder.prefix(".tmp");
     // as File::create: mode 0666 less the umask (tempfile's own default, 0600, would hide outputs from other users)
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let mut tmp = builder.tempfile_in(dir)?;
+    let mut tmp = builder.tempfile_in(folder_of(path))?;
     tmp.write_all(bytes)?;
     tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| e.error)?;
-    // the rename is durable once the directory is flushed (not possible on every platform: best effort)
-    if let Ok(d) = std::fs::File::open(dir) {
-        let _ = d.sync_all();
-    }
-    Ok(())
+    Ok(tmp)
 }
 
 /// Writes `bytes` to `path` atomically if nothing is there yet: the file
@@ -62,18 +74,7 @@ pub fn write(path: &Path, bytes: &[u8]) -> io::Result<()> {
 /// machine or over a network file system) exactly one succeeds. Returns
 /// `Ok(false)`, writing nothing, when `path` already exists.
 pub fn write_new(path: &Path, bytes: &[u8]) -> io::Result<bool> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".tmp");
-    #[cfg(unix)]
-    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let mut tmp = builder.tempfile_in(dir)?;
-    tmp.write_all(bytes)?;
-    tmp.as_file().sync_all()?;
-    match tmp.persist_noclobber(path) {
+    match written_beside(path, bytes)?.persist_noclobber(path) {
         Ok(_) => Ok(true),
         Err(e) if e.error.kind() == io::ErrorKind::AlreadyExists => Ok(false),
         Err(e) => Err(e.error),

@@ -46,3 +46,19 @@ pub fn blender_scene(dir: &Path, size: u32, train: u32) -> PathBuf {
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
+
+/// A suite of two scenes of the built-in scene at 16×16 under `dir/suite`
+/// for `nerf bench`: `lego` (Blender layout, so the paper's lego figure
+/// stands beside it) and `object` (a COLMAP capture); returns the suite
+/// folder and a tiny configuration (`dir/tiny.json`).
+pub fn bench_suite(dir: &Path) -> (PathBuf, PathBuf) {
+    let scene = dir.join("scene");
+    ok(&["scene", "--out", s(&scene), "--size", "16", "--train", "6"]);
+    let suite = dir.join("suite");
+    std::fs::create_dir_all(&suite).unwrap();
+    std::fs::rename(scene.join("blender"), suite.join("lego")).unwrap();
+    std::fs::rename(scene.join("colmap"), suite.join("object")).unwrap();
+    let cfg = dir.join("tiny.json");
+    std::fs::write(&cfg, r#"{"depth": 2, "width": 16, "view_width": 8, "pos_freqs": 4, "batch_rays": 64}"#).unwrap();
+    (suite, cfg)
+}
