@@ -135,12 +135,12 @@ impl fmt::Display for MeshError {
 
 impl std::error::Error for MeshError {}
 
-/// `v` as a message shows it: plain for ordinary magnitudes, in exponent
-/// form for the huge and the tiny (1e308 is not written out in 309 digits).
+/// `v` as a message shows it: plain up to 10¹⁵, in exponent form for the
+/// huge and the tiny (1e308 is not written out in 309 digits).
 /// An `f32` is written as its own shortest form (1e30, not the nearest f64).
 pub fn number<T: Into<f64> + Copy + fmt::Display + fmt::LowerExp>(v: T) -> String {
     let x: f64 = v.into();
-    if x != 0.0 && x.is_finite() && !(1e-4..1e6).contains(&x.abs()) {
+    if x != 0.0 && x.is_finite() && !(1e-4..1e15).contains(&x.abs()) {
         format!("{v:e}")
     } else {
         format!("{v}")
