@@ -80,6 +80,9 @@ fn kind(out: &Path) -> Result<Kind, String> {
 pub fn run(a: Args) -> CmdResult {
     let kind = kind(&a.out)?;
     refuse_same_file(&a.out, "--out", &a.model)?;
+    if !(a.threshold.is_finite() && a.threshold > 0.0) {
+        return Err(format!("--threshold {}: must be a positive density", a.threshold));
+    }
     match std::fs::symlink_metadata(&a.out) {
         Ok(m) if m.is_dir() => {
             return Err(format!("--out {}: is a folder; give a file ending in .ply or .obj", a.out.display()))
@@ -88,9 +91,6 @@ pub fn run(a: Args) -> CmdResult {
             return Err(format!("--out {}: exists; replace it with --force, or choose another file", a.out.display()))
         }
         _ => {}
-    }
-    if !(a.threshold.is_finite() && a.threshold > 0.0) {
-        return Err(format!("--threshold {}: must be a positive density", a.threshold));
     }
     let bytes = read_model(&a.model)?;
     let m = decode(&a.model, &bytes)?;
