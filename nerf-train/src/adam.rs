@@ -92,11 +92,38 @@ impl Adam {
     /// table parameter by `1 − lr·λ`, reached by a ray or not.
     #[allow(clippy::too_many_arguments)]
     pub fn update(&mut self, p: &mut [f32], g: &[f32], lr: f32, b1: f32, b2: f32, eps: f32, table_decay: f32) {
+        self.update_averaged(p, g, lr, b1, b2, eps, table_decay, None);
+    }
+
+    /// [`Adam::update`], then with `average` `(a, b)` each parameter folded
+    /// into its moving average in the same pass: `a ← a + (1 − b)(p − a)`
+    /// (`b` in [0, 1]; `a` holds as many values as `p`). The same values as
+    /// the update followed by a separate pass, in one parallel sweep over
+    /// the parameters (a feature grid's table makes tens of megabytes).
+    #[allow(clippy::too_many_arguments)]
+    pub fn update_averaged(
+        &mut self,
+        p: &mut [f32],
+        g: &[f32],
+        lr: f32,
+        b1: f32,
+        b2: f32,
+        eps: f32,
+        table_decay: f32,
+        average: Option<(&mut [f32], f32)>,
+    ) {
         assert!(p.len() == self.m.len() && g.len() == self.m.len(), "{} parameters, {} gradients", p.len(), g.len());
         self.t += 1;
         let k = self.t.min(u32::MAX as u64) as u32;
         let bc = (correction(b1, k), correction(b2, k));
         let from = self.m.len() - self.steps.len();
+        let (average, b) = match average {
+            Some((a, b)) => {
+                assert_eq!(a.len(), p.len(), "an average of every parameter");
+                (Some(a), b)
+            }
+            None => (None, 1.0),
+        };
         // element-wise: split in blocks across threads (a feature grid's
         // table makes millions of parameters)
         const BLOCK: usize = 1 << 16;
@@ -104,11 +131,24 @@ impl Adam {
         let (g, gs) = g.split_at(from);
         let (m, ms) = self.m.split_at_mut(from);
         let (v, vs) = self.v.split_at_mut(from);
+        let (a, a_s) = match average {
+            Some(a) => {
+                let (x, y) = a.split_at_mut(from);
+                (blocks_of(Some(x), p.len(), BLOCK), blocks_of(Some(y), ps.len(), BLOCK))
+            }
+            None => (blocks_of(None, p.len(), BLOCK), blocks_of(None, ps.len(), BLOCK)),
+        };
+        let fold = |p: &[f32], a: Option<&mut [f32]>| {
+            if let Some(a) = a {
+                a.iter_mut().zip(p).for_each(|(a, &p)| *a += (1.0 - b) * (p - *a));
+            }
+        };
         let blocks = p.par_chunks_mut(BLOCK).zip(g.par_chunks(BLOCK)).zip(m.par_chunks_mut(BLOCK));
-        blocks.zip(v.par_chunks_mut(BLOCK)).for_each(|(((p, g), m), v)| {
-            for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m).zip(v) {
+        blocks.zip(v.par_chunks_mut(BLOCK)).zip(a).for_each(|((((p, g), m), v), a)| {
+            for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
                 step(p, g, m, v, bc, lr, b1, b2, eps);
             }
+            fold(p, a);
         });
         if self.steps.is_empty() {
             return;
@@ -118,8 +158,8 @@ impl Adam {
         let keep = 1.0 - lr * table_decay;
         let blocks = ps.par_chunks_mut(BLOCK).zip(gs.par_chunks(BLOCK)).zip(ms.par_chunks_mut(BLOCK));
         let blocks = blocks.zip(vs.par_chunks_mut(BLOCK)).zip(self.steps.par_chunks_mut(BLOCK));
-        blocks.for_each(|((((p, g), m), v), steps)| {
-            for ((((p, &g), m), v), k) in p.iter_mut().zip(g).zip(m).zip(v).zip(steps) {
+        blocks.zip(a_s).for_each(|(((((p, g), m), v), steps), a)| {
+            for ((((p, &g), m), v), k) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()).zip(steps) {
                 if keep != 1.0 {
                     *p *= keep;
                 }
@@ -129,7 +169,17 @@ impl Adam {
                 *k = k.saturating_add(1);
                 step(p, g, m, v, bias.at(*k), lr, b1, b2, eps);
             }
+            fold(p, a);
         });
+    }
+}
+
+/// `values` (when given, `len` of them) in blocks of `block`, or as many
+/// `None`s as `len` makes blocks: one item per block of the parameters.
+fn blocks_of(values: Option<&mut [f32]>, len: usize, block: usize) -> Vec<Option<&mut [f32]>> {
+    match values {
+        Some(v) => v.chunks_mut(block).map(Some).collect(),
+        None => (0..len.div_ceil(block)).map(|_| None).collect(),
     }
 }
 
@@ -203,6 +253,28 @@ mod tests {
             assert_eq!(b.at(k), (correction(0.9, k), correction(0.999, k)), "step {k}");
         }
         assert_eq!(b.at(n + 1), (1.0, 1.0));
+    }
+
+    #[test]
+    fn the_folded_average_is_the_update_then_the_average() {
+        // more values than a block, a table among them, some gradients zero
+        let n = (1 << 16) + 1000;
+        let (mut fused, mut apart) = (Adam::new(n, n - 300), Adam::new(n, n - 300));
+        let mut p: Vec<f32> = (0..n).map(|i| (i % 13) as f32 * 0.1).collect();
+        let mut q = p.clone();
+        let (mut a, mut b) = (p.clone(), p.clone());
+        for k in 0..5 {
+            let g: Vec<f32> =
+                (0..n).map(|i| if (i + k) % 3 == 0 { 0.0 } else { ((i * 7 + k) % 11) as f32 - 5.0 }).collect();
+            let d = 0.9 - 0.1 * k as f32;
+            fused.update_averaged(&mut p, &g, 0.01, 0.9, 0.99, 1e-15, 0.5, Some((&mut a, d)));
+            apart.update(&mut q, &g, 0.01, 0.9, 0.99, 1e-15, 0.5);
+            b.iter_mut().zip(&q).for_each(|(b, &q)| *b += (1.0 - d) * (q - *b));
+        }
+        assert_eq!(p, q);
+        assert_eq!(a, b);
+        assert_eq!(fused.steps, apart.steps);
+        assert_ne!(a, p, "the average lags the parameters");
     }
 
     #[test]

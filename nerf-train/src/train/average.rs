@@ -3,18 +3,6 @@
 
 use super::*;
 
-/// Folds `params` into their moving average `ema` with decay `b`:
-/// `ema ← b·ema + (1 − b)·params`, or a copy of `params` when `ema` does
-/// not hold as many (the first step).
-pub(super) fn average_into(ema: &mut Vec<f32>, params: &[f32], b: f32) {
-    if ema.len() != params.len() {
-        ema.clear();
-        ema.extend_from_slice(params);
-        return;
-    }
-    ema.iter_mut().zip(params).for_each(|(a, &p)| *a += (1.0 - b) * (p - *a));
-}
-
 impl Trainer {
     /// The run as its model takes it: with a parameters' average
     /// ([`OptimiserConfig::ema_decay`](crate::config::OptimiserConfig::ema_decay)), a copy holding the average as its

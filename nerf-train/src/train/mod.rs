@@ -49,7 +49,6 @@ mod pose_pass;
 mod proposal_pass;
 mod samples;
 mod step;
-use average::average_into;
 pub use batch::*;
 pub use calibrate::*;
 pub use checkpoint::*;

@@ -37,7 +37,7 @@ impl GradPool {
     }
     /// Returns a buffer (zeroed here) for later steps.
     pub(super) fn give(&self, mut v: Vec<f32>) {
-        v.fill(0.0);
+        v.par_chunks_mut(1 << 16).for_each(|b| b.fill(0.0));
         if let Ok(mut p) = self.0.lock() {
             p.push(v);
         }

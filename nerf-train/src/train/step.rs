@@ -52,15 +52,20 @@ impl Trainer {
             skipped: false,
             times,
         };
-        if !loss.is_finite() || grad.iter().any(|g| !g.is_finite()) {
+        if !loss.is_finite() || !all_finite(&grad) {
             self.skipped += 1;
             stats.skipped = true;
         } else {
             let lr = self.learning_rate(progress);
             let c = &self.cfg;
             let (p, adam) = (&mut self.params, &mut self.adam);
+            // the parameters' moving average folded in Adam's sweep; the first step's is a copy
+            let decay = c.optimiser.ema_decay;
+            // ema ← b·ema + (1 − b)·params, b rising to `decay` over the first steps
+            let b = decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
+            let folded = decay > 0.0 && self.ema.len() == p.len();
             timed(&mut stats.times.adam, || {
-                adam.update(
+                adam.update_averaged(
                     p,
                     &grad,
                     lr,
@@ -68,11 +73,11 @@ impl Trainer {
                     c.optimiser.beta2,
                     c.optimiser.eps,
                     c.optimiser.feature_decay,
+                    folded.then_some((&mut self.ema[..], b)),
                 )
             });
-            if c.optimiser.ema_decay > 0.0 {
-                let b = c.optimiser.ema_decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
-                timed(&mut stats.times.adam, || average_into(&mut self.ema, p, b));
+            if decay > 0.0 && !folded {
+                self.ema.clone_from(p);
             }
             let lr_p = c.optimiser.proposal_lr * lr / c.optimiser.lr;
             timed(&mut stats.times.adam, || self.step_proposal(lr_p));
@@ -260,4 +265,10 @@ impl Trainer {
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)
     }
+}
+
+/// Whether every value of `g` is finite (tens of megabytes with a feature
+/// grid's table: checked in parallel blocks).
+fn all_finite(g: &[f32]) -> bool {
+    g.par_chunks(1 << 16).all(|b| b.iter().all(|g| g.is_finite()))
 }
