@@ -7,6 +7,7 @@ pub mod eval;
 pub mod export;
 pub mod fit;
 pub mod info;
+pub mod interrupt;
 pub mod mesh;
 pub mod outdir;
 pub mod render;
@@ -322,6 +323,19 @@ pub fn lock_run_dir(dir: &Path) -> Result<std::fs::File, String> {
     Ok(f)
 }
 
+/// `p` as a POSIX shell word, for the commands printed as hints: left as
+/// it is when it holds only characters a shell reads literally, else in
+/// single quotes (a `'` inside becomes `'\''`).
+pub fn shell_quote(p: &Path) -> String {
+    let s = p.to_string_lossy();
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-./=:,+@%".contains(c);
+    if !s.is_empty() && s.chars().all(plain) {
+        s.into_owned()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
 /// Creates an output directory, naming it on failure.
 pub fn create_dir(dir: &Path) -> Result<(), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create directory: {e}", dir.display()))
@@ -368,5 +382,16 @@ mod tests {
         same(render, render::Args::orbit("m.nerf".into(), 24, "o".into()));
         let tradeoff = parsed::<tradeoff::Args>(&["tradeoff", "m.nerf", "--data", "d", "--out", "o"]);
         same(tradeoff, tradeoff::Args::new("m.nerf".into(), "d".into(), "o".into()));
+    }
+
+    #[test]
+    fn hints_quote_paths_a_shell_would_split_or_run() {
+        let q = |p: &str| shell_quote(Path::new(p));
+        assert_eq!(q("runs/lego-2.5"), "runs/lego-2.5");
+        assert_eq!(q("my runs/a"), "'my runs/a'");
+        assert_eq!(q("a;rm -rf x"), "'a;rm -rf x'");
+        assert_eq!(q("it's"), "'it'\\''s'");
+        assert_eq!(q("$HOME"), "'$HOME'");
+        assert_eq!(q(""), "''");
     }
 }

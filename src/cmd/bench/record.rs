@@ -60,7 +60,7 @@ impl Settings {
             return Err(format!(
                 "{}: no bench has run here (no {RECORD}): run `nerf bench SUITE --out {}` or its --task I first",
                 out.display(),
-                out.display()
+                crate::cmd::shell_quote(out)
             ));
         }
         let text = nerf_train::userfile::read_user_text(&path, nerf_train::userfile::MAX_JSON, "bench record")?;

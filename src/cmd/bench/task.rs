@@ -163,7 +163,8 @@ fn run_scene(settings: &Settings, scene: &Scene, dir: &Path, threads: usize, row
         })
     };
     let stopped = || {
-        train::interrupted().then(|| "interrupted: the same nerf bench command (or its --task) resumes it".to_string())
+        crate::cmd::interrupt::received()
+            .then(|| "interrupted: the same nerf bench command (or its --task) resumes it".to_string())
     };
     let finished = |tr: &Trainer| match (settings.iters, settings.minutes) {
         (Some(n), _) => tr.step >= n,

@@ -17,7 +17,6 @@ use nerf_train::rng::Rng;
 use nerf_train::timing::StepTimes;
 use nerf_train::train::{Draw, Trainer};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
 
 mod new_run;
@@ -115,26 +114,6 @@ fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Pr
     // resumes from the earlier checkpoint and writes the model again)
     write_atomic(&out.join("model.nerf"), &bytes)?;
     write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes().map_err(|e| e.to_string())?)
-}
-
-/// Interrupt signals (Ctrl-C, SIGTERM) received during training.
-static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
-
-/// Whether an interrupt (Ctrl-C, SIGTERM) has reached this process since a
-/// training run installed its handler: a command that goes on after
-/// training (`nerf bench`) stops too.
-pub fn interrupted() -> bool {
-    INTERRUPTS.load(Ordering::SeqCst) > 0
-}
-
-/// The first Ctrl-C or SIGTERM asks the loop to checkpoint and stop after
-/// the current step; a second one exits at once (outputs are atomic).
-fn catch_interrupts() {
-    let _ = ctrlc::set_handler(|| {
-        if INTERRUPTS.fetch_add(1, Ordering::SeqCst) > 0 {
-            std::process::exit(130);
-        }
-    });
 }
 
 impl Args {
@@ -286,7 +265,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     };
     let pb = progress(total, "{bar:30} {pos}/{len} ({eta}) {msg}");
     let mut log = RunLog::open(&a.out.join("train.jsonl"), a.resume.then_some(tr.step))?;
-    catch_interrupts();
+    super::interrupt::catch();
     let mlp = tr.mlp();
     let flops_per_sample = 6.0 * mlp.macs_per_sample() as f64;
     let (mut last_ckpt, mut last_val) = (tr.elapsed, tr.elapsed);
@@ -357,7 +336,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
             None => (tr.elapsed * 1000.0) as u64,
         });
         // an interrupt at the last step lets the run finish: there would be nothing left to resume
-        if INTERRUPTS.load(Ordering::SeqCst) > 0 && progress_of(&tr) < 1.0 {
+        if super::interrupt::received() && progress_of(&tr) < 1.0 {
             pb.finish_and_clear();
             save(&tr, &a.out, &calib, a.prune, &data)?;
             return Err(format!(
