@@ -73,6 +73,7 @@ fn exit_quietly_on_closed_pipe() {
 
 /// Runs one subcommand.
 fn dispatch(command: Command) -> cmd::CmdResult {
+    cmd::interrupt::install();
     match command {
         Command::Train(a) => cmd::train::run(a),
         Command::Eval(a) => cmd::eval::run(a),

@@ -330,3 +330,65 @@ fn messages_point_to_what_works_and_failures_leave_no_folders() {
     assert!(!o.status.success());
     assert!(!site.exists(), "web made its folder for a damaged model");
 }
+
+/// Every file name under `dir` (relative), sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> =
+        snapshot(dir).into_iter().map(|(p, _)| p.strip_prefix(dir).unwrap().to_string_lossy().into_owned()).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn an_interrupted_render_or_scene_leaves_what_its_rerun_replaces() {
+    let d = tmp("hostile-interrupt");
+    let model = model_file();
+    let out = d.join("frames");
+    let cases: [(&str, Vec<&str>, &str); 2] = [
+        ("render", vec!["render", &model, "--orbit", "2000", "--size", "24", "--out", s(&out)], "orbit_001.png"),
+        ("scene", vec!["scene", "--size", "64", "--out", s(&out)], "blender"),
+    ];
+    for (what, args, first) in cases {
+        let child = Command::new(BIN).args(&args).stderr(Stdio::piped()).spawn().unwrap();
+        let t = std::time::Instant::now();
+        while !out.join(first).exists() {
+            assert!(t.elapsed().as_secs() < 60, "{what}: nothing written");
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        // SAFETY: a signal to the child this test started.
+        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
+        let o = child.wait_with_output().unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{what}: {e}");
+        assert!(e.contains("interrupted after") && e.contains("the same command replaces them"), "{what}: {e}");
+        assert!(!listing(&out).iter().any(|n| n.contains(".tmp")), "{what}: {:?}", listing(&out));
+        // the same command, shorter, replaces every output of the interrupted one
+        let rerun: Vec<&str> = args.iter().map(|a| if *a == "2000" { "2" } else { a }).collect();
+        ok(&rerun);
+        if what == "render" {
+            assert!(listing(&out).iter().filter(|n| n.ends_with(".png")).all(|n| n.starts_with("orbit_00")));
+        }
+        std::fs::remove_dir_all(&out).unwrap();
+    }
+}
+
+#[test]
+fn a_camera_path_frame_too_large_is_refused_before_rendering() {
+    let d = tmp("hostile-frame-size");
+    let path = d.join("path.json");
+    let cam = "[1,0,0,0, 0,1,0,0, 0,0,1,3, 0,0,0,1]";
+    std::fs::write(
+        &path,
+        format!(
+            r#"{{"camera_type": "perspective", "render_height": 4096, "render_width": 41, "fps": 1, "seconds": 1,
+            "keyframes": [], "camera_path": [{{"camera_to_world": {cam}, "fov": 50, "aspect": 0.01}}]}}"#
+        ),
+    )
+    .unwrap();
+    let out = d.join("out");
+    fails_naming(
+        &["render", &model_file(), "--camera-path", s(&path), "--size", "4096", "--out", s(&out)],
+        &["4096×409600", "at most 16384", "--size"],
+    );
+    assert!(!out.exists(), "nothing written");
+}

@@ -10,9 +10,38 @@
 //! replaced: a device node, FIFO, socket or directory at the target is
 //! refused, and so is a symbolic link (renaming over it would replace the
 //! link, not the file it points to, which is never what was meant).
+//!
+//! The temporary files being written are listed ([`remove_in_flight`]), so
+//! that a program stopped by a signal can remove them before it exits.
 
 use std::io::{self, Cursor, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// The temporary files this process is writing.
+static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// A temporary file listed in [`IN_FLIGHT`] while it lives.
+struct Listed(PathBuf);
+
+impl Drop for Listed {
+    fn drop(&mut self) {
+        if let Ok(mut l) = IN_FLIGHT.lock() {
+            l.retain(|p| *p != self.0);
+        }
+    }
+}
+
+/// Removes the temporary files this process is writing (for a signal
+/// handler about to exit: a write it cuts short leaves nothing). Does
+/// nothing if the list is held at that moment.
+pub fn remove_in_flight() {
+    if let Ok(l) = IN_FLIGHT.try_lock() {
+        for p in l.iter() {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
 
 /// Fails unless `path` is absent or a regular file (not a symlink).
 pub fn check_replaceable(path: &Path) -> io::Result<()> {
@@ -37,7 +66,7 @@ pub fn check_replaceable(path: &Path) -> io::Result<()> {
 /// the temporary file is removed and `path` is left as it was.
 pub fn write(path: &Path, bytes: &[u8]) -> io::Result<()> {
     check_replaceable(path)?;
-    let tmp = written_beside(path, bytes)?;
+    let (tmp, _listed) = written_beside(path, bytes)?;
     tmp.persist(path).map_err(|e| e.error)?;
     // the rename is durable once the directory is flushed (not possible on every platform: best effort)
     if let Ok(d) = std::fs::File::open(folder_of(path)) {
@@ -56,17 +85,22 @@ fn folder_of(path: &Path) -> &Path {
 
 /// `bytes` in a new temporary file beside `path` (`.tmpXXXXXX`, created
 /// exclusively, mode 0666 less the umask), flushed to disk; removed when
-/// dropped unless persisted.
-fn written_beside(path: &Path, bytes: &[u8]) -> io::Result<tempfile::NamedTempFile> {
+/// dropped unless persisted, and listed for [`remove_in_flight`] while the
+/// second value lives.
+fn written_beside(path: &Path, bytes: &[u8]) -> io::Result<(tempfile::NamedTempFile, Listed)> {
     let mut builder = tempfile::Builder::new();
     builder.prefix(".tmp");
     // as File::create: mode 0666 less the umask (tempfile's own default, 0600, would hide outputs from other users)
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
     let mut tmp = builder.tempfile_in(folder_of(path))?;
+    let listed = Listed(tmp.path().to_path_buf());
+    if let Ok(mut l) = IN_FLIGHT.lock() {
+        l.push(listed.0.clone());
+    }
     tmp.write_all(bytes)?;
     tmp.as_file().sync_all()?;
-    Ok(tmp)
+    Ok((tmp, listed))
 }
 
 /// Writes `bytes` to `path` atomically if nothing is there yet: the file
@@ -74,7 +108,8 @@ fn written_beside(path: &Path, bytes: &[u8]) -> io::Result<tempfile::NamedTempFi
 /// machine or over a network file system) exactly one succeeds. Returns
 /// `Ok(false)`, writing nothing, when `path` already exists.
 pub fn write_new(path: &Path, bytes: &[u8]) -> io::Result<bool> {
-    match written_beside(path, bytes)?.persist_noclobber(path) {
+    let (tmp, _listed) = written_beside(path, bytes)?;
+    match tmp.persist_noclobber(path) {
         Ok(_) => Ok(true),
         Err(e) if e.error.kind() == io::ErrorKind::AlreadyExists => Ok(false),
         Err(e) => Err(e.error),
@@ -91,4 +126,25 @@ where
     let mut buf = Cursor::new(Vec::new());
     img.write_to(&mut buf, image::ImageFormat::Png).map_err(io::Error::other)?;
     write(path, buf.get_ref())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn temporary_files_are_listed_while_they_live_and_a_signal_handler_can_remove_them() {
+        let d = tempfile::tempdir().unwrap();
+        let target = d.path().join("model.nerf");
+        let (tmp, listed) = written_beside(&target, b"bytes").unwrap();
+        let path = tmp.path().to_path_buf();
+        assert!(IN_FLIGHT.lock().unwrap().contains(&path));
+        remove_in_flight();
+        assert!(!path.exists(), "removed");
+        drop((tmp, listed));
+        assert!(!IN_FLIGHT.lock().unwrap().contains(&path), "unlisted when dropped");
+        write(&target, b"whole").unwrap();
+        assert!(IN_FLIGHT.lock().unwrap().is_empty(), "a finished write leaves nothing listed");
+        assert_eq!(std::fs::read(&target).unwrap(), b"whole");
+    }
 }

@@ -163,6 +163,13 @@ pub fn run(a: Args) -> CmdResult {
             return Err("give --data DIR --split S, --orbit N, --data DIR --trajectory N, or --camera-path FILE".into())
         }
     };
+    // a frame's size, checked before any is allocated: a camera path's aspect sets its height
+    if let Some((name, (w, h))) = cams.iter().map(|(n, c)| (n, c.size())).find(|(_, (w, h))| *w.max(h) > MAX_SIDE) {
+        return Err(format!(
+            "{name}: a frame of {w}×{h} pixels (at most {MAX_SIDE} on a side){}; give a smaller --size",
+            if a.camera_path.is_some() { ", from the camera path's aspect and --size" } else { "" }
+        ));
+    }
     let opts = RenderOptions::from_model(&model);
     let (near, far) = (model.scene.near, model.scene.far);
     // depth PNG step: far in 65535 steps
@@ -182,6 +189,8 @@ pub fn run(a: Args) -> CmdResult {
         ));
     }
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "render", super::outdir::Earlier::Replace, a.force)?;
+    // stopped between views: the folder's record names what was written, which the same command replaces
+    super::interrupt::catch();
     super::write_atomic(&a.out.join("depth.json"), meta.to_string().as_bytes())?;
     if let Some(path) = &path {
         // the path as nerfstudio's camera_path.json, to edit and render again with --camera-path
@@ -190,7 +199,10 @@ pub fn run(a: Args) -> CmdResult {
     }
     let pb = super::progress(cams.len() as u64, "{bar:30} {pos}/{len} views ({eta})");
     let mut frames = Vec::new();
-    for (name, cam) in &cams {
+    for (k, (name, cam)) in cams.iter().enumerate() {
+        if super::interrupt::received() {
+            return Err(format!("interrupted after {k} of {} views; the same command replaces them", cams.len()));
+        }
         let r = with_threads(a.threads, || render_view(&model, opts, cam.as_ref()))?
             .map_err(|e| format!("{}: {e}", a.model.display()))?;
         save_png_rgb(&a.out.join(format!("{name}.png")), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
@@ -208,6 +220,9 @@ pub fn run(a: Args) -> CmdResult {
     eprintln!("wrote {} views to {}", cams.len(), a.out.display());
     Ok(())
 }
+
+/// Most pixels on a side of a rendered frame.
+const MAX_SIDE: u32 = 16_384;
 
 /// Most memory the frames of one GIF may take (4 GB).
 const MAX_GIF_BYTES: u64 = 4_000_000_000;

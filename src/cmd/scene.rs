@@ -35,12 +35,23 @@ impl Args {
 pub fn run(a: Args) -> CmdResult {
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "scene", super::outdir::Earlier::Replace, a.force)?;
     let spec = SceneSpec { size: a.size, train: a.train, ..SceneSpec::default() };
-    write_blender(&a.out.join("blender"), spec).map_err(|e| e.to_string())?;
-    write_llff(&a.out.join("llff"), spec).map_err(|e| e.to_string())?;
-    write_colmap(&a.out.join("colmap"), spec, ColmapText::Binary, false).map_err(|e| e.to_string())?;
-    write_colmap(&a.out.join("colmap_text"), spec, ColmapText::Text, false).map_err(|e| e.to_string())?;
-    write_colmap(&a.out.join("room"), spec, ColmapText::Binary, true).map_err(|e| e.to_string())?;
-    write_llff_room(&a.out.join("room_llff"), spec).map_err(|e| e.to_string())?;
+    // stopped between captures: the folder's record names what was written, which the same command replaces
+    super::interrupt::catch();
+    type Write = fn(&std::path::Path, SceneSpec) -> Result<(), nerf_train::dataset::DataError>;
+    let captures: [(&str, Write); 6] = [
+        ("blender", write_blender),
+        ("llff", write_llff),
+        ("colmap", |d, s| write_colmap(d, s, ColmapText::Binary, false)),
+        ("colmap_text", |d, s| write_colmap(d, s, ColmapText::Text, false)),
+        ("room", |d, s| write_colmap(d, s, ColmapText::Binary, true)),
+        ("room_llff", write_llff_room),
+    ];
+    for (k, (name, write)) in captures.iter().enumerate() {
+        if super::interrupt::received() {
+            return Err(format!("interrupted after {k} of 6 captures; the same command replaces them"));
+        }
+        write(&a.out.join(name), spec).map_err(|e| e.to_string())?;
+    }
     eprintln!("wrote {} (blender/, llff/, colmap/, colmap_text/, room/, room_llff/)", a.out.display());
     Ok(())
 }

@@ -12,7 +12,6 @@
 use super::{num_in, CmdResult};
 use nerf_train::config::Preset;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU32, Ordering};
 
 mod record;
 mod score;
@@ -66,11 +65,6 @@ pub struct Args {
     #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
     pub(crate) threads: usize,
 }
-
-/// Interrupt signals received by a run that runs its tasks as children.
-static INTERRUPTS: AtomicU32 = AtomicU32::new(0);
-/// The running child's process id (0: none), to pass an interrupt on.
-static CHILD: AtomicU32 = AtomicU32::new(0);
 
 /// Runs `nerf bench`.
 pub fn run(a: Args) -> CmdResult {
@@ -127,23 +121,13 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
     // `bench` first, then `--task I`, then the rest as given (a `--` among them stays last)
     let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
     let at = args.iter().position(|a| a == "bench").map_or(0, |i| i + 1);
-    let _ = ctrlc::set_handler(|| {
-        INTERRUPTS.fetch_add(1, Ordering::SeqCst);
-        let child = CHILD.load(Ordering::SeqCst);
-        if child != 0 {
-            #[cfg(unix)]
-            // SAFETY: sends a signal to the child this process started and waits for; no memory is shared.
-            unsafe {
-                libc::kill(child as libc::pid_t, libc::SIGTERM);
-            }
-        }
-    });
+    super::interrupt::forward_to(0);
     let interrupted = |name: &str| {
         Err(format!("interrupted during scene {name}: the same command resumes the suite where it stopped"))
     };
     let n = settings.scenes.len();
     for (i, s) in settings.scenes.iter().enumerate() {
-        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        if super::interrupt::received() {
             return interrupted(&s.name);
         }
         if task::done(out, s) {
@@ -158,10 +142,10 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
         #[cfg(unix)]
         std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
         let mut child = cmd.spawn().map_err(|e| format!("cannot start task {i} ({}): {e}", exe.display()))?;
-        CHILD.store(child.id(), Ordering::SeqCst);
+        super::interrupt::forward_to(child.id());
         let status = child.wait().map_err(|e| format!("task {i}: {e}"))?;
-        CHILD.store(0, Ordering::SeqCst);
-        if INTERRUPTS.load(Ordering::SeqCst) > 0 {
+        super::interrupt::forward_to(0);
+        if super::interrupt::received() {
             return interrupted(&s.name);
         }
         if !status.success() {
