@@ -323,6 +323,20 @@ fn messages_point_to_what_works_and_failures_leave_no_folders() {
     let gone = d.join("gone");
     fails(&["train", "--data", s(&d.join("no-such-data")), "--iters", "2", "--out", s(&gone)]);
     assert!(!gone.exists());
+    // the run's data moved: resumed from the new folder (the same capture), with a note
+    let moved = d.join("moved data");
+    std::fs::rename(&data, &moved).unwrap();
+    let o = nerf(&["train", "--data", s(&moved), "--iters", "4", "--out", s(&run), "--resume", "--val-views", "0"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && e.contains("note: the run trained on") && e.contains("resuming with it"), "{e}");
+    fails_naming(
+        &["train", "--data", s(&moved), "--iters", "6", "--out", s(&run), "--resume", "--llffhold", "4"],
+        &["loading flags (--llffhold 4 --scene auto) differ from the run's (--llffhold 8 --scene auto)"],
+    );
+    fails_naming(
+        &["train", "--data", s(&moved), "--iters", "2", "--out", s(&d.join("r")), "--sparse-model", "1"],
+        &["--sparse-model 1: only a COLMAP capture", "a Blender capture"],
+    );
     let broken = d.join("broken.nerf");
     std::fs::write(&broken, b"NERF and then nothing").unwrap();
     let site = d.join("site");
@@ -391,4 +405,25 @@ fn a_camera_path_frame_too_large_is_refused_before_rendering() {
         &["4096×409600", "at most 16384", "--size"],
     );
     assert!(!out.exists(), "nothing written");
+}
+
+/// A run that learned something for each photo resumes only on the photos
+/// it learned them for.
+#[test]
+fn a_resume_refuses_a_capture_whose_photos_changed() {
+    use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
+    let d = tmp("hostile-resume-photos");
+    let data = d.join("capture");
+    write_colmap(&data, SceneSpec { size: 16, train: 8, val: 2, test: 0 }, ColmapText::Binary, false).unwrap();
+    let config = d.join("appearance.json");
+    std::fs::write(&config, r#"{"appearance": true}"#).unwrap();
+    let run = d.join("run");
+    let args = ["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"];
+    ok(&[&args[..], &["--config", s(&config)]].concat());
+    std::fs::remove_dir_all(&data).unwrap();
+    write_colmap(&data, SceneSpec { size: 16, train: 6, val: 2, test: 0 }, ColmapText::Binary, false).unwrap();
+    let mut more = args.to_vec();
+    more[4] = "4";
+    let e = fails(&[&more[..], &["--resume"]].concat());
+    assert!(e.contains("learned a colour correction for each of its") && e.contains("--force"), "{e}");
 }

@@ -58,6 +58,20 @@ pub fn load(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, Data
         Format::Auto => detect(dir)?,
         f => f,
     };
+    if let (Some(n), false) = (opts.sparse_model, format == Format::Colmap) {
+        let format = match format {
+            Format::Blender => "a Blender capture",
+            Format::Llff => "an LLFF capture (poses_bounds.npy)",
+            _ => "an instant-ngp capture (transforms.json)",
+        };
+        return Err(DataError::new(
+            dir,
+            format!(
+                "--sparse-model {n}: only a COLMAP capture has numbered reconstructions (sparse/N); this one is read \
+                 as {format}: leave --sparse-model out"
+            ),
+        ));
+    }
     match format {
         Format::Blender => load_blender(dir, split, opts.downscale),
         Format::Ngp => load_ngp(dir, split, opts),

@@ -70,12 +70,21 @@ pub fn choose_model(dir: &Path, named: Option<u32>) -> Result<(PathBuf, Option<S
         counted.push((k, p, n));
     }
     let best = counted.iter().enumerate().max_by_key(|(i, c)| (c.2, std::cmp::Reverse(*i))).map(|(i, _)| i);
-    let (k, p, n) = counted[best.expect("two or more models")].clone();
-    let others: Vec<String> = counted.iter().filter(|c| c.0 != k).map(|c| format!("sparse/{}: {}", c.0, c.2)).collect();
+    let best = best.expect("two or more models");
+    let (_, p, n) = counted[best].clone();
+    // by folder, not number: sparse/0 and sparse/00 are two reconstructions
+    let folder = |p: &Path| p.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+    let others: Vec<String> = counted
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != best)
+        .map(|(_, c)| format!("sparse/{}: {}", folder(&c.1), c.2))
+        .collect();
     let note = format!(
-        "{}: loading sparse/{k}, the reconstruction with the most registered images ({n}; {}); \
+        "{}: loading sparse/{}, the reconstruction with the most registered images ({n}; {}); \
          --sparse-model N loads another",
         dir.join("sparse").display(),
+        folder(&p),
         others.join(", ")
     );
     Ok((p, Some(note)))

@@ -198,8 +198,10 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     let (mut tr, data) = if a.resume && ckpt.is_file() {
         let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
         let tr = Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))?;
-        check_resume(&a, &tr)?;
+        let mut tr = tr;
+        let moved_from = check_resume(&a, &tr)?;
         let data = load(tr.downscale)?;
+        check_resumed_data(&a, &mut tr, &data, moved_from)?;
         check_resume_config(&a, &tr, &data)?;
         (tr, data)
     } else if a.resume {
