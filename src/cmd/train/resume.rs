@@ -132,7 +132,11 @@ mod tests {
 
     #[test]
     fn a_data_source_reads_back_as_its_folder_and_flags() {
-        let mut c = CaptureArgs { llffhold: Some(4), scene: Some(SceneKind::Forward), ..CaptureArgs::default() };
+        let mut c = CaptureArgs {
+            llffhold: Some(4),
+            scene: Some(nerf_train::dataset::SceneKind::Forward),
+            ..CaptureArgs::default()
+        };
         c.ignore_distortion = true;
         c.sparse_model = Some(2);
         let source = format!("/data/my photos {}", c.describe());
