@@ -483,6 +483,15 @@ fn colmap_captures_take_masks_from_a_masks_folder_named_as_colmap_or_nerfstudio_
     let data = load(&d, Split::Train, opts(Format::Auto)).unwrap();
     assert!(data.notes.iter().any(|n| n.contains("no masks applied")), "{:?}", data.notes);
     assert!(data.views.iter().all(|v| v.mask.is_empty()));
+    // a photo with a mask under both names, and a masks that is a file: refused, not chosen between
+    top(16).save(d.join("masks/img_004.jpg.png")).unwrap();
+    top(16).save(d.join("masks/img_004.png")).unwrap();
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("two masks for photo img_004.jpg: img_004.jpg.png and img_004.png"), "{e}");
+    std::fs::remove_dir_all(d.join("masks")).unwrap();
+    std::fs::write(d.join("masks"), b"").unwrap();
+    let e = load(&d, Split::Train, opts(Format::Auto)).unwrap_err().to_string();
+    assert!(e.contains("masks") && e.contains("is not a folder"), "{e}");
 }
 
 #[test]

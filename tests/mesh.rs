@@ -158,6 +158,11 @@ fn the_command_writes_the_mesh_and_refuses_what_it_cannot_do() {
     assert!(e.contains("--out") && e.contains(".ply or .obj"), "{e}");
     let e = fails(&["mesh", s(&model), "--out", s(&out), "--threshold=-1"]);
     assert!(e.contains("--threshold"), "{e}");
+    // a threshold the density never reaches: no surface, no file, not a "closed" empty mesh
+    let none = dir.join("none.ply");
+    let e = fails(&["mesh", s(&model), "--out", s(&none), "--resolution", "32", "--threshold", "1e30"]);
+    assert!(e.contains("no surface at --threshold") && e.contains("peaks at"), "{e}");
+    assert!(!none.exists());
     let same = dir.join("model.ply");
     std::fs::copy(&model, &same).unwrap();
     let e = fails(&["mesh", s(&same), "--out", s(&same)]);

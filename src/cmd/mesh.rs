@@ -104,6 +104,18 @@ pub fn run(a: Args) -> CmdResult {
         let pb = progress(a.resolution as u64 + 1, "density {bar:40} {pos}/{len} planes {elapsed}/{eta}");
         let density = sample_density(&m, a.resolution, &|_| pb.inc(1));
         pb.finish_and_clear();
+        // no surface: nothing to write, and an empty mesh is not a closed one
+        let peak = density.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        if peak.is_nan() || peak < a.threshold {
+            return Err(format!(
+                "{}: no surface at --threshold {}: the density sampled on the {}³ grid peaks at {}; give a lower \
+                 --threshold",
+                a.model.display(),
+                a.threshold,
+                a.resolution,
+                nerf_train::error::number(peak as f64)
+            ));
+        }
         eprintln!("extracting the surface{}", if opts.colours { " and its colours" } else { "" });
         let mut mesh = extract(&m, &density, opts).map_err(|e| format!("{}: {e}", a.model.display()))?;
         let dropped = mesh.drop_small_pieces(a.min_piece);
@@ -123,7 +135,7 @@ pub fn run(a: Args) -> CmdResult {
         threshold: a.threshold,
         min_piece: a.min_piece,
         stats,
-        closed: stats.open_edges == 0,
+        closed: stats.triangles > 0 && stats.open_edges == 0,
         pieces_dropped: dropped,
         silhouette_iou: per_view.as_ref().map(|v| v.iter().sum::<f64>() / v.len().max(1) as f64),
         silhouette_iou_per_view: per_view,

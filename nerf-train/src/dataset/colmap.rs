@@ -135,7 +135,7 @@ pub fn colmap_views(dir: &Path, model_dir: &Path) -> Result<(Vec<CaptureView>, V
         if !image.is_file() {
             return Err(DataError::new(&image, format!("image not found (registered in {})", model_dir.display())));
         }
-        let mask = mask_of(dir, &im.name);
+        let mask = mask_of(dir, &im.name)?;
         views.push(CaptureView { image, pose, intrinsics, lens, mask });
     }
     let points: Vec<DVec3> = rec.points.iter().map(|p| DVec3::from(p.xyz)).collect();
@@ -146,10 +146,32 @@ pub fn colmap_views(dir: &Path, model_dir: &Path) -> Result<(Vec<CaptureView>, V
 /// folder, if there is one: `masks/NAME.png` (COLMAP's own
 /// `--ImageReader.mask_path` naming, `0001.jpg.png`) or `NAME` with its
 /// extension replaced by `.png` (nerfstudio's `masks_path`, `0001.png`).
-fn mask_of(dir: &Path, name: &str) -> Option<std::path::PathBuf> {
+/// A `masks` that is not a folder, and a photo with a mask under each
+/// name, are refused rather than read one way in silence.
+fn mask_of(dir: &Path, name: &str) -> Result<Option<std::path::PathBuf>, DataError> {
     let masks = dir.join("masks");
+    if !masks.exists() {
+        return Ok(None);
+    }
+    if !masks.is_dir() {
+        return Err(DataError::new(&masks, "is not a folder (masks are read from masks/, one PNG per photo)"));
+    }
     let name = name.strip_prefix("images/").unwrap_or(name);
-    [masks.join(format!("{name}.png")), masks.join(name).with_extension("png")].into_iter().find(|p| p.is_file())
+    let found: Vec<_> = [masks.join(format!("{name}.png")), masks.join(name).with_extension("png")]
+        .into_iter()
+        .filter(|p| p.is_file())
+        .collect();
+    match found.as_slice() {
+        [a, b] if a != b => Err(DataError::new(
+            &masks,
+            format!(
+                "two masks for photo {name}: {} and {}; keep one",
+                a.file_name().unwrap_or_default().to_string_lossy(),
+                b.file_name().unwrap_or_default().to_string_lossy()
+            ),
+        )),
+        _ => Ok(found.into_iter().next()),
+    }
 }
 
 /// Loads a COLMAP capture's split (see the module doc).
