@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """A hostile pass over the `nerf` command: every numeric flag of every
 subcommand with out-of-range and malformed values, broken model files,
-broken datasets (Blender, instant-ngp, LLFF, COLMAP) and outputs aimed at
-inputs or special files. Each case must end within 60 s, without a panic,
+broken datasets (Blender, instant-ngp, LLFF, COLMAP), outputs aimed at
+inputs, special files or others' files, configuration and camera-path
+extremes, `nerf capture`'s failures (through a stand-in for COLMAP) and
+interrupted commands. Each case must end within 60 s, without a panic,
 with exit status 0 or a single `error:` line, the last on stderr (progress
 and warnings before it allowed), and must leave the inputs it was given
 unchanged.
@@ -71,8 +73,8 @@ def main():
         cases = build_cases(work)
         results = {}
         failures = []
-        for cls, args, guard in cases:
-            why = run_case(args, guard)
+        checked = [(cls, args, run_case(args, guard)) for cls, args, guard in cases] + interrupted_cases(work)
+        for cls, args, why in checked:
             tried, ok = results.get(cls, (0, 0))
             results[cls] = (tried + 1, ok + (why is None))
             if why is not None:
@@ -289,6 +291,7 @@ def build_cases(work):
             for force in ([], ["--force"]):
                 cases.append(("output folders holding others' files", args + force, [folder, blender]))
     cases += capture_cases(work, scene, run)
+    cases += extreme_cases(work, scene, run)
     return cases
 
 
@@ -416,6 +419,129 @@ def capture_cases(work, scene, run):
                                                                      os.path.join(work, "r-ck")]):
         cases.append(("checkpoints given as models", args, [run]))
     return cases
+
+
+FAKE_COLMAP = """#!/bin/sh
+stage=$1; shift
+db=
+while [ $# -gt 0 ]; do case $1 in --database_path) db=$2;; esac; shift; done
+case $stage in
+  help) echo "COLMAP 3.8 (a stand-in)";;
+  feature_extractor) echo db > "$db";;
+  mapper) echo "No good initial image pair found."; exit 1;;
+esac
+"""
+
+
+def extreme_cases(work, scene, run):
+    """Outputs onto others' files, configuration and camera-path extremes,
+    `nerf capture`'s failures and messages that must lead somewhere."""
+    import json
+    cases = []
+    blender = os.path.join(scene, "blender")
+    room = os.path.join(scene, "room")
+    ext = os.path.join(work, "extremes")
+    os.makedirs(ext)
+    # outputs onto others' files: a checkpoint, another model, a user's file, a folder
+    ck = os.path.join(run, "checkpoint.bin")
+    other = os.path.join(ext, "other.nerf")
+    shutil.copy(MODEL, other)
+    mine = os.path.join(ext, "notes.ply")
+    open(mine, "w").write("my notes")
+    for force in ([], ["--force"]):
+        for target in (ck, other):
+            cases.append(("outputs onto others' files", ["export", MODEL, "--bits", "8", "--out", target] + force,
+                          [run] + ([other] if not force else [])))
+    cases.append(("outputs onto others' files", ["mesh", MODEL, "--out", mine, "--resolution", "16"], [mine]))
+    cases.append(("outputs onto others' files", ["mesh", MODEL, "--out", ext, "--resolution", "16"], [mine]))
+    # configuration extremes: each refused at start naming the field
+    configs = {
+        "duplicate-key": '{"optimiser": {"lr": 0.01}, "optimiser": {"lr": 0.02}}',
+        "lr-1e30": '{"lr": 1e30}',
+        "lr-1e308": '{"lr": 1e308}',
+        "decay": '{"feature_decay": -1}',
+        "n-main-0": '{"n_main": 0}',
+        "n-main-65535": '{"n_main": 65535}',
+    }
+    for name, text in configs.items():
+        p = os.path.join(ext, name + ".json")
+        open(p, "w").write(text)
+        for data in (blender, room):
+            cases.append(("configuration extremes", ["train", "--data", data, "--iters", "2", "--val-views", "0",
+                                                     "--config", p, "--out", os.path.join(ext, "r-" + name)], [p]))
+    # camera-path extremes
+    eye = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 4, 0, 0, 0, 1]
+    paths = {
+        "aspect-0.01": ({"camera_path": [{"camera_to_world": eye, "fov": 40, "aspect": 0.01}]}, "4096"),
+        "bottom-row": ({"camera_path": [{"camera_to_world": eye[:12] + [1, 1, 1, 5], "fov": 40, "aspect": 1}]}, "8"),
+        "seconds-1e308": ({"keyframes": [{"matrix": eye, "fov": 40, "aspect": 1}], "fps": 24, "seconds": 1e308},
+                          "8"),
+    }
+    for name, (v, size) in paths.items():
+        p = os.path.join(ext, name + ".json")
+        open(p, "w").write(json.dumps(v))
+        cases.append(("camera-path extremes", ["render", MODEL, "--camera-path", p, "--size", size, "--out",
+                                                os.path.join(ext, "r-path")], [p]))
+    # nerf capture: a program that is not COLMAP, photos it cannot use, COLMAP's failure read from its log
+    fake = os.path.join(ext, "fake-colmap")
+    open(fake, "w").write(FAKE_COLMAP)
+    os.chmod(fake, 0o755)
+    photos = os.path.join(blender, "train")
+    junk = os.path.join(ext, "junk")
+    os.makedirs(os.path.join(junk, "sub"))
+    open(os.path.join(junk, "empty.jpg"), "w").close()
+    open(os.path.join(junk, "text.jpg"), "w").write("not a photo")
+    open(os.path.join(junk, "scan.tif"), "wb").write(b"II*\0")
+    mixed = os.path.join(ext, "mixed")
+    shutil.copytree(os.path.join(scene, "colmap", "images"), mixed)
+    cap = os.path.join(ext, "cap")
+    for args in (["--photos", photos, "--colmap", "/bin/true"],
+                 ["--photos", junk, "--colmap", fake],
+                 ["--photos", mixed, "--colmap", fake],
+                 ["--photos", photos, "--colmap", fake],
+                 ["--video", os.path.join(ext, "none.mp4"), "--colmap", fake]):
+        cases.append(("nerf capture failures", ["capture", "--out", cap] + args, [photos, junk, mixed]))
+    # messages: a flag that does not apply, a moved capture resumed
+    cases.append(("messages", ["train", "--data", blender, "--iters", "1", "--val-views", "0", "--sparse-model", "1",
+                               "--out", os.path.join(ext, "r-sparse")], [blender]))
+    moved = os.path.join(ext, "moved")
+    shutil.copytree(os.path.join(scene, "colmap"), moved)
+    resumable = os.path.join(ext, "r-moved")
+    subprocess.run([BIN, "train", "--data", os.path.join(scene, "colmap"), "--iters", "1", "--val-views", "0",
+                    "--out", resumable], check=True, capture_output=True)
+    cases.append(("messages", ["train", "--data", moved, "--iters", "2", "--val-views", "0", "--resume", "--out",
+                               resumable], [moved]))
+    return cases
+
+
+def interrupted_cases(work):
+    """Commands stopped by SIGINT part-way: each must end with one error
+    line, leave no temporary file, and its own rerun must succeed."""
+    import signal
+    results = []
+    for name, args, first in (
+            ("render", ["render", MODEL, "--orbit", "2000", "--size", "24"], "orbit_001.png"),
+            ("scene", ["scene", "--size", "64"], "blender")):
+        out = os.path.join(work, "interrupted-" + name)
+        p = subprocess.Popen([BIN] + args + ["--out", out], stderr=subprocess.PIPE, stdin=subprocess.DEVNULL)
+        start = time.time()
+        while not os.path.exists(os.path.join(out, first)) and time.time() - start < 60:
+            time.sleep(0.02)
+        p.send_signal(signal.SIGINT)
+        err = p.communicate(timeout=60)[1].decode(errors="replace").strip()
+        why = None
+        lines = err.splitlines()
+        if p.returncode != 1 or not lines or not lines[-1].startswith("error:"):
+            why = f"status {p.returncode}: {err[-300:]}"
+        elif any(".tmp" in f for _, _, fs in os.walk(out) for f in fs):
+            why = "left a temporary file"
+        else:
+            rerun = [a if a != "2000" else "2" for a in args]
+            r = subprocess.run([BIN] + rerun + ["--out", out], capture_output=True, timeout=120)
+            if r.returncode != 0:
+                why = "its rerun failed: " + r.stderr.decode(errors="replace").strip()[-300:]
+        results.append(("interrupted commands", [*args, "--out", out, "(SIGINT)"], why))
+    return results
 
 
 if __name__ == "__main__":

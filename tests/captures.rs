@@ -693,13 +693,16 @@ fn a_capture_all_around_trains_unbounded_and_both_paths_render_it() {
     }
     let int8 = run.join("int8.nerf");
     support::cli::ok(&["export", s(&model), "--bits", "8", "--out", s(&int8)]);
+    let mut psnr = Vec::new();
     for m in [&model, &int8] {
         let out = root.join(format!("orbit-{}", m.file_stem().unwrap().to_string_lossy()));
         support::cli::ok(&["render", s(m), "--orbit", "2", "--size", "12", "--out", s(&out)]);
         assert!(out.join("orbit.gif").is_file());
         let report = json(&["eval", s(m), "--data", s(&data), "--split", "val"]);
-        assert!(report["psnr"].as_f64().unwrap().is_finite());
+        psnr.push(report["psnr"].as_f64().unwrap());
     }
+    // the int8 path renders what the f32 one does (int8 stays within 0.1 dB on trained models)
+    assert!(psnr[0].is_finite() && (psnr[0] - psnr[1]).abs() < 0.25, "f32 {} dB, int8 {} dB", psnr[0], psnr[1]);
 }
 
 #[test]

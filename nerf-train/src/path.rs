@@ -22,8 +22,15 @@ pub use orbit::{fit_orbit, orbit_rays};
 /// the capture (σ = a twentieth of its length, at least one camera), so a
 /// handheld capture's shake does not reach the video. Each camera has
 /// `cams[0]`'s field of view, with `width` pixels across and the height
-/// that keeps `cams[0]`'s aspect ratio. `cams` must not be empty.
-pub fn smooth_trajectory(cams: &[Camera], n: usize, width: u32) -> Vec<Camera> {
+/// that keeps `cams[0]`'s aspect ratio. No cameras, `n` 0 or `width` 0
+/// is an error.
+pub fn smooth_trajectory(cams: &[Camera], n: usize, width: u32) -> Result<Vec<Camera>, Error> {
+    if cams.is_empty() || n == 0 || width == 0 {
+        return Err(Error::Camera(format!(
+            "a smoothed trajectory needs cameras ({} given), frames ({n}) and a width ({width})",
+            cams.len()
+        )));
+    }
     let m = cams.len();
     let sigma = (m as f32 / 20.0).max(1.0);
     let c0 = &cams[0];
@@ -46,7 +53,7 @@ pub fn smooth_trajectory(cams: &[Camera], n: usize, width: u32) -> Vec<Camera> {
             let r = Mat3::from_quat(q.normalize());
             let c2w = rows(&r, pos / wsum);
             Camera::new(width, height, c0.fx * sx, c0.fy * sy, c0.cx * sx, c0.cy * sy, c2w)
-                .expect("a normalised quaternion gives a rotation")
+                .map_err(|e| Error::Camera(format!("trajectory camera {k}: {e}")))
         })
         .collect()
 }
@@ -254,7 +261,8 @@ mod tests {
         // a straight walk with alternating sideways shake and a steady turn
         let cams: Vec<Camera> =
             (0..40).map(|i| cam(i as f32 + if i % 2 == 0 { 0.3 } else { -0.3 }, 0.02 * i as f32)).collect();
-        let out = smooth_trajectory(&cams, 20, 80);
+        let out = smooth_trajectory(&cams, 20, 80).unwrap();
+        assert!(smooth_trajectory(&[], 20, 80).is_err() && smooth_trajectory(&cams, 20, 0).is_err());
         assert_eq!((out[0].width, out[0].height), (80, 60));
         assert!((out[0].fx - 70.0).abs() < 1e-4);
         for w in out.windows(2) {

@@ -141,7 +141,7 @@ pub fn run(a: Args) -> CmdResult {
             let mut views: Vec<_> = views.into_iter().map(|v| (v.name, v.camera)).collect();
             views.sort_by(|x, y| x.0.cmp(&y.0));
             let cams: Vec<Camera> = views.into_iter().map(|v| v.1).collect();
-            Some(smooth_trajectory(&cams, n, a.size))
+            Some(smooth_trajectory(&cams, n, a.size).map_err(|e| format!("{}: {e}", dir.display()))?)
         }
         (_, _, _, Some(file)) => Some(read_camera_path(file, a.size)?),
         _ => None,
