@@ -161,6 +161,7 @@ fn photos_are_checked_before_colmap_runs_and_what_is_skipped_is_named() {
     for part in ["empty.jpg", "notes.jpg", "2 unreadable", "1 .tif", "1 subfolder"] {
         assert!(e.contains(part), "{part}: {e}");
     }
+    assert_eq!(e.trim_end().lines().count(), 1, "one line: {e}");
     // photos of two sizes for one camera: refused, naming the sizes and the flag
     for k in 0..3 {
         png(&photos.join(format!("p{k}.png")), 8, 8);

@@ -43,7 +43,8 @@ pub fn survey(dir: &Path, flag: &str) -> Result<Survey, String> {
         } else {
             match image::image_dimensions(&p) {
                 Ok(size) => s.photos.push((p, size)),
-                Err(e) => s.unreadable.push((p, e.to_string())),
+                // the decoder's message on one line
+                Err(e) => s.unreadable.push((p, e.to_string().split_whitespace().collect::<Vec<_>>().join(" "))),
             }
         }
     }
