@@ -17,6 +17,20 @@ pub const PDF_EPS_Q30: u64 = 10737;
 /// too.
 pub const PROPOSAL_DRAW_SALT: u32 = 0x5EED_0B1D;
 
+/// CDF level of the network's sample `j` of `n` drawn from a proposal
+/// grid's weights, Q16 in `(0, 65536)`: the middle of stratum `j`
+/// without jitter, a random point of it with (the ray's `key`, salted
+/// with [`PROPOSAL_DRAW_SALT`]). The renderer's march and the trainer
+/// draw with it.
+#[inline]
+pub fn proposal_draw_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
+    let offset = match key {
+        None => 32768,
+        Some(k) => jitter_q16(k ^ PROPOSAL_DRAW_SALT, j) as u64,
+    };
+    ((j as u64 * 65536 + offset) / n as u64) as u32
+}
+
 /// XORed into a ray's jitter key before it jitters the levels at which the
 /// fine pass's importance samples are drawn from the coarse weights (a
 /// stream of its own, apart from the stratified samples').

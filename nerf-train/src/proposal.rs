@@ -19,7 +19,7 @@ use crate::interlevel::interlevel;
 use crate::volume::{composite, composite_back, push_deltas};
 use nerf_infer::camera::Ray;
 use nerf_infer::occupancy::Occupancy;
-use nerf_infer::sampling::{jitter_q16, sample_pdf_f32};
+use nerf_infer::sampling::sample_pdf_f32;
 use serde::{Deserialize, Serialize};
 
 /// Densities below this (1/world units) export as empty cells (code 0):
@@ -73,8 +73,7 @@ impl RayProposal {
 /// CDF level of the network's sample `j` of `n` in a stratum, jittered by
 /// `key` as the renderer's march jitters it (`None`: the middle).
 pub fn main_u(j: usize, n: usize, key: Option<u32>) -> f32 {
-    let offset = key.map_or(32768, |k| jitter_q16(k ^ nerf_infer::sampling::PROPOSAL_DRAW_SALT, j));
-    ((j as u64 * 65536 + offset as u64) / n as u64) as f32 / 65536.0
+    nerf_infer::sampling::proposal_draw_q16(j, n, key) as f32 / 65536.0
 }
 
 impl ProposalGrid {

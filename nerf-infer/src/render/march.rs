@@ -25,19 +25,6 @@ fn fine_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
 }
 
 #[cfg(feature = "proposal")]
-/// CDF level of the network's sample `j` of `n` drawn from a proposal
-/// grid's weights, Q16 in `(0, 65536)`: the middle of stratum `j`
-/// without jitter, a random point of it with.
-#[inline]
-fn main_u_q16(j: usize, n: usize, key: Option<u32>) -> u32 {
-    let offset = match key {
-        None => 32768,
-        Some(k) => jitter_q16(k ^ crate::sampling::PROPOSAL_DRAW_SALT, j) as u64,
-    };
-    ((j as u64 * 65536 + offset) / n as u64) as u32
-}
-
-#[cfg(feature = "proposal")]
 /// The proposal grid `g` composited along `ray` at the samples `t`: writes
 /// each sample's weight to `w` (its density from the code's entry of
 /// `sigma`; 0 once the transmittance is below the early-termination
@@ -85,7 +72,7 @@ pub(super) fn render<P: NumericPath, K: LayerKernel<P>, const B: usize>(
         let (t_p, w_p, nm) = (&mut t_coarse[..nc], &mut w_coarse[..nc], r.opts.fine);
         P::samples(&pr, key, t_p);
         propose::<P>(r, g, sigma, &pr, t_p, w_p);
-        P::sample_pdf(t_p, w_p, |j| main_u_q16(j, nm, key), cdf, &mut t_main[..nm]);
+        P::sample_pdf(t_p, w_p, |j| crate::sampling::proposal_draw_q16(j, nm, key), cdf, &mut t_main[..nm]);
         t_main[nm] = t_p[nc - 1];
         return pass::<P, K, B>(r, &m.coarse, &pr, &t_main[..=nm], span, true, block, None, evaluations);
     }
