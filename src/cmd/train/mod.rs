@@ -113,7 +113,15 @@ fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Pr
     // the model first: a checkpoint on disk always has its model beside it (a run stopped between the two
     // resumes from the earlier checkpoint and writes the model again)
     write_atomic(&out.join("model.nerf"), &bytes)?;
-    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes().map_err(|e| e.to_string())?)
+    // the checkpoint is several times the model: a disk that filled for it keeps the model, and says so
+    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes().map_err(|e| e.to_string())?).map_err(|e| {
+        format!(
+            "{e}; the model of step {} is written ({}), the checkpoint is not: this run can be used but not resumed \
+             from here",
+            tr.step,
+            out.join("model.nerf").display()
+        )
+    })
 }
 
 impl Args {
