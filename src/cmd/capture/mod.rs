@@ -335,13 +335,15 @@ impl Partial {
                 return Err(e);
             }
         };
-        // this process's own work folder
+        // this process's own work folder (one left by an earlier process of the same id is not this one's)
         let work = parent.join(format!(".{name}.partial-{}", std::process::id()));
-        let mut p = Self { out: out.to_path_buf(), work, created_out, done: false, _lock: lock };
-        if p.work.exists() {
-            p.created_out = false;
-            return Err(format!("{}: exists; remove it or name another --out", p.work.display()));
+        if work.exists() {
+            if created_out {
+                let _ = std::fs::remove_dir(out);
+            }
+            return Err(format!("{}: exists; remove it or name another --out", work.display()));
         }
+        let p = Self { out: out.to_path_buf(), work, created_out, done: false, _lock: lock };
         super::interrupt::catch();
         super::create_dir(&p.work.join("images"))?;
         Ok(p)
