@@ -256,4 +256,14 @@ fn a_capture_through_a_linked_output_lands_in_its_folder_and_the_hint_is_quoted(
     let hint = e.lines().find(|l| l.starts_with("next: ")).unwrap();
     assert!(hint.contains(&format!("--data '{}'", link.display())), "{hint}");
     assert_eq!(names(&d), ["fake-colmap", "my link", "real folder", "synthetic"]);
+    // a relative --out (and program) from the folder the command runs in
+    let o = Command::new(BIN)
+        .current_dir(&d)
+        .args(["capture", "--photos", "synthetic/images", "--out", "relative", "--colmap", "./fake-colmap"])
+        .arg("--camera-per-photo")
+        .env("FAKE_SPARSE", data.join("sparse/0"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(d.join("relative/sparse/0").is_dir() && d.join("relative/database.db").is_file());
 }

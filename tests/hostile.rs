@@ -323,12 +323,13 @@ fn messages_point_to_what_works_and_failures_leave_no_folders() {
     let gone = d.join("gone");
     fails(&["train", "--data", s(&d.join("no-such-data")), "--iters", "2", "--out", s(&gone)]);
     assert!(!gone.exists());
-    // the run's data moved: resumed from the new folder (the same capture), with a note
+    // the run's Blender scene moved: nothing records which scene it was, so the way back is named
     let moved = d.join("moved data");
     std::fs::rename(&data, &moved).unwrap();
-    let o = nerf(&["train", "--data", s(&moved), "--iters", "4", "--out", s(&run), "--resume", "--val-views", "0"]);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success() && e.contains("note: the run trained on") && e.contains("resuming with it"), "{e}");
+    fails_naming(
+        &["train", "--data", s(&moved), "--iters", "4", "--out", s(&run), "--resume", "--val-views", "0"],
+        &["the run trained on", "nothing recorded tells whether this is the same capture", "resume with --data"],
+    );
     fails_naming(
         &["train", "--data", s(&moved), "--iters", "6", "--out", s(&run), "--resume", "--llffhold", "4"],
         &["loading flags (--llffhold 4 --scene auto) differ from the run's (--llffhold 8 --scene auto)"],
@@ -420,10 +421,16 @@ fn a_resume_refuses_a_capture_whose_photos_changed() {
     let run = d.join("run");
     let args = ["train", "--data", s(&data), "--iters", "2", "--out", s(&run), "--val-views", "0"];
     ok(&[&args[..], &["--config", s(&config)]].concat());
-    std::fs::remove_dir_all(&data).unwrap();
+    // moved, the same capture resumes from its new folder, with a note
+    let moved = d.join("moved capture");
+    std::fs::rename(&data, &moved).unwrap();
+    let o = nerf(&["train", "--data", s(&moved), "--iters", "3", "--out", s(&run), "--resume", "--val-views", "0"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && e.contains("note: the run trained on") && e.contains("resuming with it"), "{e}");
+    // another capture in the run's first folder: 6 photos where the run learned 8 colour corrections
     write_colmap(&data, SceneSpec { size: 16, train: 6, val: 2, test: 0 }, ColmapText::Binary, false).unwrap();
     let mut more = args.to_vec();
-    more[4] = "4";
+    more[4] = "5";
     let e = fails(&[&more[..], &["--resume"]].concat());
     assert!(e.contains("learned a colour correction for each of its") && e.contains("--force"), "{e}");
 }

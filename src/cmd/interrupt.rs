@@ -18,6 +18,7 @@ static CHILD: AtomicU32 = AtomicU32::new(0);
 const EXIT: u8 = 0;
 const STOP: u8 = 1;
 const FORWARD: u8 = 2;
+const STOP_EVERY: u8 = 3;
 
 /// Installs the handler (at the start of the program).
 pub fn install() {
@@ -35,6 +36,7 @@ pub fn install() {
                 }
             }
             STOP if first => {}
+            STOP_EVERY => {}
             _ => {
                 nerf_train::atomic::remove_in_flight();
                 std::process::exit(130);
@@ -44,9 +46,38 @@ pub fn install() {
 }
 
 /// The first interrupt from here on is counted ([`received`]) for the
-/// command to stop between units of its work; a second one exits.
+/// command to stop between units of its work; a second one exits. For the
+/// rest of the process (a training run, and what `nerf bench` does after it).
 pub fn catch() {
     MODE.store(STOP, Ordering::SeqCst);
+}
+
+/// [`catch`] while the returned guard lives; then interrupts exit again
+/// (`nerf demo` goes on to commands that do not stop on their own).
+pub fn catch_while() -> Stopping {
+    catch();
+    Stopping
+}
+
+/// Returned by [`catch_while`]: restores the default when dropped.
+pub struct Stopping;
+
+impl Drop for Stopping {
+    fn drop(&mut self) {
+        let _ = MODE.compare_exchange(STOP, EXIT, Ordering::SeqCst, Ordering::SeqCst);
+    }
+}
+
+/// Every interrupt from here on is counted and none exits: for a command
+/// whose work (a child it waits for) stops promptly on [`received`], and
+/// that must clean up after it (`nerf capture`).
+pub fn catch_every() {
+    MODE.store(STOP_EVERY, Ordering::SeqCst);
+}
+
+/// Interrupts exit again (the default), as after a child's work is done.
+pub fn reset() {
+    MODE.store(EXIT, Ordering::SeqCst);
 }
 
 /// Each interrupt from here on is counted and passed on to the process

@@ -190,7 +190,7 @@ pub fn run(a: Args) -> CmdResult {
     }
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "render", super::outdir::Earlier::Replace, a.force)?;
     // stopped between views: the folder's record names what was written, which the same command replaces
-    super::interrupt::catch();
+    let _stopping = super::interrupt::catch_while();
     super::write_atomic(&a.out.join("depth.json"), meta.to_string().as_bytes())?;
     if let Some(path) = &path {
         // the path as nerfstudio's camera_path.json, to edit and render again with --camera-path

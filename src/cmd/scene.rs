@@ -36,7 +36,7 @@ pub fn run(a: Args) -> CmdResult {
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "scene", super::outdir::Earlier::Replace, a.force)?;
     let spec = SceneSpec { size: a.size, train: a.train, ..SceneSpec::default() };
     // stopped between captures: the folder's record names what was written, which the same command replaces
-    super::interrupt::catch();
+    let _stopping = super::interrupt::catch_while();
     type Write = fn(&std::path::Path, SceneSpec) -> Result<(), nerf_train::dataset::DataError>;
     let captures: [(&str, Write); 6] = [
         ("blender", write_blender),

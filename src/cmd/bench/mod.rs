@@ -143,6 +143,14 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
         std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
         let mut child = cmd.spawn().map_err(|e| format!("cannot start task {i} ({}): {e}", exe.display()))?;
         super::interrupt::forward_to(child.id());
+        // an interrupt between the start and the line above was counted but not passed on
+        if super::interrupt::received() {
+            #[cfg(unix)]
+            // SAFETY: a signal to the child this process started and has not yet waited for.
+            unsafe {
+                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+            }
+        }
         let status = child.wait().map_err(|e| format!("task {i}: {e}"))?;
         super::interrupt::forward_to(0);
         if super::interrupt::received() {
@@ -153,5 +161,6 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
             eprintln!("[{}/{n}] {}: failed (its row says why); going on", i + 1, s.name);
         }
     }
+    super::interrupt::reset();
     table::gather(settings, out)
 }

@@ -90,6 +90,7 @@ pub fn run(a: Args) -> CmdResult {
     if let Some(t) = a.vocab_tree.as_ref().filter(|t| !t.is_file()) {
         return Err(format!("--vocab-tree {}: no such file", t.display()));
     }
+    // absolute: the frames' stage runs in another folder
     let out = output_folder(&a.out)?;
     let colmap = stage::find_program(&a.colmap, "--colmap", "colmap")?;
     let ffmpeg = match a.video {
@@ -118,11 +119,9 @@ pub fn run(a: Args) -> CmdResult {
     // OUT claimed (created empty if missing, locked) while the capture is assembled beside it
     let mut partial = Partial::claim(&out)?;
     let work = partial.work.clone();
-    let log_path = work.join("colmap.log");
+    let log_path = partial.log();
     let mut log =
         std::fs::File::create(&log_path).map_err(|e| format!("{}: cannot create: {e}", log_path.display()))?;
-    let kept_log = std::env::temp_dir().join(format!("nerf-capture-{}.log", std::process::id()));
-    let fail = |e: String| format!("{e} (nothing was written to --out; COLMAP's log: {})", kept_log.display());
     let t0 = Instant::now();
     let mut times = Vec::new();
 
@@ -134,7 +133,7 @@ pub fn run(a: Args) -> CmdResult {
             if !skipped.is_empty() {
                 eprintln!("skipped in {}: {skipped}", input.display());
             }
-            photos::copy(s, &images).map_err(&fail)?;
+            photos::copy(s, &images).map_err(|e| partial.fail(e))?;
             (s.photos.len(), false)
         }
         (None, Some(ff)) => {
@@ -149,15 +148,11 @@ pub fn run(a: Args) -> CmdResult {
                 "2".into(),
                 "frame_%05d.jpg".into(),
             ];
-            stage::run(ff, &args, &images, "frames", &mut log)
-                .map_err(|e| partial.fail(&log_path, &kept_log, fail(e)))?;
+            stage::run(ff, &args, Some(&images), "frames", &mut log).map_err(|e| partial.fail(e))?;
             let frames = photos::survey(&images, "frames").map(|s| s.photos.len()).unwrap_or(0);
             if frames < 3 {
-                return Err(partial.fail(
-                    &log_path,
-                    &kept_log,
-                    fail(format!("{}: {frames} frames; COLMAP needs at least 3 (raise --fps)", input.display())),
-                ));
+                return Err(partial
+                    .fail(format!("{}: {frames} frames; COLMAP needs at least 3 (raise --fps)", input.display())));
             }
             (frames, true)
         }
@@ -183,10 +178,10 @@ pub fn run(a: Args) -> CmdResult {
         os("0"),
     ];
     let run_colmap =
-        |args: &[std::ffi::OsString], name: &str, log: &mut std::fs::File| stage::run(&colmap, args, &work, name, log);
+        |args: &[std::ffi::OsString], name: &str, log: &mut std::fs::File| stage::run(&colmap, args, None, name, log);
     let stage_ok = |r: CmdResult, log: &std::fs::File| -> CmdResult {
         let _ = log.sync_all();
-        r.map_err(|e| partial.fail(&log_path, &kept_log, fail(e)))
+        r.map_err(|e| partial.fail(e))
     };
     stage_ok(run_colmap(&extract, "features", &mut log), &log)?;
     if std::fs::metadata(&db).map(|m| m.len() == 0).unwrap_or(true) {
@@ -267,7 +262,7 @@ pub fn run(a: Args) -> CmdResult {
     };
     stage_ok(summary(), &log)?;
     drop(log);
-    partial.finish().map_err(fail)?;
+    partial.finish()?;
     eprintln!("{}: {} reconstruction(s)", a.out.display(), models.len());
     for l in lines {
         eprintln!("{l}");
@@ -288,7 +283,7 @@ fn output_folder(out: &Path) -> Result<PathBuf, String> {
             format!("--out {}: a symbolic link to something that cannot be reached ({e}); name a folder", out.display())
         })?
     } else {
-        out.to_path_buf()
+        std::path::absolute(out).map_err(|e| format!("--out {}: {e}", out.display()))?
     };
     if out.exists() && !out.is_dir() {
         return Err(format!("--out {}: exists and is not a folder; name a new folder", out.display()));
@@ -344,23 +339,50 @@ impl Partial {
             return Err(format!("{}: exists; remove it or name another --out", work.display()));
         }
         let p = Self { out: out.to_path_buf(), work, created_out, done: false, _lock: lock };
-        super::interrupt::catch();
+        // every interrupt stops the running stage, which the stage loop sees within 200 ms: never an exit
+        // that would leave the work folder and COLMAP running
+        super::interrupt::catch_every();
         super::create_dir(&p.work.join("images"))?;
         Ok(p)
     }
 
-    /// Keeps the log at `kept` (outside the work folder, which is then
-    /// removed with the rest) and returns `e`.
-    fn fail(&self, log: &Path, kept: &Path, e: String) -> String {
-        let _ = std::fs::copy(log, kept);
-        e
+    /// COLMAP's log, in the work folder.
+    fn log(&self) -> PathBuf {
+        self.work.join("colmap.log")
     }
 
-    /// Renames the work folder onto `--out`.
+    /// `e`, with where COLMAP's log is kept: a new file in the system's
+    /// temporary folder (the work folder goes with the failure).
+    fn fail(&self, e: String) -> String {
+        let kept = std::env::temp_dir().join(format!(
+            "nerf-capture-{}-{}.log",
+            std::process::id(),
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos())
+        ));
+        // a new file only (never through a link someone left there)
+        let copied = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&kept)
+            .and_then(|mut to| std::io::copy(&mut std::fs::File::open(self.log())?, &mut to));
+        match copied {
+            Ok(_) => format!("{e} (nothing was written to --out; COLMAP's log: {})", kept.display()),
+            Err(_) => format!("{e} (nothing was written to --out)"),
+        }
+    }
+
+    /// Renames the work folder onto `--out`; if that fails, the capture is
+    /// kept in the work folder, and the error says so.
     fn finish(&mut self) -> Result<(), String> {
-        std::fs::rename(&self.work, &self.out).map_err(|e| format!("cannot rename to {}: {e}", self.out.display()))?;
+        let renamed = std::fs::rename(&self.work, &self.out);
         self.done = true;
-        Ok(())
+        renamed.map_err(|e| {
+            format!(
+                "cannot rename the finished capture onto {}: {e}; it is kept in {}",
+                self.out.display(),
+                self.work.display()
+            )
+        })
     }
 }
 

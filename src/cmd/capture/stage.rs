@@ -35,25 +35,38 @@ pub fn find_program(program: &Path, flag: &str, package: &str) -> Result<PathBuf
     Ok(program.to_path_buf())
 }
 
-/// Runs `program args` in `dir` headless (no display: Qt's offscreen
+/// Runs `program args` (in `dir`, if given) headless (no display: Qt's offscreen
 /// platform), its output appended to `log`, with a spinner showing the
 /// stage, its time and the program's last progress line (or, with no
 /// terminal, a line every 30 s); an interrupt stops the program. An error
 /// names the stage and the program's last lines.
-pub fn run(program: &Path, args: &[std::ffi::OsString], dir: &Path, stage: &str, log: &mut std::fs::File) -> CmdResult {
+pub fn run(
+    program: &Path,
+    args: &[std::ffi::OsString],
+    dir: Option<&Path>,
+    stage: &str,
+    log: &mut std::fs::File,
+) -> CmdResult {
     let _ = writeln!(
         log,
         "== {stage}: {} {}",
         program.display(),
         args.iter().map(|a| a.to_string_lossy()).collect::<Vec<_>>().join(" ")
     );
-    let mut cmd = Command::new(program);
+    // a relative program path names a file from this process's folder, not `dir`
+    let program = match dir {
+        Some(_) if program.components().count() > 1 => std::path::absolute(program).unwrap_or(program.into()),
+        _ => program.to_path_buf(),
+    };
+    let mut cmd = Command::new(&program);
+    if let Some(d) = dir {
+        cmd.current_dir(d);
+    }
     // its own process group: an interrupt stops the program and whatever it started
     #[cfg(unix)]
     std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
     let mut child = cmd
         .args(args)
-        .current_dir(dir)
         .env("QT_QPA_PLATFORM", "offscreen")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())

@@ -33,8 +33,10 @@ pub(super) fn check_resume(a: &Args, tr: &Trainer) -> Result<Option<String>, Str
 /// (fitted from every camera, so it moves when a photo is added, removed
 /// or re-posed) and, with per-photo colour corrections or pose
 /// refinement, the number of photos must be the run's. A capture in
-/// another folder (`moved_from` the run's) that passes is taken, with a
-/// note, and recorded as the run's from here on.
+/// another folder (`moved_from` the run's) must also match what the run's
+/// model records of its capture (photo count, held-out names); one that
+/// does is taken, with a note, and recorded as the run's from here on (a
+/// Blender scene, which records none, is refused).
 pub(super) fn check_resumed_data(a: &Args, tr: &mut Trainer, data: &Dataset, moved_from: Option<String>) -> CmdResult {
     let run_data = moved_from.clone().unwrap_or_else(|| split_source(&tr.data).0.to_string());
     let way_on = match &moved_from {
@@ -63,6 +65,24 @@ pub(super) fn check_resumed_data(a: &Args, tr: &mut Trainer, data: &Dataset, mov
         ));
     }
     if moved_from.is_some() {
+        // the same capture: its record in the run's model (its photo count and held-out names) matches
+        let model = a.out.join("model.nerf");
+        let recorded = crate::cmd::read_model(&model)
+            .ok()
+            .and_then(|b| crate::cmd::decode(&model, &b).ok().and_then(|m| m.capture));
+        let same = |r: &nerf_infer::format::Capture, d: &nerf_infer::format::Capture| {
+            (r.views, r.held_out_crc, r.holdout) == (d.views, d.held_out_crc, d.holdout)
+        };
+        if !matches!((&recorded, &data.capture), (Some(r), Some(d)) if same(r, d)) {
+            return Err(format!(
+                "--data {}: the run trained on {run_data}, and {}: {way_on}",
+                a.data.display(),
+                match (&recorded, &data.capture) {
+                    (Some(_), Some(_)) => "this capture's photos are not those (their number or held-out names differ)",
+                    _ => "nothing recorded tells whether this is the same capture",
+                }
+            ));
+        }
         eprintln!(
             "note: the run trained on {run_data}; {} holds the same capture ({photos} training photos, the same scene \
              frame): resuming with it",
