@@ -4,7 +4,8 @@
 # DATA_ROOT: lego, flower, ...) at DOWNSCALE for STEPS steps
 # (`--log-every STEPS`, the run's mean ms per step), alternating ROUNDS
 # times so that both see the same machine; prints each run and the ratio
-# of the medians (working tree / BASE). BASE_BIN names BASE's binary when
+# of the medians (working tree / BASE), with each run's Adam stage (ms a
+# step over the last STEPS steps, the parameters' average included). BASE_BIN names BASE's binary when
 # it is already built (else it is built in a worktree).
 #
 #   scripts/step_ab.sh BASE [DATA_ROOT] [STEPS] [ROUNDS] [SCENE] [DOWNSCALE]
@@ -33,11 +34,15 @@ ms() {  # BIN OUT: the run's mean ms per step
     --out "$2" >/dev/null 2>&1
   python3 -c 'import json, sys; e = json.loads(open(sys.argv[1]).read().splitlines()[-1]); print("%.3f" % (1000 * e["train_secs"] / e["step"]))' "$2/train.jsonl"
 }
+adam() {  # OUT: the run's ms per step in Adam (the parameters' average included)
+  python3 -c 'import json, sys; e = json.loads(open(sys.argv[1]).read().splitlines()[-1]); print("%.2f" % e["step_ms"]["adam"])' "$1/train.jsonl"
+}
 new=(); old=()
 for r in $(seq "$rounds"); do
   old+=("$(ms "$base_bin" "$work/old$r")")
   new+=("$(ms target/release/nerf "$work/new$r")")
-  echo "round $r: BASE $base ${old[-1]} ms/step, working tree ${new[-1]} ms/step"
+  echo "round $r: BASE $base ${old[-1]} ms/step (Adam $(adam "$work/old$r") ms), working tree ${new[-1]} ms/step" \
+    "(Adam $(adam "$work/new$r") ms)"
 done
 python3 - "${old[*]}" "${new[*]}" <<'PY'
 import statistics, sys

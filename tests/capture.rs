@@ -180,15 +180,20 @@ fn photos_are_checked_before_colmap_runs_and_what_is_skipped_is_named() {
     assert!(!out.exists());
 }
 
-#[test]
-fn a_failed_capture_leaves_nothing_but_the_log_and_names_colmaps_cause() {
-    let d = tmp("capture-failed");
-    let colmap = fake_colmap(&d);
+/// The stand-in COLMAP and a folder of three 8×8 photos in `d`.
+fn three_photos(d: &Path) -> (PathBuf, PathBuf) {
     let photos = d.join("photos");
     std::fs::create_dir_all(&photos).unwrap();
     for k in 0..3 {
         png(&photos.join(format!("p{k}.png")), 8, 8);
     }
+    (fake_colmap(d), photos)
+}
+
+#[test]
+fn a_failed_capture_leaves_nothing_but_the_log_and_names_colmaps_cause() {
+    let d = tmp("capture-failed");
+    let (colmap, photos) = three_photos(&d);
     let out = d.join("cap");
     let o = capture(&["--photos", s(&photos), "--out", s(&out), "--colmap", s(&colmap)], &[]);
     let e = String::from_utf8_lossy(&o.stderr);
@@ -203,12 +208,7 @@ fn a_failed_capture_leaves_nothing_but_the_log_and_names_colmaps_cause() {
 #[test]
 fn one_capture_at_a_time_into_an_output_and_an_interrupt_leaves_nothing() {
     let d = tmp("capture-lock");
-    let colmap = fake_colmap(&d);
-    let photos = d.join("photos");
-    std::fs::create_dir_all(&photos).unwrap();
-    for k in 0..3 {
-        png(&photos.join(format!("p{k}.png")), 8, 8);
-    }
+    let (colmap, photos) = three_photos(&d);
     let out = d.join("cap");
     let first = Command::new(BIN)
         .args(["capture", "--photos", s(&photos), "--out", s(&out), "--colmap", s(&colmap)])
