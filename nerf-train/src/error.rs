@@ -38,6 +38,9 @@ pub enum Error {
     /// A mesh that cannot be made.
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    /// A model the renderer refuses (to write, to read or to render).
+    #[error("the model: {0}")]
+    Model(#[from] nerf_infer::Error),
     /// A plot that cannot be drawn.
     #[error("{0}")]
     Plot(String),

@@ -5,7 +5,8 @@
 //! network, forward and backward) and [`volume`] (the quadrature, forward
 //! and backward) → [`train`] (batches, Adam) → [`export`] (model files,
 //! quantisation) → [`eval`] (rendering views through `nerf-infer`, PSNR,
-//! SSIM).
+//! SSIM). [`run`] is a whole training run as `nerf train` makes it: the
+//! choices for the data and the loop, for any program.
 #![deny(missing_docs)]
 // Numeric code indexes several arrays by the same index on purpose.
 #![allow(clippy::needless_range_loop)]
@@ -29,6 +30,7 @@ pub mod plot;
 pub mod pose;
 pub mod proposal;
 pub mod rng;
+pub mod run;
 pub mod timing;
 pub mod train;
 pub mod userfile;

@@ -2,7 +2,8 @@
 
 use super::*;
 
-/// Zeroed gradient buffers and chunks' grid-value gradients reused from
+/// Zeroed gradient buffers, chunks' grid-value gradients and groups'
+/// working memory reused from
 /// step to step: a feature grid's table makes each gradient megabytes, a
 /// chunk's corners hundreds of kilobytes, and fresh ones cost page faults.
 #[derive(Default)]
@@ -11,6 +12,7 @@ pub(super) struct GradPool(
     std::sync::Mutex<Vec<GridGrad>>,
     /// Each chunk's proposal-grid gradient.
     pub(super) std::sync::Mutex<PropGrads>,
+    std::sync::Mutex<Vec<Workspace>>,
 );
 
 /// Each chunk's proposal-grid gradient, (cell, value) pairs, under the
@@ -45,6 +47,17 @@ impl GradPool {
     /// A chunk's grid-value gradient whose buffers a forward pass may reuse.
     pub(super) fn take_grid(&self) -> GridGrad {
         self.1.lock().map(|mut p| p.pop()).unwrap_or(None).unwrap_or_default()
+    }
+    /// A group's working memory, its buffers sized by earlier steps (its
+    /// photos' gradients empty).
+    pub(super) fn take_workspace(&self) -> Workspace {
+        self.3.lock().map(|mut p| p.pop()).unwrap_or(None).unwrap_or_default()
+    }
+    /// Returns a group's working memory for later groups.
+    pub(super) fn give_workspace(&self, ws: Workspace) {
+        if let Ok(mut p) = self.3.lock() {
+            p.push(ws);
+        }
     }
     /// Returns grid-value gradients for later chunks.
     pub(super) fn give_grids(&self, g: Vec<GridGrad>) {

@@ -4,6 +4,17 @@
 use super::*;
 use crate::pose::Poses;
 
+/// Groups of chunks a batch is split into ([`Trainer::gradients_timed`]):
+/// the most threads a step keeps busy, and the most gradient buffers it
+/// holds at once.
+const GROUPS: usize = 16;
+
+/// One group's (or a sum of groups') share of a step: the layers' gradient,
+/// the squared errors (coarse, fine), the network evaluations, each chunk's
+/// grid-value gradient under its index, the time of its stages and the
+/// photos' corrections' gradients.
+type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes, PerPhoto);
+
 impl Trainer {
     /// One optimisation step on a batch drawn from `data`; `progress` is
     /// the fraction of the run done (for the learning-rate decay).
@@ -124,41 +135,32 @@ impl Trainer {
         }
         let net = self.mlp();
         let np = self.params.len();
-        // the parameters each thread accumulates: all but a feature grid's table
+        // the parameters each group of chunks accumulates: all but a feature grid's table
         let dense = if net.features.is_some() { net.table } else { np };
         let scale = 2.0 / (3.0 * batch.len() as f32);
         let chunk = self.cfg.sampling.chunk_rays;
-        // a few accumulators per thread, for balance
-        let min_len = batch.len().div_ceil(chunk) / (4 * rayon::current_num_threads());
-        type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes, PerPhoto);
-        let (dense_grad, sq_c, sq_f, samples, mut grids, split, photos): Acc = batch
-            .par_chunks(chunk)
-            .with_min_len(min_len.max(1))
-            .enumerate()
-            .fold(
-                || {
-                    let g = self.pool.take(dense);
-                    (g, 0.0f64, 0.0f64, 0usize, Vec::new(), StepTimes::default(), Workspace::default())
-                },
-                |(mut g, c, f, n, mut grids, mut t, mut ws), (ci, rays)| {
-                    let key = hash32(step_key ^ hash32(ci as u32));
-                    let (a, b, k, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g, &mut t);
-                    grids.extend(grid.map(|gg| (ci, gg)));
-                    (g, c + a, f + b, n + k, grids, t, ws)
-                },
-            )
-            .map(|(g, c, f, n, grids, t, ws)| (g, c, f, n, grids, t, PerPhoto { appearance: ws.dapp, pose: ws.dpose }))
-            .reduce(
-                || (self.pool.take(dense), 0.0, 0.0, 0, Vec::new(), StepTimes::default(), PerPhoto::default()),
-                |(mut g1, c1, f1, n1, mut r1, mut t1, mut p1), (g2, c2, f2, n2, r2, t2, p2)| {
-                    g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
-                    self.pool.give(g2);
-                    r1.extend(r2);
-                    t1.add(&t2);
-                    p1.add(&p2);
-                    (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1, p1)
-                },
-            );
+        // the batch in fixed groups of consecutive chunks, summed in a fixed tree: the sum's order (and so the
+        // step's result) depends on the batch alone, not on the threads or their timing
+        let per_group = batch.len().div_ceil(chunk).div_ceil(GROUPS).max(1);
+        let group = |gi: usize| -> Acc {
+            let mut ws = self.pool.take_workspace();
+            let (mut g, mut c, mut f, mut n) = (self.pool.take(dense), 0.0f64, 0.0f64, 0usize);
+            let (mut grids, mut t) = (Vec::new(), StepTimes::default());
+            let rays =
+                &batch[(gi * per_group * chunk).min(batch.len())..((gi + 1) * per_group * chunk).min(batch.len())];
+            for (k, rays) in rays.chunks(chunk).enumerate() {
+                let ci = gi * per_group + k;
+                let key = hash32(step_key ^ hash32(ci as u32));
+                let (a, b, m, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g, &mut t);
+                grids.extend(grid.map(|gg| (ci, gg)));
+                (c, f, n) = (c + a, f + b, n + m);
+            }
+            let photos = PerPhoto { appearance: std::mem::take(&mut ws.dapp), pose: std::mem::take(&mut ws.dpose) };
+            self.pool.give_workspace(ws);
+            (g, c, f, n, grids, t, photos)
+        };
+        let groups = batch.len().div_ceil(per_group * chunk);
+        let (dense_grad, sq_c, sq_f, samples, mut grids, split, photos) = self.sum_groups(0..groups.max(1), &group);
         times.add(&split);
         times.chunks += start.elapsed().as_secs_f64();
         if dense == np {
@@ -174,6 +176,25 @@ impl Trainer {
         self.pool.give_grids(grids);
         times.scatter += start.elapsed().as_secs_f64();
         (grad, sq_c, sq_f, samples, photos)
+    }
+
+    /// The accumulators of groups `range` ([`Trainer::gradients_timed`]),
+    /// each made by `group` and summed pairwise, the left half's plus the
+    /// right half's, down to single groups: the same sum in the same order
+    /// whatever thread makes which group.
+    fn sum_groups(&self, range: std::ops::Range<usize>, group: &(impl Fn(usize) -> Acc + Sync)) -> Acc {
+        if range.len() == 1 {
+            return group(range.start);
+        }
+        let mid = range.start + range.len() / 2;
+        let ((mut g1, c1, f1, n1, mut r1, mut t1, mut p1), (g2, c2, f2, n2, r2, t2, p2)) =
+            rayon::join(|| self.sum_groups(range.start..mid, group), || self.sum_groups(mid..range.end, group));
+        g1.iter_mut().zip(&g2).for_each(|(a, b)| *a += b);
+        self.pool.give(g2);
+        r1.extend(r2);
+        t1.add(&t2);
+        p1.add(&p2);
+        (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1, p1)
     }
 
     /// Forward and backward of one chunk; accumulates into `g` and returns

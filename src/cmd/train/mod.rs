@@ -6,24 +6,19 @@ use super::{
     create_dir, load_split, lock_run_dir, num_in, progress, refuse_inside, with_threads, write_atomic, CaptureArgs,
     CmdResult,
 };
-use nerf_infer::{Model, RenderOptions};
 use nerf_train::config::{Preset, TrainConfig};
 use nerf_train::dataset::{Dataset, Split};
-use nerf_train::eval::score_view;
-use nerf_train::export::{trainer_model, OwnedModel, Prune};
-use nerf_train::mlp::Mlp;
-use nerf_train::path::fit_orbit;
-use nerf_train::rng::Rng;
-use nerf_train::timing::StepTimes;
-use nerf_train::train::{Draw, Trainer};
+use nerf_train::export::Prune;
+use nerf_train::run::{
+    fit_to_data, mlp_gflops, stage_ms, time_summary, Budget, Fit, Flow, Observer, Outcome, Run, Schedule, StepEvent,
+};
+use nerf_train::train::Trainer;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 mod new_run;
-mod report;
 mod resume;
 use new_run::*;
-use report::*;
 use resume::*;
 
 /// Arguments of `nerf train`.
@@ -90,35 +85,18 @@ fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
     load_split(&a.data, Split::Val, downscale, a.capture).ok()
 }
 
-/// Mean PSNR of the first `n` validation views rendered by the kernel's f32 path.
-fn validate(tr: &Trainer, val: &Dataset, n: usize, calib: &[nerf_train::train::Sample]) -> Result<f64, String> {
-    let bytes = trainer_model(tr, calib, Prune::Off).to_bytes().map_err(|e| e.to_string())?;
-    let model = Model::from_bytes(&bytes).map_err(|e| e.to_string())?;
-    let views = &val.views[..n.min(val.views.len())];
-    let mut sum = 0.0;
-    for v in views {
-        sum += score_view(&model, RenderOptions::from_model(&model), v).map_err(|e| e.to_string())?.1.psnr;
-    }
-    Ok(sum / views.len() as f64)
-}
-
-/// Writes the checkpoint and the model; `data` is the training split (the
-/// model records how its capture was split and the orbit fitted to its
-/// cameras).
-fn save(tr: &Trainer, out: &Path, calib: &[nerf_train::train::Sample], prune: Prune, data: &Dataset) -> CmdResult {
-    let cams: Vec<_> = data.views.iter().map(|v| v.camera).collect();
-    let orbit = fit_orbit(&data.scene, &cams);
-    let model = OwnedModel { capture: data.capture, orbit, ..trainer_model(tr, calib, prune) };
-    let bytes = model.to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
-    // the model first: a checkpoint on disk always has its model beside it (a run stopped between the two
-    // resumes from the earlier checkpoint and writes the model again)
+/// Writes the checkpoint and the model (the model first: a checkpoint on
+/// disk always has its model beside it; a run stopped between the two
+/// resumes from the earlier checkpoint and writes the model again).
+fn save(run: &Run<'_>, out: &Path, prune: Prune) -> CmdResult {
+    let bytes = run.model(prune).to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
     write_atomic(&out.join("model.nerf"), &bytes)?;
     // the checkpoint is several times the model: a disk that filled for it keeps the model, and says so
-    write_atomic(&out.join("checkpoint.bin"), &tr.to_bytes().map_err(|e| e.to_string())?).map_err(|e| {
+    write_atomic(&out.join("checkpoint.bin"), &run.trainer.to_bytes().map_err(|e| e.to_string())?).map_err(|e| {
         format!(
             "{e}; the model of step {} is written ({}), the checkpoint is not: this run can be used but not resumed \
              from here",
-            tr.step,
+            run.trainer.step,
             out.join("model.nerf").display()
         )
     })
@@ -160,14 +138,7 @@ pub fn run(a: Args) -> CmdResult {
 /// `--preset` and `--config`).
 pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
     cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
-    let run = NewRun {
-        cfg,
-        fit_features: false,
-        fit_samples: false,
-        fit_proposal: true,
-        fit_distortion: true,
-        fit_render: true,
-    };
+    let run = NewRun { cfg, fit: Fit::KEEP_SIZES };
     with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
 
@@ -203,7 +174,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         });
     }
     let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
-    let (mut tr, data) = if a.resume && ckpt.is_file() {
+    let (tr, data) = if a.resume && ckpt.is_file() {
         let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
         let tr = Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))?;
         let mut tr = tr;
@@ -218,73 +189,21 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         let run = new_run.ok_or("a configuration for a new run")?;
         let downscale = a.capture.downscale.unwrap_or(1);
         let data = load(downscale)?;
-        let cfg = run.for_data(&data)?;
-        if cfg.features.max_res != run.cfg.features.max_res {
-            eprintln!(
-                "feature grid sized to the photos: finest level {} cells per axis (was {}), 2^{} table entries per \
-                 level (was 2^{}); set features.max_res or features.log2_table with --config to choose",
-                cfg.features.max_res, run.cfg.features.max_res, cfg.features.log2_table, run.cfg.features.log2_table
-            );
+        let fitted = fit_to_data(&run.cfg, run.fit, &data)?;
+        for note in &fitted.notes {
+            eprintln!("{note}");
         }
-        if cfg.sampling.proposal_res != run.cfg.sampling.proposal_res {
-            eprintln!(
-                "{} scene: the network's {} samples per ray (the model renders at {} unless told otherwise; set \
-                 sampling.n_main_render with --config) placed by a {}³ proposal grid composited at {} \
-                 stratified samples{}; set sampling.proposal_res 0 with --config for the occupancy grid's {} stratified samples",
-                if data.scene.ndc.is_some() { "forward-facing" } else { "unbounded" },
-                cfg.sampling.n_main,
-                cfg.samples().fine,
-                cfg.sampling.proposal_res,
-                cfg.sampling.n_coarse,
-                match cfg.loss.distortion != run.cfg.loss.distortion {
-                    true => format!(", the distortion loss at {} (set loss.distortion with --config)", cfg.loss.distortion),
-                    false => String::new(),
-                },
-                run.cfg.sampling.n_coarse
-            );
-        }
-        if cfg.sampling.n_coarse != run.cfg.sampling.n_coarse
-            && cfg.sampling.proposal_res == run.cfg.sampling.proposal_res
-        {
-            eprintln!(
-                "samples per ray set for the photos: {} (was {}); set sampling.n_coarse with --config to choose",
-                cfg.sampling.n_coarse, run.cfg.sampling.n_coarse
-            );
-        }
-        if cfg.loss.pose_refine && data.scene.ndc.is_some() {
-            eprintln!("forward-facing scene: loss.pose_refine leaves the photos' poses as loaded (rays in NDC)");
-        }
-        let mut tr = Trainer::new(cfg, data.scene, downscale, a.seed);
+        let mut tr = Trainer::new(fitted.cfg, data.scene, downscale, a.seed);
         tr.data = data_source(&a);
         (tr, data)
     };
-    data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
     let val = load_val(&a, tr.downscale);
-    let calib =
-        Trainer::draw_batch(&data, 4096, Draw::CENTRES, &mut Rng::new(tr.seed ^ nerf_train::rng::stream::CALIBRATION));
-    let budget_secs = a.minutes.map(|m| m * 60.0);
-    let total = match (a.iters, budget_secs) {
-        (Some(n), _) => n,
-        (None, Some(s)) => (s * 1000.0) as u64,
+    let budget = match (a.iters, a.minutes) {
+        (Some(n), _) => Budget::Steps(n),
+        (None, Some(m)) => Budget::Seconds(m * 60.0),
         _ => unreachable!("clap requires a budget"),
     };
-    let progress_of = |tr: &Trainer| match (a.iters, budget_secs) {
-        (Some(n), _) => tr.step as f64 / n as f64,
-        (None, Some(s)) => tr.elapsed / s,
-        _ => 1.0,
-    };
-    let pb = progress(total, "{bar:30} {pos}/{len} ({eta}) {msg}");
-    let mut log = RunLog::open(&a.out.join("train.jsonl"), a.resume.then_some(tr.step))?;
-    super::interrupt::catch();
-    let mlp = tr.mlp();
-    let flops_per_sample = 6.0 * mlp.macs_per_sample() as f64;
-    let (mut last_ckpt, mut last_val) = (tr.elapsed, tr.elapsed);
-    let (mut win_rays, mut win_samples, mut win_secs) = (0usize, 0usize, 0.0f64);
-    let (mut win_times, mut run_times, mut run_samples) = (StepTimes::default(), StepTimes::default(), 0usize);
-    let (mut win_steps, run_start) = (0u64, tr.step);
-    let mut last_val_psnr = None;
-    let wall = Instant::now();
-    if progress_of(&tr) >= 1.0 {
+    if budget.progress(&tr) >= 1.0 {
         return Err(format!(
             "{}: the checkpoint is at step {} ({:.2} training minutes), already the end of this budget: give a larger \
              --iters or --minutes",
@@ -293,84 +212,42 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
             tr.elapsed / 60.0
         ));
     }
-    while progress_of(&tr) < 1.0 {
-        let t0 = Instant::now();
-        let st = tr.train_step(&data, progress_of(&tr));
-        let dt = t0.elapsed().as_secs_f64();
-        tr.elapsed += dt;
-        win_rays += st.rays;
-        win_samples += st.samples;
-        win_secs += dt;
-        win_steps += 1;
-        win_times.add(&st.times);
-        run_times.add(&st.times);
-        run_samples += st.samples;
-        if st.skipped {
-            pb.println(format!("step {}: loss or gradient not finite, step skipped", tr.step));
-        }
-        let mut val_psnr = None;
-        if let Some(v) = val.as_ref().filter(|_| tr.elapsed - last_val >= a.val_secs) {
-            val_psnr = Some(validate(&tr, v, a.val_views, &calib[..256])?);
-            last_val_psnr = val_psnr;
-            last_val = tr.elapsed;
-        }
-        if tr.step % a.log_every == 0 || val_psnr.is_some() {
-            let line = serde_json::json!({
-                "step": tr.step,
-                "train_secs": tr.elapsed,
-                "wall_secs": wall.elapsed().as_secs_f64(),
-                "loss": st.loss,
-                "psnr": st.psnr,
-                "lr": tr.learning_rate(progress_of(&tr)),
-                "rays_per_sec": win_rays as f64 / win_secs,
-                "samples_per_sec": win_samples as f64 / win_secs,
-                "gflops": win_samples as f64 * flops_per_sample / win_secs / 1e9,
-                "val_psnr": val_psnr,
-                "skipped_steps": tr.skipped,
-                "step_ms": stage_ms(&win_times, win_steps),
-                "mlp_gflops_per_thread": mlp_gflops(&win_times, win_samples, &mlp),
-            });
-            log.append(&line)?;
-            pb.set_message(format!(
-                "loss {:.4} psnr {:.2} dB, {:.0} rays/s{}",
-                st.loss,
-                st.psnr,
-                win_rays as f64 / win_secs,
-                last_val_psnr.map(|v| format!(", val {v:.2} dB")).unwrap_or_default()
-            ));
-            (win_rays, win_samples, win_secs) = (0, 0, 0.0);
-            (win_times, win_steps) = (StepTimes::default(), 0);
-        }
-        pb.set_position(match a.iters {
-            Some(_) => tr.step,
-            None => (tr.elapsed * 1000.0) as u64,
-        });
-        // an interrupt at the last step lets the run finish: there would be nothing left to resume
-        if super::interrupt::received() && progress_of(&tr) < 1.0 {
-            pb.finish_and_clear();
-            save(&tr, &a.out, &calib, a.prune, &data)?;
+    let mut run = Run::new(tr, &data, val.as_ref(), budget).map_err(|e| format!("{}: {e}", a.data.display()))?;
+    run.schedule = Schedule {
+        checkpoint_secs: a.checkpoint_secs,
+        val_secs: a.val_secs,
+        val_views: a.val_views,
+        log_every: a.log_every,
+    };
+    let mut progress = Progress {
+        bar: progress(budget.ticks(), "{bar:30} {pos}/{len} ({eta}) {msg}"),
+        log: RunLog::open(&a.out.join("train.jsonl"), a.resume.then_some(run.trainer.step))?,
+        out: a.out.clone(),
+        prune: a.prune,
+        mlp: run.trainer.mlp(),
+        wall: Instant::now(),
+        last_val_psnr: None,
+    };
+    super::interrupt::catch();
+    let start_step = run.trainer.step;
+    let outcome = run.train(&mut progress);
+    progress.bar.finish_and_clear();
+    let val_psnr = match outcome.map_err(|e| e.0)? {
+        Outcome::Stopped => {
             return Err(format!(
                 "interrupted at step {}: checkpoint saved to {}; continue with --resume",
-                tr.step,
+                run.trainer.step,
                 ckpt.display()
-            ));
+            ))
         }
-        if tr.elapsed - last_ckpt >= a.checkpoint_secs {
-            save(&tr, &a.out, &calib, a.prune, &data)?;
-            last_ckpt = tr.elapsed;
-        }
-    }
-    pb.finish_and_clear();
-    save(&tr, &a.out, &calib, a.prune, &data)?;
-    let val_psnr = match &val {
-        Some(v) => Some(validate(&tr, v, a.val_views, &calib[..256])?),
-        None => None,
+        Outcome::Finished { val_psnr } => val_psnr,
     };
-    eprintln!("{}", time_summary(&run_times, tr.step - run_start, run_samples, &mlp));
+    let totals = &run.totals;
+    eprintln!("{}", time_summary(&totals.times, run.trainer.step - start_step, totals.samples, &progress.mlp));
     eprintln!(
         "trained {} steps in {:.1} s; wrote {}{}",
-        tr.step,
-        tr.elapsed,
+        run.trainer.step,
+        run.trainer.elapsed,
         a.out.join("model.nerf").display(),
         val_psnr
             .zip(val.as_ref())
@@ -378,4 +255,79 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
             .unwrap_or_default()
     );
     Ok(())
+}
+
+/// An error of the command's run: its message.
+struct Failed(String);
+
+impl From<nerf_train::Error> for Failed {
+    fn from(e: nerf_train::Error) -> Self {
+        Failed(e.to_string())
+    }
+}
+
+impl From<String> for Failed {
+    fn from(e: String) -> Self {
+        Failed(e)
+    }
+}
+
+/// What `nerf train` shows and writes while a run trains: the progress
+/// bar, train.jsonl, the model and the checkpoint; it stops the run on an
+/// interrupt.
+struct Progress {
+    bar: indicatif::ProgressBar,
+    log: RunLog,
+    out: PathBuf,
+    prune: Prune,
+    mlp: nerf_train::mlp::Mlp,
+    wall: Instant,
+    last_val_psnr: Option<f64>,
+}
+
+impl Observer for Progress {
+    type Error = Failed;
+
+    fn step(&mut self, run: &Run<'_>, ev: &StepEvent<'_>) -> Result<Flow, Failed> {
+        let tr = &run.trainer;
+        let st = &ev.stats;
+        if st.skipped {
+            self.bar.println(format!("step {}: loss or gradient not finite, step skipped", tr.step));
+        }
+        if ev.val_psnr.is_some() {
+            self.last_val_psnr = ev.val_psnr;
+        }
+        if let Some(w) = ev.window {
+            let flops_per_sample = 6.0 * self.mlp.macs_per_sample() as f64;
+            let line = serde_json::json!({
+                "step": tr.step,
+                "train_secs": tr.elapsed,
+                "wall_secs": self.wall.elapsed().as_secs_f64(),
+                "loss": st.loss,
+                "psnr": st.psnr,
+                "lr": tr.learning_rate(run.progress()),
+                "rays_per_sec": w.rays_per_sec(),
+                "samples_per_sec": w.samples as f64 / w.secs,
+                "gflops": w.samples as f64 * flops_per_sample / w.secs / 1e9,
+                "val_psnr": ev.val_psnr,
+                "skipped_steps": tr.skipped,
+                "step_ms": stage_ms(&w.times, w.steps),
+                "mlp_gflops_per_thread": mlp_gflops(&w.times, w.samples, &self.mlp),
+            });
+            self.log.append(&line)?;
+            self.bar.set_message(format!(
+                "loss {:.4} psnr {:.2} dB, {:.0} rays/s{}",
+                st.loss,
+                st.psnr,
+                w.rays_per_sec(),
+                self.last_val_psnr.map(|v| format!(", val {v:.2} dB")).unwrap_or_default()
+            ));
+        }
+        self.bar.set_position(run.budget.tick(tr));
+        Ok(if super::interrupt::received() { Flow::Stop } else { Flow::Continue })
+    }
+
+    fn checkpoint(&mut self, run: &Run<'_>) -> Result<(), Failed> {
+        Ok(save(run, &self.out, self.prune)?)
+    }
 }

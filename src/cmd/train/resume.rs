@@ -126,7 +126,8 @@ fn user_flags(flags: &str) -> String {
 /// to `data` as a new run's would be).
 pub(super) fn check_resume_config(a: &Args, tr: &Trainer, data: &Dataset) -> CmdResult {
     if a.preset.is_some() || a.config.is_some() {
-        let cfg = load_config(a)?.for_data(data)?;
+        let run = load_config(a)?;
+        let cfg = nerf_train::run::fit_to_data(&run.cfg, run.fit, data)?.cfg;
         if cfg != tr.cfg {
             let differ = cfg.differing_fields(&tr.cfg);
             return Err(format!(

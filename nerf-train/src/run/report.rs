@@ -1,10 +1,11 @@
 //! The run's time report: each stage's milliseconds per step and the
 //! layers' throughput, for the log and the last line.
 
-use super::*;
+use crate::mlp::Mlp;
+use crate::timing::StepTimes;
 
 /// Milliseconds per step of each stage of [`StepTimes`], averaged over `steps`.
-pub(super) fn stage_ms(t: &StepTimes, steps: u64) -> serde_json::Value {
+pub fn stage_ms(t: &StepTimes, steps: u64) -> serde_json::Value {
     let per = 1e3 / steps.max(1) as f64;
     serde_json::Value::Object(t.stages().iter().map(|&(k, v)| (k.to_string(), (v * per).into())).collect())
 }
@@ -12,7 +13,7 @@ pub(super) fn stage_ms(t: &StepTimes, steps: u64) -> serde_json::Value {
 /// GFLOP/s per thread of the network's layers, forward (2 flops per
 /// multiply-accumulate) and backward (4: the input's and the weights'
 /// gradients), over `samples` network evaluations.
-pub(super) fn mlp_gflops(t: &StepTimes, samples: usize, mlp: &Mlp) -> serde_json::Value {
+pub fn mlp_gflops(t: &StepTimes, samples: usize, mlp: &Mlp) -> serde_json::Value {
     let flops = samples as f64 * mlp.macs_per_sample() as f64 / 1e9;
     serde_json::json!({
         "forward": 2.0 * flops / t.forward.max(1e-9),
@@ -22,7 +23,7 @@ pub(super) fn mlp_gflops(t: &StepTimes, samples: usize, mlp: &Mlp) -> serde_json
 
 /// One line on where the run's time went: each wall stage's share of the
 /// steps, the chunks' thread time split, and the layers' GFLOP/s per thread.
-pub(super) fn time_summary(t: &StepTimes, steps: u64, samples: usize, mlp: &Mlp) -> String {
+pub fn time_summary(t: &StepTimes, steps: u64, samples: usize, mlp: &Mlp) -> String {
     let wall = t.wall().max(1e-9);
     let thread = t.thread().max(1e-9);
     let share = |v: f64, of: f64| format!("{:.0} %", 100.0 * v / of);
