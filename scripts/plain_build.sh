@@ -13,6 +13,7 @@
 # --out RUN/int8.nerf`): scripts/plain_build.sh RUN/model.nerf RUN/int8.nerf
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. scripts/quickstart_time.sh
 size=100
 if [ "${1:-}" = "--size" ]; then size=$2; shift 2; fi
 [ $# -gt 0 ] || { echo "usage: $0 [--size N] MODEL..." >&2; exit 2; }
@@ -29,13 +30,7 @@ echo "model,build,us_per_ray,kernels,same_picture"
 for m in "$@"; do
     m=$(realpath "$m")
     for build in plain native; do
-        best=""
-        for _ in 1 2; do
-            line=$(cd "$work/run-$build" && "$work/$build/release/nerf-quickstart" "$m" "$size")
-            us=$(sed -n 's/.* \([0-9.]*\) µs per ray.*/\1/p' <<<"$line")
-            best=$(python3 -c "import sys; v=[float(x) for x in sys.argv[1:] if x]; print(min(v))" "$us" "$best")
-        done
-        kernels=$(sed -n 's/.*(\(.*\) kernels).*/\1/p' <<<"$line")
+        fastest_ray "$work/$build/release/nerf-quickstart" "$m" "$size" "$work/run-$build"
         same=""
         if [ $build = native ]; then
             if cmp -s "$work/run-plain/view.ppm" "$work/run-native/view.ppm"; then same=yes; else same=NO; differ=1; fi

@@ -7,6 +7,10 @@
 # early termination 1e-3, the faster of two). Appends to
 # docs/plain_build.csv: date, commit, CPU, cores, minutes, steps, model,
 # build, µs per ray, kernels, whether the picture equals the native build's.
+# Then renders both with the quick start's scratch at each block size
+# (scripts/block_sizes.sh, plain builds) and appends to
+# docs/block_sizes.csv: date, commit, CPU, cores, minutes, steps, model,
+# block, µs per ray, kernels, whether the picture equals blocks of 1's.
 #
 #   scripts/plain_build_lego.sh [DATA_ROOT] [MINUTES]   (../shared/data, 10)
 set -euo pipefail
@@ -21,4 +25,9 @@ run="$work/lego"
 n=$(steps "$run")
 scripts/plain_build.sh --size 100 "$run/model.nerf" "$run/int8.nerf" | tail -n +2 | while IFS=, read -r m build us kernels same; do
   echo "$stamp,$minutes,$n,$(basename "$m" .nerf),$build,$us,$kernels,$same" | tee -a "$out_csv" >&2
+done
+blocks_csv=docs/block_sizes.csv
+[ -f "$blocks_csv" ] || echo "date,commit,cpu,cores,minutes,steps,model,block,us_per_ray,kernels,same_picture" > "$blocks_csv"
+scripts/block_sizes.sh --size 100 "$run/model.nerf" "$run/int8.nerf" | tail -n +2 | while IFS=, read -r m block us kernels same; do
+  echo "$stamp,$minutes,$n,$(basename "$m" .nerf),$block,$us,$kernels,$same" | tee -a "$blocks_csv" >&2
 done

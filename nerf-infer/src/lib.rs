@@ -33,7 +33,7 @@
 //! let renderer = AnyRenderer::new(&model, RenderOptions::from_model(&model))?;
 //! // the first camera of the orbit the model was trained around, 64×64 pixels
 //! let camera = Orbit::of(&model).camera(0.0, 64, 64)?;
-//! let mut scratch: AnyScratch = renderer.scratch(); // working memory, ~13 KiB
+//! let mut scratch: AnyScratch = renderer.scratch(); // working memory: 43 KiB with `std`, 13 KiB without
 //! let mut rgb = Vec::new();
 //! for y in 0..camera.height {
 //!     for x in 0..camera.width {
@@ -107,7 +107,8 @@
 //!
 //! Nothing is allocated. Working memory is a scratch value the caller owns
 //! ([`ScratchF32`], [`ScratchFixed`], [`AnyScratch`]) for blocks of `B`
-//! samples evaluated together (default 1; 8 is fastest on a desktop CPU):
+//! samples evaluated together ([`DEFAULT_BLOCK`] unless named: 8 with
+//! `std`, the fastest on a desktop CPU; 1 without, for small stacks):
 //! `ScratchFixed<1>` 13.3 KiB, `ScratchFixed<8>` 43.4 KiB, `ScratchF32<1>`
 //! 9.6 KiB, `ScratchF32<8>` 27.5 KiB. Beyond it, on a Cortex-M4 at
 //! opt-level `s`, `Model::from_bytes` needs 13.1 KiB of stack and
@@ -178,5 +179,5 @@ pub use pixel::{to_u8, Pixel, PixelFixed};
 pub use render::tile::{render_tile, Tile};
 pub use render::{
     AnyRenderer, AnyScratch, Fixed, NumericPath, RayRenderer, RenderOptions, Renderer, RendererF32, RendererFixed,
-    Scratch, ScratchF32, ScratchFixed, F32,
+    Scratch, ScratchF32, ScratchFixed, DEFAULT_BLOCK, F32,
 };

@@ -14,8 +14,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let camera = Orbit::of(&model).camera(0.0, size, size)?;
     // f32 models render in f32, int16 and int8 ones in fixed point
     let renderer = AnyRenderer::new(&model, opts)?.with_pixel(camera.pixel_angle());
-    // working memory for blocks of 8 samples (the fastest on a desktop CPU)
-    let mut scratch: Box<AnyScratch<8>> = Box::new(renderer.scratch());
+    // working memory: the default block of samples (8 with `std`, the fastest on a desktop CPU)
+    let mut scratch: Box<AnyScratch> = Box::new(renderer.scratch());
     let mut ppm = format!("P6\n{size} {size}\n255\n").into_bytes();
     let start = Instant::now();
     for y in 0..size {

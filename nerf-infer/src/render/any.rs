@@ -3,7 +3,7 @@
 //! pixel type ([`Pixel`]).
 
 use super::api::{RayRenderer, RenderOptions};
-use super::{RendererF32, RendererFixed, ScratchF32, ScratchFixed};
+use super::{RendererF32, RendererFixed, ScratchF32, ScratchFixed, DEFAULT_BLOCK};
 use crate::error::Result;
 use crate::format::Model;
 use crate::pixel::Pixel;
@@ -23,13 +23,14 @@ pub enum AnyRenderer<'m, 'a> {
     Fixed(RendererFixed<'m, 'a>),
 }
 
-/// Working memory of an [`AnyRenderer`] for blocks of `B` samples: the
-/// scratch of the path it renders. [`AnyRenderer::scratch`] makes the one
+/// Working memory of an [`AnyRenderer`] for blocks of `B` samples
+/// ([`DEFAULT_BLOCK`] unless named: 8 with `std`, 1
+/// without): the scratch of the path it renders. [`AnyRenderer::scratch`] makes the one
 /// a renderer needs; given the other path's, a render replaces it first.
 /// As big as the larger of the two ([`ScratchFixed`]); keep it in a `Box`
 /// or a `static` on small stacks.
 #[derive(Clone)]
-pub enum AnyScratch<const B: usize = 1> {
+pub enum AnyScratch<const B: usize = DEFAULT_BLOCK> {
     /// For an f32 model.
     F32(ScratchF32<B>),
     /// For an int16 or int8 model.

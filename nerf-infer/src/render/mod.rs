@@ -29,10 +29,19 @@ pub use path::NumericPath;
 pub use renderer::{Dispatch, Renderer};
 pub use scratch::Scratch;
 
+/// Samples per block of the scratch types when none is named
+/// (`AnyScratch`, `ScratchF32`, `ScratchFixed`): 8 with the `std` feature,
+/// a host's build (from a crate outside this workspace on an AMD EPYC,
+/// int8 renders lego in 0.53 of the time of blocks of 1, f32 in 0.74:
+/// `scripts/block_sizes.sh`, docs/RESULTS.md "Samples per block"); 1
+/// without, where the scratch must fit a microcontroller's stack or RAM
+/// (`ScratchFixed<1>` 13.3 KiB, `<8>` 43.4 KiB).
+pub const DEFAULT_BLOCK: usize = if cfg!(feature = "std") { 8 } else { 1 };
+
 /// Working memory of [`RendererF32`].
-pub type ScratchF32<const B: usize = 1> = Scratch<F32, B>;
+pub type ScratchF32<const B: usize = DEFAULT_BLOCK> = Scratch<F32, B>;
 /// Working memory of [`RendererFixed`].
-pub type ScratchFixed<const B: usize = 1> = Scratch<Fixed, B>;
+pub type ScratchFixed<const B: usize = DEFAULT_BLOCK> = Scratch<Fixed, B>;
 
 /// The f32 reference path.
 pub type RendererF32<'m, 'a> = Renderer<'m, 'a, F32>;
