@@ -547,6 +547,30 @@ target-cpu=native` (`native`, as the workspace builds). "same picture":
 the plain build's picture is byte for byte the native build's.""", t if rs else missing("plain-build"))
 
 
+def block_sizes_section():
+    rs = rows("block_sizes.csv")
+    last = last_run(rs) if rs else []
+    by = {(r["model"], r["block"]): r for r in last}
+    body = []
+    for r in sorted(last, key=lambda r: (r["model"] != "model", int(r["block"]))):
+        one = by.get((r["model"], "1"))
+        f32 = by.get(("model", r["block"]))
+        vs_one = f"{float(r['us_per_ray']) / float(one['us_per_ray']):.2f}" if one else ""
+        vs_f32 = f"{float(r['us_per_ray']) / float(f32['us_per_ray']):.2f}" if r["model"] == "int8" and f32 else ""
+        same = {"yes": "yes", "NO": "**no**"}.get(r["same_picture"], "")
+        body.append([r["model"], r["block"], r["us_per_ray"], vs_one, vs_f32, same, r["minutes"], thousands(r["steps"]),
+                     run(r)])
+    t = table(["<model", "block", "µs/ray", "/ block 1", "int8 / f32", "<same picture", "minutes", "steps", "<run"],
+              body)
+    return ("Samples per block", "plain-build", """The last run of `scripts/plain_build_lego.sh`
+also renders its two models with `examples/quickstart` built without
+target flags, its scratch typed `AnyScratch<B>` for each block size B
+(`scripts/block_sizes.sh`: one thread, early termination 10⁻³, the fastest
+of three). `nerf_infer::DEFAULT_BLOCK`, the block of `AnyScratch`,
+`ScratchF32` and `ScratchFixed` when none is named, is 8 with `std` and 1
+without. "same picture": byte for byte the picture of blocks of 1.""", t if rs else missing("plain-build"))
+
+
 def duration(ns):
     return f"{ns / 1e6:.2f} ms" if ns >= 1e6 else f"{ns / 1e3:.2f} µs" if ns >= 1e3 else f"{ns:.1f} ns"
 
@@ -736,7 +760,7 @@ run with the same configuration.""", t if rs else missing("step-sizes"))
 
 
 SECTIONS = [default_section, full_section, paper_section, tradeoff_section, fast_int8_section, int8_section, table_bits_section, captures_section, proposal_section,
-            proposal_samples_section, main_samples_section, room_region_section, seeds_section, ray_instructions_section, capture_ab_section, masks_section, plain_build_section, bench_section, train_step_section, step_sizes_section,
+            proposal_samples_section, main_samples_section, room_region_section, seeds_section, ray_instructions_section, capture_ab_section, masks_section, plain_build_section, block_sizes_section, bench_section, train_step_section, step_sizes_section,
             mesh_section,
             mcu_section, web_section]
 

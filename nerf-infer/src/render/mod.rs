@@ -32,7 +32,7 @@ pub use scratch::Scratch;
 /// Samples per block of the scratch types when none is named
 /// (`AnyScratch`, `ScratchF32`, `ScratchFixed`): 8 with the `std` feature,
 /// a host's build (from a crate outside this workspace on an AMD EPYC,
-/// int8 renders lego in 0.53 of the time of blocks of 1, f32 in 0.74:
+/// int8 renders lego in 0.52 of the time of blocks of 1, f32 in 0.70:
 /// `scripts/block_sizes.sh`, docs/RESULTS.md "Samples per block"); 1
 /// without, where the scratch must fit a microcontroller's stack or RAM
 /// (`ScratchFixed<1>` 13.3 KiB, `<8>` 43.4 KiB).
