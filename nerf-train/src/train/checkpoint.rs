@@ -1,17 +1,39 @@
-//! The checkpoint container: the run's state in postcard, framed as a
-//! model file is (`nerf_infer::format::frame`: magic, version, length,
-//! CRC-32) under its own magic.
+//! The checkpoint container: the run's state framed as a model file is
+//! (`nerf_infer::format::frame`: magic, version, length, CRC-32) under its
+//! own magic.
+//!
+//! Version 19 holds the state as named sections, one per field of
+//! [`Trainer`] (each in postcard), the configuration among them as JSON
+//! with its fields named: a field added to the trainer or its
+//! configuration leaves earlier checkpoints readable. Reading one that
+//! lacks a field takes the value [`ABSENT_MEANS`] gives it (what builds
+//! before the field did), or refuses the checkpoint naming the field; a
+//! field this build does not know (a newer build's) is refused by name.
+//! Version 18, the whole state in postcard, is still read.
 
 use super::*;
 use crate::error::Error;
 use nerf_infer::format::{frame, unframe};
 use nerf_infer::Error as FormatError;
+use serde::de::DeserializeOwned;
+use serde_json::Value;
 
 /// The first bytes of a checkpoint file (`nerf_infer::format::CHECKPOINT_MAGIC`).
 pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 
-/// The checkpoint format [`Trainer::to_bytes`] writes and reads.
-pub const CHECKPOINT_VERSION: u16 = 18;
+/// The checkpoint format [`Trainer::to_bytes`] writes: named sections.
+pub const CHECKPOINT_VERSION: u16 = 19;
+
+/// The earliest checkpoint format [`Trainer::from_bytes`] reads: 18, the
+/// whole [`Trainer`] in postcard, as the types are laid out now.
+pub const CHECKPOINT_VERSION_MIN: u16 = 18;
+
+/// Fields an earlier build's checkpoint may lack, by name (a section of
+/// the state, or `cfg.SECTION.FIELD` of its configuration), each with the
+/// value (as JSON) that means what builds before it did. A field added to
+/// [`Trainer`] or [`TrainConfig`] gets a line here when such a value
+/// exists; without one, checkpoints that lack it are refused, naming it.
+pub const ABSENT_MEANS: &[(&str, &str)] = &[];
 
 /// The scene as a checkpoint holds it: [`Scene`] in the model format's
 /// encoding, then its unbounded space, which that encoding leaves to a
@@ -50,7 +72,25 @@ impl Trainer {
     /// (u32 LE), then the payload (postcard). Fails with
     /// [`Error::Checkpoint`] for a state of 4 GiB or more.
     pub fn to_bytes(&self) -> Result<Vec<u8>, Error> {
-        let payload = postcard::to_stdvec(self).map_err(|e| Error::Checkpoint(format!("cannot encode: {e}")))?;
+        let mut w = Sections::default();
+        let cfg = serde_json::to_string(&self.cfg).map_err(|e| Error::Checkpoint(format!("cannot encode: {e}")))?;
+        w.put("cfg", &cfg)?;
+        w.put("scene", &(&self.scene, self.scene.unbounded))?;
+        w.put("downscale", &self.downscale)?;
+        w.put("params", &self.params)?;
+        w.put("adam", &self.adam)?;
+        w.put("step", &self.step)?;
+        w.put("elapsed", &self.elapsed)?;
+        w.put("seed", &self.seed)?;
+        w.put("skipped", &self.skipped)?;
+        w.put("grid", &self.grid)?;
+        w.put("data", &self.data)?;
+        w.put("pixel", &self.pixel)?;
+        w.put("ema", &self.ema)?;
+        w.put("proposal", &self.proposal)?;
+        w.put("appearance", &self.appearance)?;
+        w.put("poses", &self.poses)?;
+        let payload = postcard::to_stdvec(&w.0).map_err(|e| Error::Checkpoint(format!("cannot encode: {e}")))?;
         frame(CHECKPOINT_MAGIC, CHECKPOINT_VERSION, &payload).map_err(|e| Error::Checkpoint(e.to_string()))
     }
 
@@ -61,17 +101,23 @@ impl Trainer {
     /// configuration does not lay out).
     pub fn from_bytes(b: &[u8]) -> Result<Self, Error> {
         let bad = |m: &str| Error::Checkpoint(m.to_string());
-        let payload = match unframe(b, CHECKPOINT_MAGIC, CHECKPOINT_VERSION, CHECKPOINT_VERSION) {
-            Ok((_, payload)) => payload,
+        let (version, payload) = match unframe(b, CHECKPOINT_MAGIC, CHECKPOINT_VERSION_MIN, CHECKPOINT_VERSION) {
+            Ok(read) => read,
             Err(FormatError::BadMagic) => return Err(bad("not a checkpoint (no NERFCKPT header)")),
             Err(FormatError::UnsupportedVersion(v)) => {
                 return Err(Error::Checkpoint(format!(
-                    "checkpoint version {v}, this build reads version {CHECKPOINT_VERSION} (written by another build)"
+                    "checkpoint version {v}, this build reads versions {CHECKPOINT_VERSION_MIN} to \
+                     {CHECKPOINT_VERSION} (written by another build)"
                 )))
             }
             Err(_) => return Err(bad("truncated or damaged (its length or checksum does not match)")),
         };
-        let t: Self = postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
+        let t: Self = match version {
+            CHECKPOINT_VERSION_MIN => {
+                postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?
+            }
+            _ => Self::from_sections(payload, ABSENT_MEANS)?,
+        };
         let grid_ok = match &t.grid {
             None => t.cfg.grid.res == 0,
             Some(g) => g.res == t.cfg.grid.res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
@@ -114,5 +160,117 @@ impl Trainer {
                 Err(bad("its state is inconsistent (parameters, grids or configuration that do not fit together)"))
             }
         }
+    }
+}
+
+/// A checkpoint's sections: (name, postcard bytes), in the order written.
+#[derive(Default)]
+struct Sections(Vec<(String, Vec<u8>)>);
+
+impl Sections {
+    fn put<T: Serialize>(&mut self, name: &str, v: &T) -> Result<(), Error> {
+        let bytes = postcard::to_stdvec(v).map_err(|e| Error::Checkpoint(format!("cannot encode its {name}: {e}")))?;
+        self.0.push((name.to_string(), bytes));
+        Ok(())
+    }
+}
+
+/// Reads sections by name, each once, giving absent ones the value `absent` names.
+struct SectionReader<'a> {
+    sections: std::collections::BTreeMap<String, Vec<u8>>,
+    absent: &'a [(&'a str, &'a str)],
+}
+
+impl SectionReader<'_> {
+    fn take<T: DeserializeOwned>(&mut self, name: &str) -> Result<T, Error> {
+        let cannot = |e: &dyn std::fmt::Display| Error::Checkpoint(format!("its {name} cannot be decoded: {e}"));
+        match self.sections.remove(name) {
+            Some(bytes) => postcard::from_bytes(&bytes).map_err(|e| cannot(&e)),
+            None => match self.absent.iter().find(|(n, _)| *n == name) {
+                Some((_, json)) => serde_json::from_str(json).map_err(|e| cannot(&e)),
+                None => Err(lacks(name)),
+            },
+        }
+    }
+
+    /// Refuses sections nobody took: a newer build's fields.
+    fn finish(self) -> Result<(), Error> {
+        match self.sections.keys().next() {
+            Some(name) => Err(unknown(name)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The error for a checkpoint without field `name`.
+fn lacks(name: &str) -> Error {
+    Error::Checkpoint(format!(
+        "it has no {name} (written by an earlier build, before this build's {name} existed, and no value of it \
+         means what that build did): start the run over with --force"
+    ))
+}
+
+/// The error for a checkpoint with field `name` this build does not know.
+fn unknown(name: &str) -> Error {
+    Error::Checkpoint(format!("it holds {name}, which this build does not know (written by a newer build)"))
+}
+
+/// `found` (a checkpoint's configuration as JSON) with every field `like`
+/// (this build's) has, at every depth: absent ones from `absent` (under
+/// `cfg.PATH`) or refused, unknown ones refused, each named by its path.
+fn complete(found: &mut Value, like: &Value, path: &str, absent: &[(&str, &str)]) -> Result<(), Error> {
+    let (Some(found), Some(like)) = (found.as_object_mut(), like.as_object()) else { return Ok(()) };
+    if let Some(k) = found.keys().find(|k| !like.contains_key(*k)) {
+        return Err(unknown(&format!("{path}.{k}")));
+    }
+    for (k, v) in like {
+        let name = format!("{path}.{k}");
+        match found.get_mut(k) {
+            Some(f) => complete(f, v, &name, absent)?,
+            None => {
+                let (_, json) = absent.iter().find(|(n, _)| *n == name).ok_or_else(|| lacks(&name))?;
+                let value = serde_json::from_str(json).map_err(|e| Error::Checkpoint(format!("{name}: {e}")))?;
+                found.insert(k.clone(), value);
+            }
+        }
+    }
+    Ok(())
+}
+
+impl Trainer {
+    /// The state of a version 19 checkpoint's payload; absent fields as
+    /// `absent` ([`ABSENT_MEANS`]) says.
+    pub(super) fn from_sections(payload: &[u8], absent: &[(&str, &str)]) -> Result<Self, Error> {
+        let sections: Vec<(String, Vec<u8>)> =
+            postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
+        let mut r = SectionReader { sections: sections.into_iter().collect(), absent };
+        let cfg: String = r.take("cfg")?;
+        let bad_cfg = |e: serde_json::Error| Error::Checkpoint(format!("its cfg cannot be decoded: {e}"));
+        let mut cfg: Value = serde_json::from_str(&cfg).map_err(bad_cfg)?;
+        let like = serde_json::to_value(TrainConfig::default()).map_err(bad_cfg)?;
+        complete(&mut cfg, &like, "cfg", absent)?;
+        let (mut scene, unbounded): (Scene, Option<nerf_infer::format::Unbounded>) = r.take("scene")?;
+        scene.unbounded = unbounded;
+        let t = Trainer {
+            cfg: serde_json::from_value(cfg).map_err(bad_cfg)?,
+            scene,
+            downscale: r.take("downscale")?,
+            params: r.take("params")?,
+            adam: r.take("adam")?,
+            step: r.take("step")?,
+            elapsed: r.take("elapsed")?,
+            seed: r.take("seed")?,
+            skipped: r.take("skipped")?,
+            grid: r.take("grid")?,
+            data: r.take("data")?,
+            pixel: r.take("pixel")?,
+            ema: r.take("ema")?,
+            proposal: r.take("proposal")?,
+            appearance: r.take("appearance")?,
+            poses: r.take("poses")?,
+            pool: GradPool::default(),
+        };
+        r.finish()?;
+        Ok(t)
     }
 }

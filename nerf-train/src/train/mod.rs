@@ -43,6 +43,8 @@ mod average;
 mod batch;
 mod calibrate;
 mod checkpoint;
+#[cfg(test)]
+mod checkpoint_tests;
 mod loss;
 mod pool;
 mod pose_pass;
