@@ -17,6 +17,69 @@ pub fn read_ply_points(path: &Path) -> Result<Vec<DVec3>, DataError> {
     parse_ply_points(&bytes).map_err(|e| DataError::new(path, format!("malformed PLY: {e}")))
 }
 
+/// What makes bytes not a PLY point cloud this reader takes.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PlyError {
+    /// No line `end_header` ends the header.
+    #[error("no end_header line")]
+    NoEndHeader,
+    /// The header holds bytes that are not UTF-8 text.
+    #[error("header is not text")]
+    HeaderNotText,
+    /// The first line is not `ply`.
+    #[error("missing the 'ply' magic line")]
+    NoMagic,
+    /// No `format` line.
+    #[error("no format line")]
+    NoFormat,
+    /// A `format` other than `ascii`, `binary_little_endian` and `binary_big_endian`.
+    #[error("unknown format {0}")]
+    UnknownFormat(String),
+    /// No `vertex` element.
+    #[error("no vertex element")]
+    NoVertices,
+    /// The vertex count is not a whole number.
+    #[error("vertex count '{0}'")]
+    BadCount(String),
+    /// Another element comes before the vertices.
+    #[error("an element before the vertices")]
+    ElementBeforeVertices,
+    /// A list property among the vertex's.
+    #[error("a list property in the vertex element")]
+    ListProperty,
+    /// A property type PLY does not define.
+    #[error("unknown property type {0}")]
+    UnknownType(String),
+    /// A coordinate the vertices lack (`x`, `y` or `z`).
+    #[error("no vertex property {0}")]
+    NoCoordinate(&'static str),
+    /// ASCII vertex lines that are not UTF-8 text.
+    #[error("vertex lines are not text")]
+    BodyNotText,
+    /// Fewer vertex lines than the header declares.
+    #[error("{declared} vertices declared, {found} found")]
+    MissingVertices {
+        /// The header's count.
+        declared: usize,
+        /// The lines present.
+        found: usize,
+    },
+    /// Fewer binary bytes than the declared vertices take.
+    #[error("{declared} vertices declared, {bytes} bytes for them")]
+    ShortBody {
+        /// The header's count.
+        declared: usize,
+        /// The bytes after the header.
+        bytes: usize,
+    },
+    /// An ASCII vertex whose coordinate is missing or not a number.
+    #[error("vertex {0}: bad value")]
+    BadValue(usize),
+    /// A coordinate that is infinite or NaN.
+    #[error("a vertex is not finite")]
+    NotFinite,
+}
+
 #[derive(Clone, Copy, PartialEq)]
 enum Encoding {
     Ascii,
@@ -85,21 +148,21 @@ impl Scalar {
 }
 
 /// The points of a PLY file's bytes.
-pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, String> {
+pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, PlyError> {
     // the header ends with the line `end_header` (LF or CR LF)
     let mut end = 0;
     loop {
-        let next = bytes[end..].iter().position(|&b| b == b'\n').ok_or("no end_header line")? + end + 1;
+        let next = bytes[end..].iter().position(|&b| b == b'\n').ok_or(PlyError::NoEndHeader)? + end + 1;
         let line = &bytes[end..next];
         end = next;
         if line.trim_ascii() == b"end_header" {
             break;
         }
     }
-    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| "header is not text")?;
+    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| PlyError::HeaderNotText)?;
     let mut lines = header.lines().map(str::trim);
     if lines.next() != Some("ply") {
-        return Err("missing the 'ply' magic line".into());
+        return Err(PlyError::NoMagic);
     }
     let (mut encoding, mut count) = (None, None);
     // the vertex element's properties (name, type), and whether an element precedes it
@@ -112,50 +175,48 @@ pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, String> {
                     "ascii" => Encoding::Ascii,
                     "binary_little_endian" => Encoding::Little,
                     "binary_big_endian" => Encoding::Big,
-                    other => return Err(format!("unknown format {other}")),
+                    other => return Err(PlyError::UnknownFormat(other.to_string())),
                 })
             }
             ["element", name, n] => {
                 in_vertex = *name == "vertex";
                 if in_vertex {
-                    count = Some(n.parse::<usize>().map_err(|_| format!("vertex count '{n}'"))?);
+                    count = Some(n.parse::<usize>().map_err(|_| PlyError::BadCount(n.to_string()))?);
                 } else if count.is_none() {
                     before = true;
                 }
             }
-            ["property", "list", ..] if in_vertex => return Err("a list property in the vertex element".into()),
+            ["property", "list", ..] if in_vertex => return Err(PlyError::ListProperty),
             ["property", ty, name] if in_vertex => {
-                let ty = Scalar::of(ty).ok_or_else(|| format!("unknown property type {ty}"))?;
+                let ty = Scalar::of(ty).ok_or_else(|| PlyError::UnknownType(ty.to_string()))?;
                 props.push((name.to_string(), ty));
             }
             _ => {}
         }
     }
-    let encoding = encoding.ok_or("no format line")?;
-    let n = count.ok_or("no vertex element")?;
+    let encoding = encoding.ok_or(PlyError::NoFormat)?;
+    let n = count.ok_or(PlyError::NoVertices)?;
     if before {
-        return Err("an element before the vertices".into());
+        return Err(PlyError::ElementBeforeVertices);
     }
-    let col = |c: &str| props.iter().position(|p| p.0 == c).ok_or_else(|| format!("no vertex property {c}"));
+    let col = |c: &'static str| props.iter().position(|p| p.0 == c).ok_or(PlyError::NoCoordinate(c));
     let (ix, iy, iz) = (col("x")?, col("y")?, col("z")?);
     let body = &bytes[end..];
     let mut out = Vec::with_capacity(n.min(1 << 24));
     if encoding == Encoding::Ascii {
-        let text = std::str::from_utf8(body).map_err(|_| "vertex lines are not text")?;
+        let text = std::str::from_utf8(body).map_err(|_| PlyError::BodyNotText)?;
         let mut rows = text.lines().filter(|l| !l.trim().is_empty());
         for i in 0..n {
             let row: Vec<&str> =
-                rows.next().ok_or_else(|| format!("{n} vertices declared, {i} found"))?.split_whitespace().collect();
-            let v = |k: usize| {
-                row.get(k).and_then(|s| s.parse::<f64>().ok()).ok_or_else(|| format!("vertex {i}: bad value"))
-            };
+                rows.next().ok_or(PlyError::MissingVertices { declared: n, found: i })?.split_whitespace().collect();
+            let v = |k: usize| row.get(k).and_then(|s| s.parse::<f64>().ok()).ok_or(PlyError::BadValue(i));
             out.push(DVec3::new(v(ix)?, v(iy)?, v(iz)?));
         }
     } else {
         let offsets: Vec<usize> = props.iter().scan(0, |o, p| Some(std::mem::replace(o, *o + p.1.size()))).collect();
         let stride: usize = props.iter().map(|p| p.1.size()).sum();
         if body.len() / stride.max(1) < n {
-            return Err(format!("{n} vertices declared, {} bytes for them", body.len()));
+            return Err(PlyError::ShortBody { declared: n, bytes: body.len() });
         }
         let le = encoding == Encoding::Little;
         let value = |row: &[u8], k: usize| props[k].1.read(&row[offsets[k]..offsets[k] + props[k].1.size()], le);
@@ -164,7 +225,7 @@ pub fn parse_ply_points(bytes: &[u8]) -> Result<Vec<DVec3>, String> {
         }
     }
     if out.iter().any(|p| !p.is_finite()) {
-        return Err("a vertex is not finite".into());
+        return Err(PlyError::NotFinite);
     }
     Ok(out)
 }
@@ -210,13 +271,14 @@ mod tests {
     #[test]
     fn damaged_clouds_are_errors() {
         let short = format!("ply\nformat ascii 1.0\n{HEAD}1 2 3 0 0 0\n");
-        assert!(parse_ply_points(short.as_bytes()).unwrap_err().contains("2 vertices declared, 1 found"));
+        assert_eq!(parse_ply_points(short.as_bytes()), Err(PlyError::MissingVertices { declared: 2, found: 1 }));
         let no_z = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n";
-        assert!(parse_ply_points(no_z.as_bytes()).unwrap_err().contains("no vertex property z"));
+        assert_eq!(parse_ply_points(no_z.as_bytes()), Err(PlyError::NoCoordinate("z")));
         let truncated = format!("ply\nformat binary_little_endian 1.0\n{HEAD}").into_bytes();
-        assert!(parse_ply_points(&truncated).unwrap_err().contains("bytes for them"));
-        assert!(parse_ply_points(b"not a ply").is_err());
+        assert_eq!(parse_ply_points(&truncated), Err(PlyError::ShortBody { declared: 2, bytes: 0 }));
+        assert_eq!(parse_ply_points(b"not a ply"), Err(PlyError::NoEndHeader));
         let nan = format!("ply\nformat ascii 1.0\n{HEAD}1 2 nan 0 0 0\n1 2 3 0 0 0\n");
-        assert!(parse_ply_points(nan.as_bytes()).unwrap_err().contains("not finite"));
+        assert_eq!(parse_ply_points(nan.as_bytes()), Err(PlyError::NotFinite));
+        assert_eq!(PlyError::MissingVertices { declared: 2, found: 1 }.to_string(), "2 vertices declared, 1 found");
     }
 }
