@@ -115,11 +115,11 @@ pub fn run(a: Args) -> CmdResult {
     if a.act_bits == ActBits::A8 && a.bits != Scheme::I8 {
         return Err("--act-bits 8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into());
     }
-    if a.table_bits != TableBits::T16 && a.bits == Scheme::F32 {
-        return Err(format!(
-            "--table-bits {} needs --bits 16 or 8 (an f32 model keeps an f32 table)",
-            a.table_bits.bits()
-        ));
+    if a.table_bits != TableBits::T16 {
+        // the scheme asked for, before the model is read: narrow_table checks the model's again
+        nerf_train::export::narrow_table_fits(a.bits, a.table_bits.bits()).map_err(|_| {
+            format!("--table-bits {} needs --bits 16 or 8 (an f32 model keeps an f32 table)", a.table_bits.bits())
+        })?;
     }
     if !a.int8_layers.is_empty() && a.bits != Scheme::I16 {
         return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());

@@ -28,6 +28,22 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), Error> {
     Ok(())
 }
 
+/// Whether a model of `scheme` can take a feature table of `bits`-bit
+/// codebook indices ([`narrow_table`]'s own check, for a caller that knows
+/// the scheme before it has the model): it needs integer weights (int16 or
+/// int8; an f32 model keeps an f32 table) and `bits` 8 or 4.
+pub fn narrow_table_fits(scheme: nerf_infer::Scheme, bits: u8) -> Result<(), Error> {
+    if !matches!(bits, 4 | 8) {
+        return Err(Error::Export(format!("{bits}-bit table indices: 8 or 4 (16 is the i16 table)")));
+    }
+    if !scheme.is_fixed() {
+        return Err(Error::Export(format!(
+            "{bits}-bit table indices need --bits 16 or 8 (an f32 model keeps an f32 table)"
+        )));
+    }
+    Ok(())
+}
+
 /// The feature table of an integer model stored as `bits`-bit (8 or 4)
 /// indices into a codebook of `2^bits` i16 values per level (format
 /// version 7, [`NarrowTable`](nerf_infer::features::NarrowTable)). Each level's codebook is the Lloyd–Max
@@ -39,12 +55,7 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), Error> {
 /// the pixels are. Each value stores its nearest code; the table is padded
 /// to whole 4-byte words.
 pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), Error> {
-    if !m.coarse.scheme.is_fixed() {
-        return Err(Error::Export("a narrow feature table needs an integer model (--bits 16 or 8)".into()));
-    }
-    if !matches!(bits, 4 | 8) {
-        return Err(Error::Export(format!("{bits}-bit table indices: 8 or 4 (16 is the i16 table)")));
-    }
+    narrow_table_fits(m.coarse.scheme, bits)?;
     let Some((shape, table)) = &mut m.features else {
         return Err(Error::Export("the model has no feature grid".into()));
     };
