@@ -312,8 +312,8 @@ pub fn feature_rows<const N: usize>(g: &FeatureGrid<'_>, pos: &[[i32; 3]], out: 
 /// The mean of [`FeatureGrid::encode_fixed`] over each row's three
 /// footprint points in `foot`, into `out[s][at..at + g.dim()]`: the three
 /// i16 features summed in i32, divided by 3 and rounded to the nearest,
-/// `⌊(2Σ + 3)/6⌋` (the lookups as [`feature_rows`] makes them, up to 16 rows'
-/// points per call).
+/// `⌊(2Σ + 3)/6⌋` (the lookups as [`feature_rows`] makes them, up to 8
+/// rows' points per call).
 #[inline]
 pub fn feature_rows_mean<const N: usize>(
     g: &FeatureGrid<'_>,
@@ -321,10 +321,26 @@ pub fn feature_rows_mean<const N: usize>(
     out: &mut [[i16; N]],
     at: usize,
 ) {
-    const ROWS: usize = 16;
+    // the lookups' buffer is zeroed at every call: as wide as the features need (16 for 8 levels of 2)
+    if g.dim() <= 16 {
+        rows_mean::<N, 16>(g, foot, out, at)
+    } else {
+        rows_mean::<N, { crate::limits::MAX_FEATURES }>(g, foot, out, at)
+    }
+}
+
+/// [`feature_rows_mean`] with lookups of `W ≥ g.dim()` values a row.
+#[inline]
+fn rows_mean<const N: usize, const W: usize>(
+    g: &FeatureGrid<'_>,
+    foot: &[[[i32; 3]; FOOTPRINT_POINTS]],
+    out: &mut [[i16; N]],
+    at: usize,
+) {
+    const ROWS: usize = 8;
     const _: () = assert!(FOOTPRINT_POINTS == 3);
     let dim = g.dim();
-    let mut lookups = [[0i16; crate::limits::MAX_FEATURES]; FOOTPRINT_POINTS * ROWS];
+    let mut lookups = [[0i16; W]; FOOTPRINT_POINTS * ROWS];
     for (pts, rows) in foot.chunks(ROWS).zip(out.chunks_mut(ROWS)) {
         feature_rows(g, pts.as_flattened(), &mut lookups, 0);
         for (q, o) in lookups.chunks_exact(FOOTPRINT_POINTS).zip(rows.iter_mut().take(pts.len())) {
