@@ -1,6 +1,7 @@
 //! Helpers shared by the workspace tests.
 #![allow(dead_code)]
 
+pub mod captures;
 pub mod cli;
 
 use nerf_infer::format::Scene;
