@@ -36,6 +36,19 @@ PY
   tail -1 "$csv" >&2
 }
 
+# valgrind_bin: checks valgrind is installed and sets `bin` to a build for
+# x86-64-v3 (AVX2; valgrind cannot run AVX-512): the one $given_v3 names
+# (a script's realpath of NERF_BIN_V3), else target/v3's, built here.
+valgrind_bin() {
+  command -v valgrind >/dev/null || { echo "needs valgrind (apt-get install valgrind)" >&2; exit 1; }
+  if [ -n "${given_v3:-}" ]; then
+    bin=$given_v3
+  else
+    RUSTFLAGS="-C target-cpu=x86-64-v3" cargo build --release --quiet --bin nerf --target-dir target/v3
+    bin=target/v3/release/nerf
+  fi
+}
+
 # render_instructions OUT BIN MODEL EVAL_FLAGS...: runs `BIN eval MODEL
 # EVAL_FLAGS...` under callgrind (OUT.cg), counting `render_view` and what
 # it calls; writes eval's JSON to OUT.json and prints the instruction total.

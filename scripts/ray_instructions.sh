@@ -17,14 +17,8 @@ model=$(realpath "$2")
 data=$(realpath "$3")
 ds=${4:-8}
 given_v3=${NERF_BIN_V3:+$(realpath "$NERF_BIN_V3")}
-command -v valgrind >/dev/null || { echo "needs valgrind (apt-get install valgrind)" >&2; exit 1; }
 . "$(dirname "$0")/lib.sh"
-if [ -n "$given_v3" ]; then
-  bin=$given_v3
-else
-  RUSTFLAGS="-C target-cpu=x86-64-v3" cargo build --release --quiet --bin nerf --target-dir target/v3
-  bin=target/v3/release/nerf
-fi
+valgrind_bin
 out_csv=docs/ray_instructions.csv
 [ -f "$out_csv" ] || echo "date,commit,cpu,cores,capture,scheme,downscale,rays,evaluations_per_ray,\
 instructions_per_ray,psnr" > "$out_csv"

@@ -39,6 +39,7 @@ steps=(
   "seeds|10|scripts/seeds.sh room 1000 0 1 2 3 4 5 6 7"
   "layouts|10|scripts/llff_layout.sh ROOT 1500 && scripts/capture_bird.sh ROOT 1500"
   "plain-build|12|scripts/plain_build_lego.sh ROOT 10"
+  "ray-stages|25|scripts/ray_stages_default.sh ROOT 3"
   "bench|12|scripts/bench.sh"
   "step|3|scripts/train_step.sh ROOT 3000 features grid"
   "step-sizes|8|scripts/step_sizes.sh ROOT 1500 8 1"

@@ -481,6 +481,34 @@ a capture with a proposal grid), by `scripts/main_samples.sh` on its
 models trained at 32 (`RENDER="16 20 24"`).""", t if rs else missing("proposal"))
 
 
+def ray_stages_section():
+    rs = rows("ray_stages.csv")
+    # the latest run of each capture and scheme
+    keys = {}
+    for r in rs:
+        keys[(r["capture"], r["scheme"])] = (r["date"], r["commit"])
+    last = [r for r in rs if keys[(r["capture"], r["scheme"])] == (r["date"], r["commit"])]
+    order = {"lego": 0, "bird": 1, "fox": 2, "room": 3}
+    last.sort(key=lambda r: (order.get(r["capture"], 4), r["capture"], r["scheme"] != "I8"))
+    body = [[r["capture"], r["scheme"], r["stage"], thousands(r["instructions_per_ray"]),
+             f"{100 * float(r['share']):.1f} %", r["d1_misses_per_ray"], r["ll_misses_per_ray"], run(r)] for r in last]
+    t = table(["<capture", "<scheme", "<stage", "instructions/ray", "share", "D1 misses/ray", "LL misses/ray", "<run"],
+              body)
+    return ("Where a ray's work goes", "ray-stages", """`scripts/ray_stages.sh CAPTURE MODEL
+DATA [DOWNSCALE]`: callgrind with its cache simulator over `nerf eval
+MODEL --split val` at 1/8 of the photos, one thread, early termination
+10⁻³ (a build for x86-64-v3: valgrind cannot run AVX-512), each
+function's own cost put in a stage by the source file its code comes from
+(inlined code keeps its file): the feature grid (the corners' gathers and
+their interpolation), the positional encoding, the network's layers,
+compositing, the march (samples, skipping, the proposal grid, the ray's
+bookkeeping), memory fills, and the rest (ray setup, kernel dispatch, the
+evaluation's own loop). Misses are of valgrind's model of this machine's
+caches (32 KiB first-level data cache), not the CPU's counters. Models:
+the default trained 3 minutes at 1/8 size (lego at 100×100, bird) and its
+int8 export.""", t if rs else missing("ray-stages"))
+
+
 def capture_ab_section():
     rs = rows("capture_ab.csv")
     for r in rs:
@@ -760,7 +788,7 @@ run with the same configuration.""", t if rs else missing("step-sizes"))
 
 
 SECTIONS = [default_section, full_section, paper_section, tradeoff_section, fast_int8_section, int8_section, table_bits_section, captures_section, proposal_section,
-            proposal_samples_section, main_samples_section, room_region_section, seeds_section, ray_instructions_section, capture_ab_section, masks_section, plain_build_section, block_sizes_section, bench_section, train_step_section, step_sizes_section,
+            proposal_samples_section, main_samples_section, room_region_section, seeds_section, ray_instructions_section, ray_stages_section, capture_ab_section, masks_section, plain_build_section, block_sizes_section, bench_section, train_step_section, step_sizes_section,
             mesh_section,
             mcu_section, web_section]
 
