@@ -66,15 +66,16 @@ def stage(path, func):
         return "march"
     return "other"
 
-events, totals = None, {s: [0] * 9 for s in STAGES}
+# one cell per event, "N (x%)", "N" or ".", then file:function
+cell = re.compile(r"\s*(?:([\d,]+)(?: \(\s*[\d.]+%\))?|(\.))(?=\s)")
+events, totals = None, None
 for line in open(self_path):
     if line.startswith("Events recorded:"):
         events = line.split(":", 1)[1].split()
+        totals = {s: [0] * len(events) for s in STAGES}
     if events is None or "PROGRAM TOTALS" in line:
         continue
-    # one cell per event, "N (x%)", "N" or ".", then file:function
     pos, values = 0, []
-    cell = re.compile(r"\s*(?:([\d,]+)(?: \(\s*[\d.]+%\))?|(\.))(?=\s)")
     while len(values) < len(events):
         m = cell.match(line, pos)
         if not m:
@@ -96,7 +97,7 @@ d1 = lambda t: t[events.index("D1mr")] + t[events.index("D1mw")]
 ll = lambda t: t[events.index("DLmr")] + t[events.index("DLmw")]
 for s in STAGES:
     t = totals[s]
-    if t[0] == 0:
+    if t[events.index("Ir")] == 0:
         continue
     print(f"{stamp},{name},{e['scheme']},{rays},{s},{t[events.index('Ir')] / rays:.0f},"
           f"{t[events.index('Ir')] / ir:.3f},{d1(t) / rays:.1f},{ll(t) / rays:.2f}")

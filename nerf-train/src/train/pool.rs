@@ -3,9 +3,9 @@
 use super::*;
 
 /// Zeroed gradient buffers, chunks' grid-value gradients and groups'
-/// working memory reused from
-/// step to step: a feature grid's table makes each gradient megabytes, a
-/// chunk's corners hundreds of kilobytes, and fresh ones cost page faults.
+/// working memory reused from step to step: a feature grid's table makes
+/// each gradient megabytes, a chunk's corners hundreds of kilobytes, and
+/// fresh ones cost page faults.
 #[derive(Default)]
 pub(super) struct GradPool(
     std::sync::Mutex<Vec<Vec<f32>>>,

@@ -142,13 +142,12 @@ impl Trainer {
         // the batch in fixed groups of consecutive chunks, summed in a fixed tree: the sum's order (and so the
         // step's result) depends on the batch alone, not on the threads or their timing
         let per_group = batch.len().div_ceil(chunk).div_ceil(GROUPS).max(1);
+        let groups: Vec<&[Sample]> = batch.chunks(per_group * chunk).collect();
         let group = |gi: usize| -> Acc {
             let mut ws = self.pool.take_workspace();
             let (mut g, mut c, mut f, mut n) = (self.pool.take(dense), 0.0f64, 0.0f64, 0usize);
             let (mut grids, mut t) = (Vec::new(), StepTimes::default());
-            let rays =
-                &batch[(gi * per_group * chunk).min(batch.len())..((gi + 1) * per_group * chunk).min(batch.len())];
-            for (k, rays) in rays.chunks(chunk).enumerate() {
+            for (k, rays) in groups.get(gi).map_or(&[][..], |r| r).chunks(chunk).enumerate() {
                 let ci = gi * per_group + k;
                 let key = hash32(step_key ^ hash32(ci as u32));
                 let (a, b, m, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g, &mut t);
@@ -159,8 +158,8 @@ impl Trainer {
             self.pool.give_workspace(ws);
             (g, c, f, n, grids, t, photos)
         };
-        let groups = batch.len().div_ceil(per_group * chunk);
-        let (dense_grad, sq_c, sq_f, samples, mut grids, split, photos) = self.sum_groups(0..groups.max(1), &group);
+        let (dense_grad, sq_c, sq_f, samples, mut grids, split, photos) =
+            self.sum_groups(0..groups.len().max(1), &group);
         times.add(&split);
         times.chunks += start.elapsed().as_secs_f64();
         if dense == np {

@@ -61,16 +61,16 @@ pub struct Args {
     #[arg(long, default_value_t = 0, value_name = "0..=1024", value_parser = num_in(0usize, 1024))]
     pub(crate) threads: usize,
     /// Seconds of training between checkpoints (0: after every step).
-    #[arg(long, default_value_t = 60.0, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
+    #[arg(long, default_value_t = Schedule::default().checkpoint_secs, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
     pub(crate) checkpoint_secs: f64,
     /// Seconds of training between validation renders (0: after every step).
-    #[arg(long, default_value_t = 120.0, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
+    #[arg(long, default_value_t = Schedule::default().val_secs, value_name = "0.0..=1e6", value_parser = num_in(0.0f64, 1e6))]
     pub(crate) val_secs: f64,
     /// Validation views rendered each time (0: no periodic validation).
-    #[arg(long, default_value_t = 2, value_name = "0..=10000", value_parser = num_in(0usize, 10_000))]
+    #[arg(long, default_value_t = Schedule::default().val_views, value_name = "0..=10000", value_parser = num_in(0usize, 10_000))]
     pub(crate) val_views: usize,
     /// Steps between lines of train.jsonl.
-    #[arg(long, default_value_t = 10, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
+    #[arg(long, default_value_t = Schedule::default().log_every, value_name = "1..=1000000000", value_parser = num_in(1u64, 1_000_000_000))]
     pub(crate) log_every: u64,
     /// Neurons never active on the calibration rays that model.nerf drops.
     #[arg(long, value_enum, default_value_t = Prune::Tiles)]
@@ -106,6 +106,7 @@ impl Args {
     /// `nerf train --data DATA --minutes MINUTES --out OUT` with every other
     /// flag at its default.
     pub fn new(data: PathBuf, minutes: f64, out: PathBuf) -> Self {
+        let schedule = Schedule::default();
         Self {
             data,
             capture: CaptureArgs::default(),
@@ -118,10 +119,10 @@ impl Args {
             force: false,
             seed: 0,
             threads: 0,
-            checkpoint_secs: 60.0,
-            val_secs: 120.0,
-            val_views: 2,
-            log_every: 10,
+            checkpoint_secs: schedule.checkpoint_secs,
+            val_secs: schedule.val_secs,
+            val_views: schedule.val_views,
+            log_every: schedule.log_every,
             prune: Prune::Tiles,
         }
     }
@@ -176,8 +177,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
     let (tr, data) = if a.resume && ckpt.is_file() {
         let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
-        let tr = Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))?;
-        let mut tr = tr;
+        let mut tr = Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))?;
         let moved_from = check_resume(&a, &tr)?;
         let data = load(tr.downscale)?;
         check_resumed_data(&a, &mut tr, &data, moved_from)?;
@@ -232,7 +232,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     let start_step = run.trainer.step;
     let outcome = run.train(&mut progress);
     progress.bar.finish_and_clear();
-    let val_psnr = match outcome.map_err(|e| e.0)? {
+    let val_psnr = match outcome? {
         Outcome::Stopped => {
             return Err(format!(
                 "interrupted at step {}: checkpoint saved to {}; continue with --resume",
@@ -257,21 +257,6 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     Ok(())
 }
 
-/// An error of the command's run: its message.
-struct Failed(String);
-
-impl From<nerf_train::Error> for Failed {
-    fn from(e: nerf_train::Error) -> Self {
-        Failed(e.to_string())
-    }
-}
-
-impl From<String> for Failed {
-    fn from(e: String) -> Self {
-        Failed(e)
-    }
-}
-
 /// What `nerf train` shows and writes while a run trains: the progress
 /// bar, train.jsonl, the model and the checkpoint; it stops the run on an
 /// interrupt.
@@ -286,9 +271,9 @@ struct Progress {
 }
 
 impl Observer for Progress {
-    type Error = Failed;
+    type Error = String;
 
-    fn step(&mut self, run: &Run<'_>, ev: &StepEvent<'_>) -> Result<Flow, Failed> {
+    fn step(&mut self, run: &Run<'_>, ev: &StepEvent<'_>) -> Result<Flow, String> {
         let tr = &run.trainer;
         let st = &ev.stats;
         if st.skipped {
@@ -327,7 +312,7 @@ impl Observer for Progress {
         Ok(if super::interrupt::received() { Flow::Stop } else { Flow::Continue })
     }
 
-    fn checkpoint(&mut self, run: &Run<'_>) -> Result<(), Failed> {
-        Ok(save(run, &self.out, self.prune)?)
+    fn checkpoint(&mut self, run: &Run<'_>) -> Result<(), String> {
+        save(run, &self.out, self.prune)
     }
 }
