@@ -4,7 +4,7 @@
 //!   preset (the default) and of `fast` on the built-in scene at 64×64
 //!   (1024 rays per step; throughput in rays), after 200 warm-up steps so
 //!   that the occupancy grid has been refreshed from a fitted density.
-//! - `gemm/MxNxK`: the `gemm` crate's product (`nerf_train::gemm::matmul`,
+//! - `gemm/MxNxK`: the `gemm` crate's product (`nerf_train::util::gemm::matmul`,
 //!   one thread) at the shapes of the default's hidden layers, `M` samples
 //!   by 64 outputs by 64 inputs, for the samples of one 32-ray chunk at
 //!   about 10 samples per ray and of larger chunks; throughput in
@@ -17,8 +17,8 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
-use nerf_train::gemm::{matmul, View};
 use nerf_train::train::Trainer;
+use nerf_train::util::gemm::{matmul, View};
 use std::hint::black_box;
 
 fn steps(c: &mut Criterion) {

@@ -4,10 +4,10 @@
 
 mod support;
 
-use nerf_train::appearance::IDENTITY;
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
+use nerf_train::per_photo::appearance::IDENTITY;
 use nerf_train::train::Trainer;
 use support::cli::tmp;
 

@@ -9,8 +9,8 @@ use nerf_infer::format::Scene;
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::synthetic::{write_blender, write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
-use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Sample, Trainer};
+use nerf_train::util::rng::Rng;
 use support::small_config;
 
 /// The density at 200 random points of the normalised cube of a fresh

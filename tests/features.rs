@@ -11,8 +11,8 @@ use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::score_view;
 use nerf_train::export::{narrow_table, quantise, random_model, trainer_model, OwnedModel, Prune};
-use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Trainer};
+use nerf_train::util::rng::Rng;
 use support::*;
 
 /// A small grid model: 4 levels of 2 values, 2¹⁰ entries (the two coarse

@@ -11,9 +11,9 @@ use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, Dataset, LoadOptions, Split};
 use nerf_train::eval::score_view;
 use nerf_train::export::{trainer_model, Prune};
-use nerf_train::pose::{Poses, PER_PHOTO};
-use nerf_train::rng::Rng;
+use nerf_train::per_photo::pose::{Poses, PER_PHOTO};
 use nerf_train::train::{Draw, Trainer};
+use nerf_train::util::rng::Rng;
 use support::cli::tmp;
 
 /// The built-in scene inside its room (an unbounded scene: its samples are

@@ -13,8 +13,8 @@ use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::render_view;
 use nerf_train::export::{quantise, random_model, OwnedModel};
-use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Trainer};
+use nerf_train::util::rng::Rng;
 use support::cli::tmp;
 use support::*;
 

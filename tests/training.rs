@@ -10,8 +10,8 @@ use nerf_train::dataset::View;
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::eval::{score_rendered, score_view, Rendered};
 use nerf_train::export::{trainer_model, Prune};
-use nerf_train::rng::Rng;
 use nerf_train::train::{Draw, Trainer};
+use nerf_train::util::rng::Rng;
 use support::small_config;
 
 #[test]

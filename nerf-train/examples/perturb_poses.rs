@@ -22,7 +22,7 @@ use glam::{DMat3, DVec3};
 use nerf_train::dataset::colmap::colmap_views;
 use nerf_train::dataset::reconstructions::choose_model;
 use nerf_train::dataset::write_poses_bounds;
-use nerf_train::rng::Rng;
+use nerf_train::util::rng::Rng;
 use std::path::PathBuf;
 
 fn main() {

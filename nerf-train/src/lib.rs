@@ -1,39 +1,48 @@
 //! `nerf-train`: trains NeRF models in f32 on the CPU and exports them in
 //! `nerf-infer`'s model format.
 //!
-//! Modules follow the pipeline: [`dataset`] (posed images) → [`mlp`] (the
-//! network, forward and backward) and [`volume`] (the quadrature, forward
-//! and backward) → [`train`] (batches, Adam) → [`export`] (model files,
-//! quantisation) → [`eval`] (rendering views through `nerf-infer`, PSNR,
-//! SSIM). [`run`] is a whole training run as `nerf train` makes it: the
-//! choices for the data and the loop, for any program.
+//! Modules follow the pipeline, by stage:
+//! - [`dataset`], posed photos, from each layout, fitted to a scene;
+//! - [`config`], what a run trains ([`config::TrainConfig`], the presets);
+//! - [`sampling`], where a ray's samples go (the occupancy grid, the
+//!   proposal grid);
+//! - [`mlp`], the field, the feature grid and the network, forward and
+//!   backward;
+//! - [`composite`], the volume-rendering quadrature, forward and backward;
+//! - [`loss`], the terms beside the colour error (distortion, density,
+//!   interlevel);
+//! - [`per_photo`], each photo's colour and pose corrections;
+//! - [`optim`], Adam;
+//! - [`train`], a step composed of the above, the run's state and its
+//!   checkpoints; [`run`], a whole run as `nerf train` makes it (the
+//!   choices for the data and the loop), for any program;
+//! - [`export`], model files, quantisation.
+//!
+//! Products of a trained model: [`eval`] (views through `nerf-infer`, with
+//! [`metrics`]: PSNR, SSIM), [`mesh`], [`path`] (camera paths), [`plot`].
+//! [`error`] is the crate's error; [`util`] holds the helpers the stages
+//! share.
 #![deny(missing_docs)]
 // Numeric code indexes several arrays by the same index on purpose.
 #![allow(clippy::needless_range_loop)]
 
-pub mod adam;
-pub mod appearance;
-pub mod atomic;
+pub mod composite;
 pub mod config;
 pub mod dataset;
 pub mod error;
 pub mod eval;
 pub mod export;
-pub mod gemm;
-pub mod grid;
-pub mod interlevel;
+pub mod loss;
 pub mod mesh;
 pub mod metrics;
 pub mod mlp;
+pub mod optim;
 pub mod path;
+pub mod per_photo;
 pub mod plot;
-pub mod pose;
-pub mod proposal;
-pub mod rng;
 pub mod run;
-pub mod timing;
+pub mod sampling;
 pub mod train;
-pub mod userfile;
-pub mod volume;
+pub mod util;
 
 pub use error::{Error, Result};

@@ -100,7 +100,7 @@ pub fn to_camera_path(cams: &[Camera], fps: f32) -> serde_json::Value {
 /// does ([`keyframes::interpolate`]). Errors name the file and the camera.
 pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
     let bad = |m: String| Error::File(format!("{}: {m}", path.display()));
-    let text = crate::userfile::read_user_text(path, crate::userfile::MAX_JSON, "camera path")?;
+    let text = crate::util::userfile::read_user_text(path, crate::util::userfile::MAX_JSON, "camera path")?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("malformed JSON: {e}")))?;
     if let Some(t) = v.get("camera_type").and_then(|t| t.as_str()).filter(|t| *t != "perspective") {
         return Err(bad(format!("camera_type {t} is not supported (perspective is)")));

@@ -89,7 +89,7 @@ pub fn scatter(path: &std::path::Path, title: &str, xlabel: &str, ylabel: &str, 
     };
     draw(&mut buf).map_err(|e| Error::Plot(format!("{}: cannot draw the plot: {e}", path.display())))?;
     let img = RgbImage::from_raw(W, H, buf).ok_or_else(|| Error::Plot("plot buffer size".into()))?;
-    crate::atomic::write_png(path, &img).map_err(Error::io(path))
+    crate::util::atomic::write_png(path, &img).map_err(Error::io(path))
 }
 
 /// One panel of [`panels`]: a curve and a reference level.
@@ -149,7 +149,7 @@ pub fn panels(path: &std::path::Path, title: &str, panels: &[Panel]) -> Result<(
     };
     draw(&mut buf).map_err(|e| Error::Plot(format!("{}: cannot draw the plot: {e}", path.display())))?;
     let img = RgbImage::from_raw(w, h, buf).ok_or_else(|| Error::Plot("plot buffer size".into()))?;
-    crate::atomic::write_png(path, &img).map_err(Error::io(path))
+    crate::util::atomic::write_png(path, &img).map_err(Error::io(path))
 }
 
 /// Marks the points no other point beats on both axes (higher y at lower

@@ -38,7 +38,7 @@ pub fn install() {
             STOP if first => {}
             STOP_EVERY => {}
             _ => {
-                nerf_train::atomic::remove_in_flight();
+                nerf_train::util::atomic::remove_in_flight();
                 std::process::exit(130);
             }
         }

@@ -247,7 +247,7 @@ pub fn same_frame(data: &Dataset, model: &nerf_infer::Model<'_>, model_path: &Pa
 pub fn read_model(path: &Path) -> Result<Vec<u8>, String> {
     // the header's payload length is a u32
     let max = nerf_infer::format::HEADER_LEN as u64 + u32::MAX as u64;
-    Ok(nerf_train::userfile::read_user_file(path, max, "model file")?)
+    Ok(nerf_train::util::userfile::read_user_file(path, max, "model file")?)
 }
 
 /// Decodes a model, naming the file on failure.
@@ -258,7 +258,7 @@ pub fn decode<'a>(path: &Path, bytes: &'a [u8]) -> Result<nerf_infer::Model<'a>,
 /// Writes `bytes` to `path` atomically: a temporary file in the same
 /// directory, then a rename, so a failure never leaves a partial file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    nerf_train::atomic::write(path, bytes).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+    nerf_train::util::atomic::write(path, bytes).map_err(|e| format!("{}: cannot write: {e}", path.display()))
 }
 
 /// `path` made absolute with its symbolic links resolved, as far as it

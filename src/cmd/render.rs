@@ -87,7 +87,8 @@ fn save_depth_opacity(out: &Path, name: &str, r: &Rendered, scene: &Scene, step:
         let d = r.depth[(y * r.width + x) as usize];
         image::Luma([(d / step).round().clamp(0.0, 65535.0) as u16])
     });
-    nerf_train::atomic::write_png(&path, &d16).map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
+    nerf_train::util::atomic::write_png(&path, &d16)
+        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
     let spacing = |d: f32| scene.unbounded.map_or(d, |u| nerf_infer::unbounded::s_of_t(d, u.linear_until));
     let (near, far) = (spacing(scene.near), spacing(scene.far));
     let preview: Vec<[f32; 3]> =
@@ -248,5 +249,5 @@ fn write_gif(path: &Path, frames: Vec<image::RgbaImage>) -> Result<(), String> {
             enc.encode_frame(frame).map_err(|e| err(&e))?;
         }
     }
-    nerf_train::atomic::write(path, &bytes).map_err(|e| err(&e))
+    nerf_train::util::atomic::write(path, &bytes).map_err(|e| err(&e))
 }

@@ -32,7 +32,7 @@ impl RunLog {
                     .collect()
             }
         };
-        nerf_train::atomic::write(path, kept.as_bytes()).map_err(err)?;
+        nerf_train::util::atomic::write(path, kept.as_bytes()).map_err(err)?;
         let file = OpenOptions::new().append(true).open(path).map_err(err)?;
         Ok(Self { file, path: path.to_path_buf(), len: kept.len() as u64 })
     }

@@ -89,7 +89,7 @@ pub struct SamplingConfig {
     /// (docs/EXPERIMENTS.md).
     pub pixel_jitter: bool,
     /// Cells per axis (`0..=128`; 0: none) of the proposal grid that places
-    /// the network's samples ([`crate::proposal`]): [`Self::n_coarse`]
+    /// the network's samples ([`crate::sampling::proposal`]): [`Self::n_coarse`]
     /// stratified samples composite it, and the network is evaluated at [`Self::n_main`]
     /// samples drawn from its weights and the last stratified one (minus
     /// those in empty occupancy cells). `nerf train` turns it on at
@@ -197,13 +197,13 @@ pub struct LossConfig {
     /// scenes, whose rays run in NDC, are left alone.
     pub near_gradient: f32,
     /// Fit a colour correction per training photo beside the model
-    /// ([`crate::appearance`]: `A·c + b` on each pixel's composited colour)
+    /// ([`crate::per_photo::appearance`]: `A·c + b` on each pixel's composited colour)
     /// for photos that differ in exposure or white balance; the model and
     /// the held-out scores use the field's own colour, the photos' mean.
     /// Off in every preset.
     pub appearance: bool,
     /// Fit a pose correction per training photo beside the model
-    /// ([`crate::pose`]: a turn about the camera's centre and a shift),
+    /// ([`crate::per_photo::pose`]: a turn about the camera's centre and a shift),
     /// for captures whose poses are a little off; the held-out photos keep
     /// their poses. Object and unbounded scenes (forward-facing scenes keep
     /// their poses); runs with one network only (`sampling.n_fine` = 0).

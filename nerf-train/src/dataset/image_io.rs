@@ -191,5 +191,5 @@ pub fn save_png_rgb(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> R
     for (p, c) in buf.pixels_mut().zip(rgb) {
         p.0 = c.map(nerf_infer::composite::to_u8);
     }
-    crate::atomic::write_png(path, &buf).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
+    crate::util::atomic::write_png(path, &buf).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
 }

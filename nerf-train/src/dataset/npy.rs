@@ -6,7 +6,7 @@ use std::path::Path;
 /// Reads a 2-D `<f8` or `<f4` array (C or Fortran order); returns (rows,
 /// cols, values) in C order (row after row).
 pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> {
-    let bytes = crate::userfile::read_checked(path, 256 << 20).map_err(|e| DataError::new(path, e))?;
+    let bytes = crate::util::userfile::read_checked(path, 256 << 20).map_err(|e| DataError::new(path, e))?;
     parse_npy_f64(path, &bytes)
 }
 
@@ -78,7 +78,7 @@ pub fn write_npy_f64(path: &Path, rows: usize, cols: usize, vals: &[f64]) -> std
     for v in vals {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    crate::atomic::write(path, &out)
+    crate::util::atomic::write(path, &out)
 }
 
 #[cfg(test)]

@@ -159,14 +159,14 @@ fn save_rgba(path: &Path, w: u32, h: u32, px: &[[f32; 4]]) -> Result<(), DataErr
     for (p, c) in img.pixels_mut().zip(px) {
         p.0 = c.map(nerf_infer::composite::to_u8);
     }
-    crate::atomic::write_png(path, &img).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
+    crate::util::atomic::write_png(path, &img).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
 }
 
 fn save_depth(path: &Path, w: u32, h: u32, z: &[f32]) -> Result<(), DataError> {
     let img = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
         image::Luma([(z[(y * w + x) as usize] * 1000.0).round().min(65535.0) as u16])
     });
-    crate::atomic::write_png(path, &img).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
+    crate::util::atomic::write_png(path, &img).map_err(|e| DataError::new(path, format!("cannot write PNG: {e}")))
 }
 
 /// Camera positions on the upper hemisphere (golden spiral), radius 4.
@@ -221,7 +221,7 @@ pub fn write_blender(dir: &Path, spec: SceneSpec) -> Result<(), DataError> {
         }
         let json = serde_json::json!({ "camera_angle_x": FOV_X, "near": 2.0, "far": 6.0, "aabb": [[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]], "frames": frames });
         let path = dir.join(format!("transforms_{split}.json"));
-        crate::atomic::write(&path, serde_json::to_string_pretty(&json).expect("json").as_bytes())
+        crate::util::atomic::write(&path, serde_json::to_string_pretty(&json).expect("json").as_bytes())
             .map_err(io(&path))?;
     }
     Ok(())

@@ -105,7 +105,7 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
         }
     }
     // feature values of the size trained grids reach (init is ±1e-4)
-    let mut rng = crate::rng::Rng::new(seed ^ crate::rng::stream::RANDOM_TABLE);
+    let mut rng = crate::util::rng::Rng::new(seed ^ crate::util::rng::stream::RANDOM_TABLE);
     for v in &mut tr.params[mlp.table..mlp.n_params] {
         *v = rng.f32() - 0.5;
     }

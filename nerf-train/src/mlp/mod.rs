@@ -12,13 +12,13 @@
 //!
 //! Forward and backward work on a chunk of `S` samples belonging to `R`
 //! rays with `S/R` consecutive samples per ray (the view direction is per
-//! ray). Matrix products go through [`crate::gemm::matmul`].
+//! ray). Matrix products go through [`crate::util::gemm::matmul`].
 //!
 //! Files: this one holds the network's layout and initialisation;
-//! `grid.rs` the feature grid's lookups and table gradients, `forward.rs`
+//! `features.rs` the feature grid's lookups and table gradients, `forward.rs`
 //! and `backward.rs` the two passes.
 
-use crate::gemm::{matmul, View};
+use crate::util::gemm::{matmul, View};
 use nerf_infer::camera::FOOTPRINT_POINTS;
 use nerf_infer::encoding::encode_f32;
 use nerf_infer::features::{Corners, FeatureGrid};
@@ -27,8 +27,8 @@ use nerf_infer::per_width;
 use rayon::prelude::*;
 
 mod backward;
+mod features;
 mod forward;
-mod grid;
 mod position;
 
 /// Where one layer's tensors sit in the flat parameter vector.
@@ -175,7 +175,7 @@ impl Mlp {
     /// the fine one trained). A positive start makes space semi-opaque
     /// everywhere and lets the loss carve out the empty parts.
     pub fn init(&self, seed: u64) -> Vec<f32> {
-        let mut rng = crate::rng::Rng::new(seed);
+        let mut rng = crate::util::rng::Rng::new(seed);
         let mut p = vec![0.0; self.n_params];
         for s in &self.slots {
             let bound = 1.0 / (s.din as f32).sqrt();

@@ -1,6 +1,6 @@
 //! The gradient of the loss with respect to the sample positions, after a
 //! backward pass: through γ(x) and through the feature grid's trilinear
-//! weights (for camera pose refinement, [`crate::pose`]).
+//! weights (for camera pose refinement, [`crate::per_photo::pose`]).
 
 use super::*;
 

@@ -17,9 +17,9 @@ use crate::error::Result;
 use crate::eval::score_view;
 use crate::export::{trainer_model, OwnedModel, Prune};
 use crate::path::fit_orbit;
-use crate::rng::Rng;
-use crate::timing::StepTimes;
 use crate::train::{Draw, Sample, StepStats, Trainer};
+use crate::util::rng::Rng;
+use crate::util::timing::StepTimes;
 use nerf_infer::{Model, RenderOptions};
 use std::time::Instant;
 
@@ -191,7 +191,7 @@ pub struct Run<'d> {
 impl<'d> Run<'d> {
     /// The calibration rays a run of `seed` draws from `data`.
     pub fn calibration(data: &Dataset, seed: u64) -> Vec<Sample> {
-        Trainer::draw_batch(data, 4096, Draw::CENTRES, &mut Rng::new(seed ^ crate::rng::stream::CALIBRATION))
+        Trainer::draw_batch(data, 4096, Draw::CENTRES, &mut Rng::new(seed ^ crate::util::rng::stream::CALIBRATION))
     }
 
     /// A run of `trainer` (new, or read from a checkpoint) on `data`;

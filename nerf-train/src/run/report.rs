@@ -2,7 +2,7 @@
 //! layers' throughput, for the log and the last line.
 
 use crate::mlp::Mlp;
-use crate::timing::StepTimes;
+use crate::util::timing::StepTimes;
 
 /// Milliseconds per step of each stage of [`StepTimes`], averaged over `steps`.
 pub fn stage_ms(t: &StepTimes, steps: u64) -> serde_json::Value {

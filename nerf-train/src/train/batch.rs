@@ -16,7 +16,7 @@ pub struct Sample {
     /// ([`SamplingConfig::random_background`](crate::config::SamplingConfig::random_background)).
     pub bg: [f32; 3],
     /// The index of the photo the pixel is from among the dataset's
-    /// views (for its [`crate::appearance`] correction).
+    /// views (for its [`crate::per_photo::appearance`] correction).
     pub view: u32,
 }
 

@@ -5,7 +5,7 @@
 use super::*;
 
 /// The losses beside the colour's: the distortion loss's weight and each
-/// sample's interval (see [`crate::volume::distortion`]), and the weight
+/// sample's interval (see [`crate::loss::distortion::distortion`]), and the weight
 /// of the optical depth's L1 penalty ([`LossConfig::density_l1`](crate::config::LossConfig::density_l1)); a
 /// weight 0 turns its loss off.
 struct Priors<'a> {
@@ -27,7 +27,7 @@ struct Corrections<'a> {
 /// correction if `corrections` holds them (adding their gradient to its
 /// `grad`), and writes the gradients of `scale · Σ (C − C_gt)²`
 /// (plus `scale · 3/2 · λ · L_dist` per ray for the distortion weight λ, and
-/// `scale · 3/2 · μ ·` [`optical_depth`](crate::volume::optical_depth) for the density weight μ) with respect to
+/// `scale · 3/2 · μ ·` [`optical_depth`](crate::loss::density::optical_depth) for the density weight μ) with respect to
 /// the raw densities and colours into `dsig` and `drgb`; returns the summed
 /// squared error over rays and channels.
 #[allow(clippy::too_many_arguments)]

@@ -20,19 +20,19 @@
 //! activation ranges for export, `checkpoint.rs` writes and reads the
 //! state.
 
-use crate::adam::Adam;
-use crate::appearance::{self, Appearance};
+use crate::composite::{composite, composite_back, push_deltas, LAST_DELTA};
 use crate::config::TrainConfig;
 use crate::dataset::Dataset;
-use crate::grid::DensityGrid;
+use crate::loss::density::optical_depth_back;
+use crate::loss::distortion::{distortion, push_interval};
 use crate::mlp::{Acts, GridGrad, Mlp};
-use crate::pose::Poses;
-use crate::proposal::{ProposalGrid, RayProposal};
-use crate::rng::Rng;
-use crate::timing::{timed, StepTimes};
-use crate::volume::{
-    composite, composite_back, distortion, optical_depth_back, push_deltas, push_interval, LAST_DELTA,
-};
+use crate::optim::adam::Adam;
+use crate::per_photo::appearance::{self, Appearance};
+use crate::per_photo::pose::Poses;
+use crate::sampling::occupancy::OccupancyGrid;
+use crate::sampling::proposal::{ProposalGrid, RayProposal};
+use crate::util::rng::Rng;
+use crate::util::timing::{timed, StepTimes};
 use nerf_infer::camera::Ray;
 use nerf_infer::format::{Footprint, Scene};
 use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
@@ -89,7 +89,7 @@ pub fn network_seed(seed: u64, k: usize) -> u64 {
     if k == 0 {
         seed
     } else {
-        seed ^ crate::rng::stream::FINE_INIT
+        seed ^ crate::util::rng::stream::FINE_INIT
     }
 }
 
@@ -116,7 +116,7 @@ pub struct Trainer {
     /// Steps skipped for non-finite loss or gradients.
     pub skipped: u64,
     /// Occupancy grid (runs with `grid.res > 0`).
-    pub grid: Option<DensityGrid>,
+    pub grid: Option<OccupancyGrid>,
     /// What the run trains on, as the command names it (the dataset's
     /// absolute path and the loading flags), so `--resume` can refuse other
     /// data; empty when the caller does not say.
@@ -239,7 +239,7 @@ impl Trainer {
             params.extend(init(network_seed(seed, 1)));
         }
         let adam = Adam::new(params.len(), table_values(&net, params.len()));
-        let grid = (cfg.grid.res > 0).then(|| DensityGrid::new(cfg.grid.res));
+        let grid = (cfg.grid.res > 0).then(|| OccupancyGrid::new(cfg.grid.res));
         let proposal =
             (cfg.sampling.proposal_res > 0).then(|| ProposalGrid::new(cfg.sampling.proposal_res, UNBOUNDED_SIGMA_INIT));
         Self {
@@ -323,7 +323,7 @@ impl Trainer {
         let net = self.mlp();
         let thr = self.grid_threshold();
         let params = &self.params[..net.n_params];
-        let key = hash32(self.seed as u32 ^ crate::rng::stream::GRID_UPDATE);
+        let key = hash32(self.seed as u32 ^ crate::util::rng::stream::GRID_UPDATE);
         grid.update(key, thr, self.scene.unbounded.is_some(), |pts| {
             let mut acts = Acts::default();
             net.forward(params, pts, &[[0.0, 0.0, 1.0]], false, &mut acts);

@@ -1,9 +1,9 @@
-//! The pose corrections' part of a step ([`crate::pose`]): rays drawn
+//! The pose corrections' part of a step ([`crate::per_photo::pose`]): rays drawn
 //! through the corrected cameras, and the corrections' gradient from the
 //! gradient of the sample positions.
 
 use super::*;
-use crate::pose::{self, Poses};
+use crate::per_photo::pose::{self, Poses};
 use glam::Vec3;
 use nerf_infer::camera::FOOTPRINT_POINTS;
 

@@ -42,7 +42,7 @@ impl Trainer {
 
     /// With a proposal grid: the mean over `batch` of the network's weight
     /// along each ray that the grid's weights leave unbounded
-    /// ([`crate::interlevel::unbounded_weight`]; 0 when they bound it
+    /// ([`crate::loss::interlevel::unbounded_weight`]; 0 when they bound it
     /// everywhere, at most the ray's opacity), and the rays' mean opacity.
     pub fn proposal_bound(&self, batch: &[Sample]) -> Option<(f32, f32)> {
         self.proposal.as_ref()?;
@@ -71,7 +71,7 @@ impl Trainer {
                 }
                 let prop = &ws.props[i];
                 let t = &ws.t_c[i * nm..(i + 1) * nm];
-                unbounded += crate::interlevel::unbounded_weight(t, &w, &prop.edges(), &prop.w) as f64;
+                unbounded += crate::loss::interlevel::unbounded_weight(t, &w, &prop.edges(), &prop.w) as f64;
                 opacity += w.iter().sum::<f32>() as f64;
             }
         }

@@ -2,7 +2,7 @@
 //! and differentiated in parallel, the gradients summed, Adam applied.
 
 use super::*;
-use crate::pose::Poses;
+use crate::per_photo::pose::Poses;
 
 /// Groups of chunks a batch is split into ([`Trainer::gradients_timed`]):
 /// the most threads a step keeps busy, and the most gradient buffers it
@@ -261,7 +261,7 @@ impl Trainer {
         ws.start_samples();
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let s = i * nc..(i + 1) * nc;
-            let rk = hash32(key ^ crate::rng::stream::FINE_SAMPLES ^ (i as u32).wrapping_mul(0x27D4_EB2F));
+            let rk = hash32(key ^ crate::util::rng::stream::FINE_SAMPLES ^ (i as u32).wrapping_mul(0x27D4_EB2F));
             sample_pdf_f32(
                 &ws.t_c[s.clone()],
                 &ws.w_c[s.clone()],

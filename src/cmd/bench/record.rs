@@ -34,7 +34,8 @@ impl Settings {
     pub fn from_args(a: &Args) -> Result<Self, String> {
         let config = match &a.config {
             Some(p) => {
-                let text = nerf_train::userfile::read_user_text(p, nerf_train::userfile::MAX_JSON, "--config")?;
+                let text =
+                    nerf_train::util::userfile::read_user_text(p, nerf_train::util::userfile::MAX_JSON, "--config")?;
                 let abs = std::path::absolute(p).unwrap_or_else(|_| p.clone());
                 Some((abs, text))
             }
@@ -63,7 +64,8 @@ impl Settings {
                 crate::cmd::shell_quote(out)
             ));
         }
-        let text = nerf_train::userfile::read_user_text(&path, nerf_train::userfile::MAX_JSON, "bench record")?;
+        let text =
+            nerf_train::util::userfile::read_user_text(&path, nerf_train::util::userfile::MAX_JSON, "bench record")?;
         let s: Self =
             serde_json::from_str(&text).map_err(|e| format!("{}: not a bench record: {e}", path.display()))?;
         if s.scenes.is_empty() {
@@ -94,7 +96,7 @@ impl Settings {
             }
             let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
             // of tasks starting together exactly one writes the record, whole; the others compare with it
-            nerf_train::atomic::write_new(&path, text.as_bytes())
+            nerf_train::util::atomic::write_new(&path, text.as_bytes())
                 .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
         }
         let there = Self::read(out)?;

@@ -157,7 +157,7 @@ fn run_scene(settings: &Settings, scene: &Scene, dir: &Path, threads: usize, row
     let run = dir.join("run");
     let ckpt = run.join("checkpoint.bin");
     let read_trainer = || -> Result<Trainer, String> {
-        let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
+        let b = nerf_train::util::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
         Trainer::from_bytes(&b).map_err(|e| {
             format!("{}: {e}; remove {} to train this scene from the start", ckpt.display(), run.display())
         })

@@ -176,7 +176,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     }
     let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
     let (tr, data) = if a.resume && ckpt.is_file() {
-        let b = nerf_train::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
+        let b = nerf_train::util::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
         let mut tr = Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))?;
         let moved_from = check_resume(&a, &tr)?;
         let data = load(tr.downscale)?;

@@ -21,7 +21,8 @@ pub(super) fn load_config(a: &Args) -> Result<NewRun, String> {
         None => (base, Fit::ALL),
         Some(path) => {
             let bad = |e: &dyn std::fmt::Display| format!("{}: invalid configuration: {e}", path.display());
-            let text = nerf_train::userfile::read_user_text(path, nerf_train::userfile::MAX_JSON, "--config")?;
+            let text =
+                nerf_train::util::userfile::read_user_text(path, nerf_train::util::userfile::MAX_JSON, "--config")?;
             let over = nerf_train::config::json::parse(&text).map_err(|e| bad(&e))?;
             // the preset's fields, then the file's on top of them
             (base.overlay(&over).map_err(|e| bad(&e))?, Fit::unless_named(&over))

@@ -181,7 +181,7 @@ pub fn write_model_bin(model_dir: &Path, r: &Reconstruction) -> std::io::Result<
         p.extend_from_slice(&pt.track_len.to_le_bytes());
         p.extend(std::iter::repeat_n(0u8, pt.track_len as usize * 8));
     }
-    crate::atomic::write(&model_dir.join("cameras.bin"), &c)?;
-    crate::atomic::write(&model_dir.join("images.bin"), &im)?;
-    crate::atomic::write(&model_dir.join("points3D.bin"), &p)
+    crate::util::atomic::write(&model_dir.join("cameras.bin"), &c)?;
+    crate::util::atomic::write(&model_dir.join("images.bin"), &im)?;
+    crate::util::atomic::write(&model_dir.join("points3D.bin"), &p)
 }

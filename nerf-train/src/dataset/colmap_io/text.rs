@@ -173,7 +173,7 @@ pub fn write_model_txt(model_dir: &Path, r: &Reconstruction) -> std::io::Result<
         }
         writeln!(p)?;
     }
-    crate::atomic::write(&model_dir.join("cameras.txt"), &c)?;
-    crate::atomic::write(&model_dir.join("images.txt"), &im)?;
-    crate::atomic::write(&model_dir.join("points3D.txt"), &p)
+    crate::util::atomic::write(&model_dir.join("cameras.txt"), &c)?;
+    crate::util::atomic::write(&model_dir.join("images.txt"), &im)?;
+    crate::util::atomic::write(&model_dir.join("points3D.txt"), &p)
 }

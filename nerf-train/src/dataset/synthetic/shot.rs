@@ -119,5 +119,5 @@ pub(super) fn save_jpeg(path: &Path, img: &image::RgbImage) -> Result<(), DataEr
     image::codecs::jpeg::JpegEncoder::new_with_quality(&mut buf, 95)
         .encode_image(img)
         .map_err(|e| DataError::new(path, format!("cannot encode JPEG: {e}")))?;
-    crate::atomic::write(path, buf.get_ref()).map_err(io(path))
+    crate::util::atomic::write(path, buf.get_ref()).map_err(io(path))
 }

@@ -9,14 +9,14 @@
 //! [`nerf_infer::render`] march draws them) and the last stratified sample
 //! is added, so that the last interval still reaches the far plane. The
 //! grid gets no gradient from the photo loss: it is fitted with the
-//! interlevel loss ([`crate::interlevel`]) so that its weights bound the
+//! interlevel loss ([`crate::loss::interlevel`]) so that its weights bound the
 //! network's, by its own Adam (the occupancy grid's cells, sparse: cells no
 //! ray crossed keep their moments). Exported as 8-bit codes
 //! ([`nerf_infer::proposal`]).
 
-use crate::adam::Adam;
-use crate::interlevel::interlevel;
-use crate::volume::{composite, composite_back, push_deltas};
+use crate::composite::{composite, composite_back, push_deltas};
+use crate::loss::interlevel::interlevel;
+use crate::optim::adam::Adam;
 use nerf_infer::camera::Ray;
 use nerf_infer::occupancy::Occupancy;
 use nerf_infer::sampling::sample_pdf_f32;
@@ -107,7 +107,7 @@ impl ProposalGrid {
         prop.zeros.resize(3 * n_coarse, 0.0);
         prop.cdf.resize(n_coarse, 0.0);
         composite(&prop.sigma, &prop.zeros, &prop.delta, [0.0; 3], &mut prop.w);
-        let pdf_key = key ^ crate::rng::stream::PROPOSAL_PDF;
+        let pdf_key = key ^ crate::util::rng::stream::PROPOSAL_PDF;
         sample_pdf_f32(&prop.t, &prop.w, |j| main_u(j, n_main, Some(pdf_key)), &mut prop.cdf, &mut out[..n_main]);
         out[n_main] = prop.t[n_coarse - 1];
     }

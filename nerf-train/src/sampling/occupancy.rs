@@ -15,7 +15,7 @@ pub const DECAY: f32 = 0.95;
 
 /// Density grid and its occupancy bits.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DensityGrid {
+pub struct OccupancyGrid {
     /// Cells per axis.
     pub res: u16,
     /// Decayed running maximum of ReLU(σ) per cell, world units⁻¹.
@@ -26,7 +26,7 @@ pub struct DensityGrid {
     pub updates: u64,
 }
 
-impl DensityGrid {
+impl OccupancyGrid {
     /// A grid with every cell occupied (nothing learnt yet).
     pub fn new(res: u16) -> Self {
         let r = res as usize;
@@ -137,7 +137,7 @@ mod tests {
 
     #[test]
     fn a_ball_of_density_is_found_and_the_rest_cleared() {
-        let mut g = DensityGrid::new(16);
+        let mut g = OccupancyGrid::new(16);
         assert_eq!(g.occupied_fraction(), 1.0);
         let ball = |p: &[[f32; 3]]| -> Vec<f32> {
             p.iter().map(|q| if q.iter().map(|x| x * x).sum::<f32>() < 0.25 { 50.0 } else { 0.0 }).collect()
@@ -163,7 +163,7 @@ mod tests {
 
     #[test]
     fn a_field_with_no_density_anywhere_keeps_its_cells() {
-        let mut g = DensityGrid::new(8);
+        let mut g = OccupancyGrid::new(8);
         let empty = |p: &[[f32; 3]]| vec![0.0; p.len()];
         g.update(0, 1.0, false, empty);
         assert_eq!(g.occupied_fraction(), 1.0, "a young field emptied by its first steps is still sampled");
@@ -187,7 +187,7 @@ mod tests {
                 })
                 .collect()
         };
-        let (mut bounded, mut contracted) = (DensityGrid::new(16), DensityGrid::new(16));
+        let (mut bounded, mut contracted) = (OccupancyGrid::new(16), OccupancyGrid::new(16));
         for k in 0..4 {
             bounded.update(k, 1.0, false, field);
             contracted.update(k, 1.0, true, field);

@@ -7,7 +7,7 @@
 //! mean correction is the identity), and held-out photos are scored with it
 //! ([`LossConfig::appearance`](crate::config::LossConfig::appearance)).
 
-use crate::adam::Adam;
+use crate::optim::adam::Adam;
 use serde::{Deserialize, Serialize};
 
 /// Values per photo: `A` row by row, then `b`.

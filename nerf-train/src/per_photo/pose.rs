@@ -18,7 +18,7 @@
 //! The held-out photos keep the poses they were loaded with
 //! ([`LossConfig::pose_refine`](crate::config::LossConfig::pose_refine)).
 
-use crate::adam::Adam;
+use crate::optim::adam::Adam;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
