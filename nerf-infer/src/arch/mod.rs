@@ -91,6 +91,24 @@ impl Kernels {
     }
 }
 
+/// A hint that element `i` of `data` is about to be read: on x86-64 a
+/// prefetch into every cache level (`prefetcht0`, part of the baseline
+/// SSE), nothing elsewhere or for an index past the end. It changes no
+/// value, only when the memory arrives: for gathers whose addresses are
+/// known a few samples ahead (the feature grid's corners).
+#[inline(always)]
+#[allow(unsafe_code)]
+pub fn prefetch<T>(data: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if i < data.len() {
+        use core::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch neither faults nor writes; the address is inside `data`
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(data.as_ptr().add(i).cast::<i8>()) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (data, i);
+}
+
 /// Whether the AVX2 kernels are built and the CPU has AVX2.
 #[inline]
 fn has_avx2() -> bool {

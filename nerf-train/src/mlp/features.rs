@@ -3,6 +3,7 @@
 //! backward pass that scatters their gradients into the table.
 
 use super::*;
+use nerf_infer::arch::prefetch;
 
 impl Mlp {
     /// Feature-grid values (`S × grid_dim`) and corners of `pos`.
@@ -13,12 +14,17 @@ impl Mlp {
         resize(&mut a.gf, pos.len() * nl * w);
         let n = pos.len();
         a.corners.resize(n * nl, Corners::default());
-        // level after level: one level's entries stay in cache
+        // level after level: one level's entries stay in cache; its corners first, then the blends with the
+        // corners of the samples AHEAD on asked for (a fine level's table is megabytes: each corner a miss)
+        const AHEAD: usize = 8;
         for l in 0..nl {
-            for (i, x) in pos.iter().enumerate() {
-                let c = f.corners_f32(l, *x);
+            let corners = &mut a.corners[l * n..(l + 1) * n];
+            corners.iter_mut().zip(pos).for_each(|(c, x)| *c = f.corners_f32(l, *x));
+            for (i, c) in corners.iter().enumerate() {
+                if let Some(next) = corners.get(i + AHEAD) {
+                    next.entry.iter().for_each(|&e| prefetch(t, (offsets[l] + e as usize) * w));
+                }
                 c.blend(offsets[l], w, |k| t[k], &mut a.gf[(i * nl + l) * w..(i * nl + l + 1) * w]);
-                a.corners[l * n + i] = c;
             }
         }
     }
@@ -171,7 +177,11 @@ pub(super) fn scatter_level_w<const W: usize>(nl: usize, l: usize, corners: &[Co
             *a = [0.0; W];
         }
     };
+    const AHEAD: usize = 8;
     for (i, c) in corners.iter().enumerate() {
+        if let Some(next) = corners.get(i + AHEAD) {
+            next.entry.iter().for_each(|&e| prefetch(gl, e as usize * W));
+        }
         // a footprint point merged into its sample's first (zero weights)
         if c.weight == [0.0; 8] {
             continue;
