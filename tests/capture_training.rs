@@ -7,7 +7,7 @@ mod support;
 
 use nerf_infer::Orbit;
 use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
-use nerf_train::dataset::{load, Format, Lens, LoadOptions, SceneKind, Split};
+use nerf_train::dataset::{load, Format, LoadOptions, SceneKind, Split};
 use std::path::{Path, PathBuf};
 use support::captures::*;
 use support::cli::{nerf, s, tmp};
@@ -291,36 +291,14 @@ fn llff_captures_read_the_downscaled_copies_they_ship() {
 #[test]
 fn a_nerfstudio_capture_with_its_sparse_points_is_fitted_as_its_colmap_twin() {
     use nerf_train::dataset::colmap::colmap_views;
+    use nerf_train::dataset::write_transforms;
     let d = tmp("ngp-ply");
     // 32-pixel photos: enough sparse points (one per 8×8 pixels the object covers) for the fit
     write_colmap(&d, SceneSpec { size: 32, ..spec() }, ColmapText::Binary, false).unwrap();
     let (views, points) = colmap_views(&d, &d.join("sparse/0")).unwrap();
     assert!(points.len() >= 20, "{} sparse points: too few for the fit to use", points.len());
     // nerfstudio's layout of the same capture: the poses and the sparse points in one frame
-    let frames: Vec<serde_json::Value> = views
-        .iter()
-        .map(|v| {
-            let (r, p) = v.pose;
-            let m: Vec<Vec<f64>> = (0..3).map(|i| vec![r.x_axis[i], r.y_axis[i], r.z_axis[i], p[i]]).collect();
-            let (k, t) = match v.lens {
-                Lens::Opencv { k, p } => (k, p),
-                Lens::Pinhole => ([0.0; 6], [0.0; 2]),
-                other => panic!("{other:?}"),
-            };
-            let c = &v.intrinsics;
-            serde_json::json!({
-                "file_path": format!("images/{}", v.image.file_name().unwrap().to_string_lossy()),
-                "transform_matrix": m, "w": c.size[0], "h": c.size[1], "fl_x": c.focal[0], "fl_y": c.focal[1],
-                "cx": c.centre[0], "cy": c.centre[1], "k1": k[0], "k2": k[1], "p1": t[0], "p2": t[1],
-            })
-        })
-        .collect();
-    let mut ply = format!("ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
-                           property float z\nproperty uint8 red\nproperty uint8 green\nproperty uint8 blue\nend_header\n", points.len());
-    points.iter().for_each(|q| ply.push_str(&format!("{} {} {} 128 128 128\n", q.x, q.y, q.z)));
-    std::fs::write(d.join("sparse_pc.ply"), ply).unwrap();
-    let t = serde_json::json!({ "frames": frames, "ply_file_path": "sparse_pc.ply" });
-    std::fs::write(d.join("transforms.json"), t.to_string()).unwrap();
+    write_transforms(&d, &views, Some(&points)).unwrap();
     // the object's box comes from the sparse points
     let object = |format| LoadOptions { scene: SceneKind::Object, ..opts(format) };
     let colmap = load(&d, Split::Test, object(Format::Colmap)).unwrap();
@@ -335,10 +313,12 @@ fn a_nerfstudio_capture_with_its_sparse_points_is_fitted_as_its_colmap_twin() {
     for (u, v) in ngp.views.iter().zip(&colmap.views) {
         assert!((u.camera.position - v.camera.position).length() < 1e-4, "{}", u.name);
     }
-    // without its points the fit has the cameras alone: other bounds
-    let t = serde_json::json!({ "frames": t["frames"] });
-    std::fs::write(d.join("transforms.json"), t.to_string()).unwrap();
+    assert!(!ngp.notes.iter().any(|n| n.contains("no sparse points")), "{:?}", ngp.notes);
+    // without its points the fit has the cameras alone: other bounds, and a note says what it took instead
+    write_transforms(&d, &views, None).unwrap();
     let alone = load(&d, Split::Test, object(Format::Ngp)).unwrap();
+    let said = alone.notes.iter().find(|n| n.contains("no sparse points")).expect("a note on the missing points");
+    assert!(said.contains("transforms.json") && said.contains("the cameras alone") && said.contains("±0.5"), "{said}");
     let moved = (0..3).map(|i| (alone.scene.bounds_min[i] - colmap.scene.bounds_min[i]).abs()).fold(0.0, f32::max);
     assert!(moved > 1e-2, "{:?} against {:?}", alone.scene, colmap.scene);
 }

@@ -9,10 +9,12 @@
 //!
 //! `OUT` must not exist. Unix only (symbolic links).
 
-use nerf_train::dataset::colmap::colmap_views;
-use nerf_train::dataset::reconstructions::choose_model;
 use nerf_train::dataset::write_poses_bounds;
 use std::path::PathBuf;
+
+#[path = "support/capture.rs"]
+mod support;
+use support::read_and_link;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -27,38 +29,14 @@ fn main() {
 }
 
 fn run(src: PathBuf, out: PathBuf) -> Result<(), String> {
-    if out.exists() {
-        return Err(format!("{}: already exists; name a new folder", out.display()));
-    }
-    let (model_dir, note) = choose_model(&src, None).map_err(|e| e.to_string())?;
-    if let Some(note) = note {
-        eprintln!("note: {note}");
-    }
-    let (views, points) = colmap_views(&src, &model_dir).map_err(|e| e.to_string())?;
-    let images = out.join("images");
-    std::fs::create_dir_all(&images).map_err(|e| format!("{}: {e}", images.display()))?;
-    for v in &views {
-        let name = v.image.file_name().ok_or_else(|| format!("{}: no file name", v.image.display()))?;
-        let target = std::fs::canonicalize(&v.image).map_err(|e| format!("{}: {e}", v.image.display()))?;
-        link(&target, &images.join(name))?;
-    }
+    let (views, points, model_dir) = read_and_link(&src, &out)?;
     write_poses_bounds(&out, &views, &points).map_err(|e| e.to_string())?;
     eprintln!(
         "wrote {} ({} cameras from {}, {} sparse points)",
         out.join("poses_bounds.npy").display(),
         views.len(),
-        model_dir.display(),
+        model_dir,
         points.len()
     );
     Ok(())
-}
-
-#[cfg(unix)]
-fn link(target: &std::path::Path, at: &std::path::Path) -> Result<(), String> {
-    std::os::unix::fs::symlink(target, at).map_err(|e| format!("{}: {e}", at.display()))
-}
-
-#[cfg(not(unix))]
-fn link(_: &std::path::Path, at: &std::path::Path) -> Result<(), String> {
-    Err(format!("{}: symbolic links need a Unix system", at.display()))
 }

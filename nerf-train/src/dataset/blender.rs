@@ -292,6 +292,14 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
     } else {
         build(&path, &views, &points, fixed, copts(Selection::From(0)))?
     };
+    if points.is_empty() && fixed.is_none() && data.scene.ndc.is_none() {
+        notes.push(format!(
+            "{}: no sparse points (no ply_file_path): the scene is fitted to the cameras alone, {}; a \
+             ply_file_path (as nerfstudio's ns-process-data writes it) or the COLMAP folder gives the fit its points",
+            fit_file.display(),
+            super::fit::without_points()
+        ));
+    }
     data.notes.append(&mut notes);
     if missing > 0 {
         data.notes.push(format!(

@@ -43,6 +43,25 @@ pub const MAX_NEAR: f64 = 0.2;
 /// Smallest near plane, fitted units.
 pub const MIN_NEAR: f64 = 0.01;
 
+/// Half the side of the object box of a capture with fewer than
+/// [`MIN_POINTS`] sparse points inside the camera ring, fitted units: the
+/// object taken to fill the middle of the ring.
+pub const OBJECT_HALF_WITHOUT_POINTS: f64 = 0.5;
+
+/// Sparse points inside the camera ring the object box is taken from
+/// (their 2nd–98th percentile extent); with fewer, the box is
+/// ±[`OBJECT_HALF_WITHOUT_POINTS`].
+pub const MIN_POINTS: usize = 20;
+
+/// What a capture without sparse points is fitted to instead, for the
+/// loaders' notes: the object box and the near plane these take.
+pub fn without_points() -> String {
+    format!(
+        "the object box taken as ±{OBJECT_HALF_WITHOUT_POINTS} of the median camera distance about the cameras' \
+         focus and the near plane at its largest, {MAX_NEAR} of it"
+    )
+}
+
 /// How to model the space a capture shows.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
@@ -208,7 +227,8 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
         }
         (lo, hi)
     };
-    let (mut lo, mut hi) = if inner.len() >= 20 { extent(&inner, 0.02, 0.98) } else { ([-0.5; 3], [0.5; 3]) };
+    let h = OBJECT_HALF_WITHOUT_POINTS;
+    let (mut lo, mut hi) = if inner.len() >= MIN_POINTS { extent(&inner, 0.02, 0.98) } else { ([-h; 3], [h; 3]) };
     if kind == SceneKind::Unbounded {
         // the bounds hold the object and the cameras; the rest of space is contracted
         let cams: Vec<DVec3> = poses.iter().map(|p| to_fit(p.1)).collect();

@@ -146,7 +146,15 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
         nearest: Some(min_near),
         upright: false,
     };
-    build(&npy, &views, &near_points, None, copts)
+    let mut data = build(&npy, &views, &near_points, None, copts)?;
+    if data.scene.ndc.is_none() {
+        data.notes.push(format!(
+            "{}: no sparse points in this layout: each camera's near bound stands for the nearest thing it sees, \
+             the point at that depth on its optical axis (the object box and the near plane are fitted to those)",
+            npy.display()
+        ));
+    }
+    Ok(data)
 }
 
 /// Writes `poses_bounds.npy` into `dir` for `views` (in the order of their

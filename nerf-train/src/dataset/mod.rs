@@ -12,6 +12,7 @@ mod forward;
 mod image_io;
 pub mod lens;
 mod llff;
+mod nerfstudio;
 mod npy;
 mod ply;
 pub mod reconstructions;
@@ -23,6 +24,7 @@ pub use fit::SceneKind;
 pub use image_io::{load_alpha, load_rgb, load_rgba, save_png_rgb};
 pub use lens::Lens;
 pub use llff::{load_llff, write_poses_bounds};
+pub use nerfstudio::write_transforms;
 pub use npy::{parse_npy_f64, read_npy_f64, write_npy_f64};
 
 pub use types::{capture_record, rigid_pose, stem, DataError, Dataset, Format, LoadOptions, Split, View};

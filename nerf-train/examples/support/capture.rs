@@ -1,0 +1,42 @@
+//! A COLMAP capture read for the examples that write it in another layout
+//! without copying its photos: its cameras and points, and the photos
+//! linked into the new folder.
+
+use nerf_train::dataset::capture::CaptureView;
+use nerf_train::dataset::colmap::colmap_views;
+use nerf_train::dataset::reconstructions::choose_model;
+use std::path::Path;
+
+/// The cameras and sparse points of the COLMAP capture `src` (its model
+/// with the most registered photos), each photo linked into `out/images/`
+/// (`out`, which must not exist, is made); returns the model's folder too.
+pub fn read_and_link(src: &Path, out: &Path) -> Result<(Vec<CaptureView>, Vec<glam::DVec3>, String), String> {
+    if out.exists() {
+        return Err(format!("{}: already exists; name a new folder", out.display()));
+    }
+    let (model_dir, note) = choose_model(src, None).map_err(|e| e.to_string())?;
+    if let Some(note) = note {
+        eprintln!("note: {note}");
+    }
+    let (views, points) = colmap_views(src, &model_dir).map_err(|e| e.to_string())?;
+    let images = out.join("images");
+    std::fs::create_dir_all(&images).map_err(|e| format!("{}: {e}", images.display()))?;
+    for v in &views {
+        let name = v.image.file_name().ok_or_else(|| format!("{}: no file name", v.image.display()))?;
+        let target = std::fs::canonicalize(&v.image).map_err(|e| format!("{}: {e}", v.image.display()))?;
+        link(&target, &images.join(name))?;
+    }
+    Ok((views, points, model_dir.display().to_string()))
+}
+
+/// Links `at` to `target` (Unix only; elsewhere an error naming `at`).
+#[cfg(unix)]
+fn link(target: &Path, at: &Path) -> Result<(), String> {
+    std::os::unix::fs::symlink(target, at).map_err(|e| format!("{}: {e}", at.display()))
+}
+
+/// Links `at` to `target` (Unix only; elsewhere an error naming `at`).
+#[cfg(not(unix))]
+fn link(_: &Path, at: &Path) -> Result<(), String> {
+    Err(format!("{}: symbolic links need a Unix system", at.display()))
+}
