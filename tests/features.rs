@@ -167,7 +167,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     assert_eq!(averaged.params, tr.ema);
     assert_eq!(averaged.step, tr.step);
     // its occupancy grid refreshed once more, from the average's density
-    let (run, avg) = (tr.grid.as_ref().unwrap(), averaged.grid.as_ref().unwrap());
+    let (run, avg) = (tr.sampler.occupancy.as_ref().unwrap(), averaged.sampler.occupancy.as_ref().unwrap());
     assert_eq!(avg.updates, run.updates + 1);
 
     // before the run's first refresh its grid stays whole in the average's model too
@@ -176,8 +176,8 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
         young.train_step(&data, 0.0);
     }
     assert_eq!(young.averaged().params, young.ema);
-    assert_eq!(young.averaged().grid, young.grid);
-    assert_eq!(young.grid.as_ref().unwrap().updates, 0);
+    assert_eq!(young.averaged().sampler.occupancy, young.sampler.occupancy);
+    assert_eq!(young.sampler.occupancy.as_ref().unwrap().updates, 0);
 
     // without an average the model is the run's last step
     let mut plain = Trainer::new(cfg.with(|c| c.optimiser.ema_decay = 0.0), data.scene, 1, 2);

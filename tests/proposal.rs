@@ -98,7 +98,7 @@ fn a_trained_proposal_grid_bounds_the_networks_weights() {
     // the fitted one 19 % after these 300 steps)
     for sigma in [0.1f32, 1.0, 10.0, 100.0] {
         let mut even = tr.clone();
-        even.proposal.as_mut().unwrap().log_sigma.iter_mut().for_each(|v| *v = sigma.ln());
+        even.sampler.proposal.as_mut().unwrap().log_sigma.iter_mut().for_each(|v| *v = sigma.ln());
         let (u, _) = even.proposal_bound(&batch).unwrap();
         println!("an even grid of density {sigma}: {u:.4} left unbounded");
         assert!(after < 0.5 * u, "fitted {after} against even ({sigma}) {u}");

@@ -175,7 +175,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     for i in 0..160 {
         last = tr.train_step(&data, i as f64 / 160.0);
     }
-    let grid = tr.grid.as_ref().unwrap();
+    let grid = tr.sampler.occupancy.as_ref().unwrap();
     let occ = grid.occupied_fraction();
     let per_ray = last.samples as f64 / last.rays as f64;
     println!(
@@ -189,7 +189,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
     assert!(last.loss < 0.5 * first.loss);
     // checkpoints keep the grid
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
-    assert_eq!(back.grid, tr.grid);
+    assert_eq!(back.sampler.occupancy, tr.sampler.occupancy);
     // the model file carries the grid (format version 2), no second network,
     // and renders the validation view well
     let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));

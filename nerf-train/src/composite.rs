@@ -37,7 +37,7 @@ pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: [f32; 3], w: &mu
 }
 
 /// Backward of [`composite`]: given `dc` = ∂L/∂C, `dw` = ∂L/∂wᵢ of a loss
-/// on the weights themselves (such as [`distortion`]; empty: none) and the
+/// on the weights themselves (such as [`distortion`](crate::loss::distortion::distortion); empty: none) and the
 /// forward weights `w`, writes ∂L/∂σᵢ into `dsigma` and ∂L/∂cᵢ into `drgb`.
 /// (`∂wᵢ/∂sₖ` is `Tₖ₊₁` for `i = k` and `−wᵢ` for `i > k`, so a weight's
 /// gradient flows as a colour's does.) A sample with `σᵢ ≤ 0` gets none

@@ -64,7 +64,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         meta: Meta { train_downscale: tr.downscale as u16, iterations: tr.step as u32 },
         coarse,
         fine,
-        grid: tr.grid.as_ref().map(|g| (g.res, g.bits.clone())),
+        grid: tr.sampler.occupancy.as_ref().map(|g| (g.res, g.bits.clone())),
         features: mlp
             .features
             .as_ref()
@@ -73,7 +73,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         narrow: None,
         orbit: None,
         footprint: tr.footprint().filter(|_| tr.scene.ndc.is_none()),
-        proposal: tr.proposal.as_ref().map(|g| {
+        proposal: tr.sampler.proposal.as_ref().map(|g| {
             let (log_min, log_step, codes) = g.codes();
             (format::Proposal { res: g.res, log_min, log_step, codes: &[] }, codes)
         }),

@@ -15,7 +15,7 @@ impl Trainer {
         }
         let mut t = self.clone();
         t.params.clone_from(&self.ema);
-        if t.grid.as_ref().is_some_and(|g| g.updates > 0) {
+        if t.sampler.occupancy.as_ref().is_some_and(|g| g.updates > 0) {
             t.update_grid();
         }
         std::borrow::Cow::Owned(t)

@@ -47,31 +47,31 @@ impl Trainer {
             None => batch,
         };
         for (ci, rays) in batch.chunks(self.cfg.sampling.chunk_rays).enumerate() {
-            self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
-            if ws.pos.is_empty() {
+            self.sampler.place(&self.cfg, rays, |i| hash32((ci * 7919 + i) as u32), &mut ws.samples);
+            if ws.samples.pos.is_empty() {
                 continue;
             }
-            net.encode_footprint(pc, &ws.pos, &ws.foot, &mut acts);
-            net.forward_layers(pc, &ws.dirs, true, &mut acts);
+            net.encode_footprint(pc, &ws.samples.pos, &ws.samples.foot, &mut acts);
+            net.forward_layers(pc, &ws.samples.dirs, true, &mut acts);
             net.record_max_abs(&acts, &mut max_c);
             net.record_active(&acts, &mut active_c);
-            max_pos = ws.pos.iter().flatten().fold(max_pos, |m, v| m.max(v.abs()));
+            max_pos = ws.samples.pos.iter().flatten().fold(max_pos, |m, v| m.max(v.abs()));
             if nf == 0 {
                 continue;
             }
             let mut pos_f = Vec::new();
             for (i, Sample { ray, bg, .. }) in rays.iter().enumerate() {
                 let s = i * nc..(i + 1) * nc;
-                let ts = &ws.t_c[s.clone()];
+                let ts = &ws.samples.t[s.clone()];
                 let mut w = vec![0.0; nc];
-                composite(&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end], &ws.delta[s], *bg, &mut w);
+                composite(&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end], &ws.samples.delta[s], *bg, &mut w);
                 let (mut cdf, mut tf, mut all) = (vec![0.0; nc], vec![0.0; nf], vec![0.0; nc + nf]);
                 sample_pdf_f32(ts, &w, |j| (j as f32 + 0.5) / nf as f32, &mut cdf, &mut tf);
                 merge_sorted(ts, &tf, &mut all);
                 pos_f.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
             }
             let mut acts_f = Acts::default();
-            net.forward(pf, &pos_f, &ws.dirs, true, &mut acts_f);
+            net.forward(pf, &pos_f, &ws.samples.dirs, true, &mut acts_f);
             net.record_max_abs(&acts_f, &mut max_f);
             net.record_active(&acts_f, &mut active_f);
         }

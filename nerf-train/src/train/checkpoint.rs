@@ -13,9 +13,11 @@
 
 use super::*;
 use crate::error::Error;
+use crate::sampling::occupancy::OccupancyGrid;
 use nerf_infer::format::{frame, unframe};
 use nerf_infer::Error as FormatError;
 use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 /// The first bytes of a checkpoint file (`nerf_infer::format::CHECKPOINT_MAGIC`).
@@ -37,13 +39,16 @@ pub const ABSENT_MEANS: &[(&str, &str)] = &[];
 
 /// The scene as a checkpoint holds it: [`Scene`] in the model format's
 /// encoding, then its unbounded space, which that encoding leaves to a
-/// model's own field (`#[serde(with = "scene_in_full")]` on
-/// [`Trainer::scene`]).
+/// model's own field (`#[serde(with = "scene_in_full")]` on a version 18
+/// checkpoint's scene).
 pub(super) mod scene_in_full {
     use nerf_infer::format::{Scene, Unbounded};
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use serde::{Deserialize, Deserializer};
+    #[cfg(test)]
+    use serde::{Serialize, Serializer};
 
-    /// Writes `scene` and `scene.unbounded`.
+    /// Writes `scene` and `scene.unbounded` (as a version 18 checkpoint did).
+    #[cfg(test)]
     pub fn serialize<S: Serializer>(scene: &Scene, s: S) -> Result<S::Ok, S::Error> {
         (scene, scene.unbounded).serialize(s)
     }
@@ -53,6 +58,79 @@ pub(super) mod scene_in_full {
         let (mut scene, unbounded): (Scene, Option<Unbounded>) = Deserialize::deserialize(d)?;
         scene.unbounded = unbounded;
         Ok(scene)
+    }
+}
+
+/// A version 18 checkpoint's payload: the state's fields in this order,
+/// in postcard (the types as they are laid out now).
+#[derive(Deserialize)]
+#[cfg_attr(test, derive(Serialize))]
+pub(super) struct V18 {
+    cfg: TrainConfig,
+    #[serde(with = "scene_in_full")]
+    scene: Scene,
+    downscale: u32,
+    params: Vec<f32>,
+    adam: Adam,
+    step: u64,
+    elapsed: f64,
+    seed: u64,
+    skipped: u64,
+    grid: Option<OccupancyGrid>,
+    data: String,
+    pixel: f32,
+    ema: Vec<f32>,
+    proposal: Option<ProposalGrid>,
+    appearance: Option<Appearance>,
+    poses: Option<Poses>,
+}
+
+impl From<V18> for Trainer {
+    fn from(v: V18) -> Self {
+        Trainer {
+            cfg: v.cfg,
+            scene: v.scene,
+            downscale: v.downscale,
+            params: v.params,
+            adam: v.adam,
+            step: v.step,
+            elapsed: v.elapsed,
+            seed: v.seed,
+            skipped: v.skipped,
+            sampler: Sampler { occupancy: v.grid, proposal: v.proposal },
+            data: v.data,
+            pixel: v.pixel,
+            ema: v.ema,
+            appearance: v.appearance,
+            poses: v.poses,
+            pool: GradPool::default(),
+        }
+    }
+}
+
+/// A run as a version 18 checkpoint held it, for the tests that write one.
+#[cfg(test)]
+impl From<&Trainer> for V18 {
+    fn from(t: &Trainer) -> Self {
+        let t = t.clone();
+        V18 {
+            cfg: t.cfg,
+            scene: t.scene,
+            downscale: t.downscale,
+            params: t.params,
+            adam: t.adam,
+            step: t.step,
+            elapsed: t.elapsed,
+            seed: t.seed,
+            skipped: t.skipped,
+            grid: t.sampler.occupancy,
+            data: t.data,
+            pixel: t.pixel,
+            ema: t.ema,
+            proposal: t.sampler.proposal,
+            appearance: t.appearance,
+            poses: t.poses,
+        }
     }
 }
 
@@ -83,11 +161,11 @@ impl Trainer {
         w.put("elapsed", &self.elapsed)?;
         w.put("seed", &self.seed)?;
         w.put("skipped", &self.skipped)?;
-        w.put("grid", &self.grid)?;
+        w.put("grid", &self.sampler.occupancy)?;
         w.put("data", &self.data)?;
         w.put("pixel", &self.pixel)?;
         w.put("ema", &self.ema)?;
-        w.put("proposal", &self.proposal)?;
+        w.put("proposal", &self.sampler.proposal)?;
         w.put("appearance", &self.appearance)?;
         w.put("poses", &self.poses)?;
         let payload = postcard::to_stdvec(&w.0).map_err(|e| Error::Checkpoint(format!("cannot encode: {e}")))?;
@@ -114,15 +192,17 @@ impl Trainer {
         };
         let t: Self = match version {
             CHECKPOINT_VERSION_MIN => {
-                postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?
+                let v: V18 =
+                    postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
+                v.into()
             }
             _ => Self::from_sections(payload, ABSENT_MEANS)?,
         };
-        let grid_ok = match &t.grid {
+        let grid_ok = match &t.sampler.occupancy {
             None => t.cfg.grid.res == 0,
             Some(g) => g.res == t.cfg.grid.res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
         };
-        let proposal_ok = match &t.proposal {
+        let proposal_ok = match &t.sampler.proposal {
             None => t.cfg.sampling.proposal_res == 0,
             Some(p) => {
                 let n = (p.res as usize).pow(3);
@@ -261,11 +341,10 @@ impl Trainer {
             elapsed: r.take("elapsed")?,
             seed: r.take("seed")?,
             skipped: r.take("skipped")?,
-            grid: r.take("grid")?,
+            sampler: Sampler { occupancy: r.take("grid")?, proposal: r.take("proposal")? },
             data: r.take("data")?,
             pixel: r.take("pixel")?,
             ema: r.take("ema")?,
-            proposal: r.take("proposal")?,
             appearance: r.take("appearance")?,
             poses: r.take("poses")?,
             pool: GradPool::default(),

@@ -53,9 +53,9 @@ fn a_checkpoint_reads_back_as_the_state_it_was_written_from() {
 #[test]
 fn a_version_18_checkpoint_the_whole_state_in_postcard_still_reads() {
     let t = trainer();
-    let v18 = frame(&CHECKPOINT_MAGIC, CHECKPOINT_VERSION_MIN, &postcard::to_stdvec(&t).unwrap()).unwrap();
+    let v18 = frame(&CHECKPOINT_MAGIC, CHECKPOINT_VERSION_MIN, &postcard::to_stdvec(&V18::from(&t)).unwrap()).unwrap();
     assert_eq!(Trainer::from_bytes(&v18).unwrap().to_bytes().unwrap(), t.to_bytes().unwrap());
-    let v17 = frame(&CHECKPOINT_MAGIC, 17, &postcard::to_stdvec(&t).unwrap()).unwrap();
+    let v17 = frame(&CHECKPOINT_MAGIC, 17, &postcard::to_stdvec(&V18::from(&t)).unwrap()).unwrap();
     let e = Trainer::from_bytes(&v17).unwrap_err().to_string();
     assert!(e.contains("checkpoint version 17, this build reads versions 18 to 19"), "{e}");
 }

@@ -87,11 +87,27 @@ impl Trainer {
     /// the photos' colour corrections, their gradient summed into `ws.dapp`.
     pub(super) fn colour_loss(&self, rays: &[Sample], scale: f32, ws: &mut Workspace, fine: bool) -> f64 {
         let c = &self.cfg;
-        let priors =
-            Priors { distortion: c.loss.distortion, mid: &ws.s_mid, width: &ws.s_width, density_l1: c.loss.density_l1 };
+        let priors = Priors {
+            distortion: c.loss.distortion,
+            mid: &ws.samples.s_mid,
+            width: &ws.samples.s_width,
+            density_l1: c.loss.density_l1,
+        };
         let corr = self.appearance.as_ref().map(|a| Corrections { params: &a.params, grad: &mut ws.dapp });
         let (acts, w) = if fine { (&ws.acts_f, &mut ws.w_f) } else { (&ws.acts_c, &mut ws.w_c) };
-        loss_gradients(rays, &ws.offs, scale, acts, &ws.delta, priors, corr, w, &mut ws.dw, &mut ws.dsig, &mut ws.drgb)
+        loss_gradients(
+            rays,
+            &ws.samples.offs,
+            scale,
+            acts,
+            &ws.samples.delta,
+            priors,
+            corr,
+            w,
+            &mut ws.dw,
+            &mut ws.dsig,
+            &mut ws.drgb,
+        )
     }
 
     /// Scales the gradient (`dsig`, `drgb`) of each sample of the coarse or
@@ -105,8 +121,8 @@ impl Trainer {
         }
         let nc = self.main_samples();
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
-            for k in ws.offs[i]..ws.offs[i + 1] {
-                let d = ws.t_c[i * nc + ws.kept[k] as usize] * ray.dir_len;
+            for k in ws.samples.offs[i]..ws.samples.offs[i + 1] {
+                let d = ws.samples.t[i * nc + ws.samples.kept[k] as usize] * ray.dir_len;
                 let f = (d / d0).min(1.0).powi(2);
                 ws.dsig[k] *= f;
                 ws.drgb[3 * k..3 * k + 3].iter_mut().for_each(|g| *g *= f);

@@ -12,15 +12,15 @@
 //! a run is reproducible whatever the thread count.
 //!
 //! Files: this one holds the run's state ([`Trainer`]) and its working
-//! memory; `batch.rs` draws rays, `samples.rs` places their samples,
-//! `step.rs` takes a step, `loss.rs` is its loss and gradient, `pool.rs`
+//! memory; `batch.rs` draws rays (their samples are the
+//! [`Sampler`]'s, `crate::sampling`), `step.rs` takes a step, `loss.rs` is its loss and gradient, `pool.rs`
 //! keeps gradient buffers, `average.rs` the parameters' average,
 //! `proposal_pass.rs` trains the proposal grid, `pose_pass.rs` the
 //! cameras' pose corrections, `calibrate.rs` measures
 //! activation ranges for export, `checkpoint.rs` writes and reads the
 //! state.
 
-use crate::composite::{composite, composite_back, push_deltas, LAST_DELTA};
+use crate::composite::{composite, composite_back, push_deltas};
 use crate::config::TrainConfig;
 use crate::dataset::Dataset;
 use crate::loss::density::optical_depth_back;
@@ -29,15 +29,14 @@ use crate::mlp::{Acts, GridGrad, Mlp};
 use crate::optim::adam::Adam;
 use crate::per_photo::appearance::{self, Appearance};
 use crate::per_photo::pose::Poses;
-use crate::sampling::occupancy::OccupancyGrid;
-use crate::sampling::proposal::{ProposalGrid, RayProposal};
+use crate::sampling::proposal::ProposalGrid;
+use crate::sampling::{RaySamples, Sampler};
 use crate::util::rng::Rng;
 use crate::util::timing::{timed, StepTimes};
 use nerf_infer::camera::Ray;
 use nerf_infer::format::{Footprint, Scene};
 use nerf_infer::sampling::{hash32, jitter_q16, merge_sorted, sample_pdf_f32};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 mod average;
 mod batch;
@@ -49,7 +48,6 @@ mod loss;
 mod pool;
 mod pose_pass;
 mod proposal_pass;
-mod samples;
 mod step;
 pub use batch::*;
 pub use calibrate::*;
@@ -94,12 +92,11 @@ pub fn network_seed(seed: u64, k: usize) -> u64 {
 }
 
 /// A training run's state: everything a checkpoint holds.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug)]
 pub struct Trainer {
     /// The configuration.
     pub cfg: TrainConfig,
     /// The scene (bounds, near/far, background, unbounded space).
-    #[serde(with = "checkpoint::scene_in_full")]
     pub scene: Scene,
     /// Dataset downscale the run trains at.
     pub downscale: u32,
@@ -115,8 +112,8 @@ pub struct Trainer {
     pub seed: u64,
     /// Steps skipped for non-finite loss or gradients.
     pub skipped: u64,
-    /// Occupancy grid (runs with `grid.res > 0`).
-    pub grid: Option<OccupancyGrid>,
+    /// The grids that place the samples: occupancy and proposal.
+    pub sampler: Sampler,
     /// What the run trains on, as the command names it (the dataset's
     /// absolute path and the loading flags), so `--resume` can refuse other
     /// data; empty when the caller does not say.
@@ -130,9 +127,6 @@ pub struct Trainer {
     /// (as long as they, from the first step that updates them), which the model takes
     /// ([`Trainer::averaged`]); empty otherwise.
     pub ema: Vec<f32>,
-    /// The proposal grid placing the network's samples (runs with
-    /// `sampling.proposal_res > 0`).
-    pub proposal: Option<ProposalGrid>,
     /// Each training photo's colour correction (runs with
     /// [`LossConfig::appearance`](crate::config::LossConfig::appearance), from their first step).
     pub appearance: Option<Appearance>,
@@ -140,28 +134,16 @@ pub struct Trainer {
     /// [`Trainer::refines_poses`], from their first step).
     pub poses: Option<Poses>,
     /// Zeroed gradient buffers kept between steps (not checkpointed).
-    #[serde(skip)]
     pool: GradPool,
 }
 
 /// Per-chunk working memory.
 #[derive(Default)]
 struct Workspace {
-    pos: Vec<[f32; 3]>,
-    /// The footprint points of each sample of `pos` (rays with a
-    /// footprint), else empty.
-    foot: Vec<[f32; 3]>,
-    dirs: Vec<[f32; 3]>,
-    /// Ray `i`'s samples are `offs[i]..offs[i + 1]` of `pos` and `delta`.
-    offs: Vec<usize>,
-    delta: Vec<f32>,
-    /// Per sample (as `delta`) when the distortion loss is on: its interval
-    /// in the ray's normalised coordinate, midpoint and length.
-    s_mid: Vec<f32>,
-    s_width: Vec<f32>,
+    /// The chunk's samples ([`Sampler::place`], the fine pass's after them).
+    samples: RaySamples,
     /// ∂L/∂w of the distortion loss for one ray.
     dw: Vec<f32>,
-    t_c: Vec<f32>,
     w_c: Vec<f32>,
     t_f: Vec<f32>,
     t_all: Vec<f32>,
@@ -169,10 +151,6 @@ struct Workspace {
     cdf: Vec<f32>,
     acts_c: Acts,
     acts_f: Acts,
-    /// Each kept sample's index among its ray's samples (as `delta`).
-    kept: Vec<u32>,
-    /// Each ray's proposal (runs with a proposal grid).
-    props: Vec<RayProposal>,
     dsig: Vec<f32>,
     drgb: Vec<f32>,
     /// The photos' colour corrections' gradient (runs with
@@ -213,19 +191,6 @@ impl PerPhoto {
     }
 }
 
-impl Workspace {
-    /// Empties the per-sample buffers (`pos`, `delta`, the distortion's
-    /// intervals) and starts `offs` at 0, for a pass to fill.
-    fn start_samples(&mut self) {
-        self.pos.clear();
-        self.delta.clear();
-        self.s_mid.clear();
-        self.s_width.clear();
-        self.offs.clear();
-        self.offs.push(0);
-    }
-}
-
 impl Trainer {
     /// A new run with freshly initialised networks.
     pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
@@ -239,9 +204,7 @@ impl Trainer {
             params.extend(init(network_seed(seed, 1)));
         }
         let adam = Adam::new(params.len(), table_values(&net, params.len()));
-        let grid = (cfg.grid.res > 0).then(|| OccupancyGrid::new(cfg.grid.res));
-        let proposal =
-            (cfg.sampling.proposal_res > 0).then(|| ProposalGrid::new(cfg.sampling.proposal_res, UNBOUNDED_SIGMA_INIT));
+        let sampler = Sampler::new(&cfg);
         Self {
             cfg,
             scene,
@@ -252,25 +215,19 @@ impl Trainer {
             elapsed: 0.0,
             seed,
             skipped: 0,
-            grid,
+            sampler,
             data: String::new(),
             pixel: 0.0,
             ema: Vec::new(),
-            proposal,
             appearance: None,
             poses: None,
             pool: GradPool::default(),
         }
     }
 
-    /// The network's samples per ray before the occupancy grid's skipping:
-    /// `sampling.n_main` drawn from the proposal grid and its last stratified one,
-    /// else `sampling.n_coarse` stratified.
+    /// The network's samples per ray before the occupancy grid's skipping ([`Sampler::main_samples`]).
     fn main_samples(&self) -> usize {
-        match self.proposal {
-            Some(_) => self.cfg.sampling.n_main as usize + 1,
-            None => self.cfg.sampling.n_coarse as usize,
-        }
+        self.sampler.main_samples(&self.cfg)
     }
 
     /// The network shape (both networks share it).
@@ -319,7 +276,7 @@ impl Trainer {
 
     /// Refreshes the occupancy grid from the network's current density.
     pub fn update_grid(&mut self) {
-        let Some(mut grid) = self.grid.take() else { return };
+        let Some(mut grid) = self.sampler.occupancy.take() else { return };
         let net = self.mlp();
         let thr = self.grid_threshold();
         let params = &self.params[..net.n_params];
@@ -329,6 +286,6 @@ impl Trainer {
             net.forward(params, pts, &[[0.0, 0.0, 1.0]], false, &mut acts);
             acts.sigma[..pts.len()].to_vec()
         });
-        self.grid = Some(grid);
+        self.sampler.occupancy = Some(grid);
     }
 }

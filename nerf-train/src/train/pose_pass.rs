@@ -49,13 +49,13 @@ impl Trainer {
     pub(super) fn pose_backward(&self, net: &Mlp, p: &[f32], rays: &[Sample], ws: &mut Workspace) {
         let Some(poses) = &self.poses else { return };
         let (mut gamma, mut grid) = (std::mem::take(&mut ws.dpos), std::mem::take(&mut ws.dgrid));
-        net.position_gradient(p, &ws.acts_c, &ws.pos, &ws.foot, &mut gamma, &mut grid);
+        net.position_gradient(p, &ws.acts_c, &ws.samples.pos, &ws.samples.foot, &mut gamma, &mut grid);
         let mut views = std::mem::take(&mut ws.ddir);
-        net.direction_gradient(&ws.acts_c, &ws.dirs, &mut views);
+        net.direction_gradient(&ws.acts_c, &ws.samples.dirs, &mut views);
         // the pass's directions: one per kept sample with an occupancy grid, one per ray without
-        let per_sample = self.grid.is_some();
+        let per_sample = self.sampler.occupancy.is_some();
         ws.dpose.resize(poses.params.len(), 0.0);
-        let k = if grid.len() > ws.pos.len() { FOOTPRINT_POINTS } else { 1 };
+        let k = if grid.len() > ws.samples.pos.len() { FOOTPRINT_POINTS } else { 1 };
         let nc = self.main_samples();
         let s = &self.scene;
         let inv_half = 2.0 / (Vec3::from(s.bounds_max) - Vec3::from(s.bounds_min));
@@ -64,8 +64,8 @@ impl Trainer {
             let contract = ray.linear_until.is_some();
             // gradients with respect to the normalised origin and direction
             let (mut go, mut gd) = (Vec3::ZERO, Vec3::ZERO);
-            for si in ws.offs[i]..ws.offs[i + 1] {
-                let t = ws.t_c[i * nc + ws.kept[si] as usize];
+            for si in ws.samples.offs[i]..ws.samples.offs[i + 1] {
+                let t = ws.samples.t[i * nc + ws.samples.kept[si] as usize];
                 let q = ray.norm_origin + t * ray.norm_dir;
                 let mut add = |q: Vec3, g: [f32; 3]| {
                     let g = if contract { contract_back(q, Vec3::from(g)) } else { Vec3::from(g) };
@@ -83,7 +83,7 @@ impl Trainer {
                 }
             }
             // the view direction d/|d| (world space): its gradient projected off d, over |d|
-            let rows = if per_sample { ws.offs[i]..ws.offs[i + 1] } else { i..i + 1 };
+            let rows = if per_sample { ws.samples.offs[i]..ws.samples.offs[i + 1] } else { i..i + 1 };
             let gv: Vec3 = views.get(rows).map_or(Vec3::ZERO, |r| r.iter().map(|g| Vec3::from(*g)).sum());
             let u = ray.viewdir;
             let g_dir = inv_half * gd + (gv - u * u.dot(gv)) / ray.dir_len;

@@ -7,7 +7,7 @@ impl Trainer {
     /// One Adam step of the proposal grid (if the run has one) on the
     /// chunks' gradients of the step, at learning rate `optimiser.lr`.
     pub(super) fn step_proposal(&mut self, lr: f32) {
-        let Some(pg) = self.proposal.as_mut() else { return };
+        let Some(pg) = self.sampler.proposal.as_mut() else { return };
         let mut chunks = self.pool.2.lock().map(|mut g| std::mem::take(&mut *g)).unwrap_or_default();
         chunks.sort_unstable_by_key(|(key, _)| *key);
         let mut grad = vec![0.0f32; pg.log_sigma.len()];
@@ -21,8 +21,8 @@ impl Trainer {
     }
 
     /// The interlevel loss's gradient of a chunk's rays, whose network
-    /// samples (`ws.t_c`, `main_samples` per ray, those kept in
-    /// `ws.kept`) got the weights `ws.w_c`: kept under the chunk's `key`
+    /// samples (`ws.samples.t`, `main_samples` per ray, those kept in
+    /// `ws.samples.kept`) got the weights `ws.w_c`: kept under the chunk's `key`
     /// for [`Trainer::step_proposal`].
     pub(super) fn proposal_backward(&self, pg: &ProposalGrid, n_rays: usize, key: u32, scale: f32, ws: &Workspace) {
         let nm = self.main_samples();
@@ -30,10 +30,10 @@ impl Trainer {
         let mut w = vec![0.0f32; nm];
         for i in 0..n_rays {
             w.fill(0.0);
-            for s in ws.offs[i]..ws.offs[i + 1] {
-                w[ws.kept[s] as usize] = ws.w_c[s];
+            for s in ws.samples.offs[i]..ws.samples.offs[i + 1] {
+                w[ws.samples.kept[s] as usize] = ws.w_c[s];
             }
-            pg.backward(&ws.props[i], &ws.t_c[i * nm..(i + 1) * nm], &w, scale, &mut list);
+            pg.backward(&ws.samples.props[i], &ws.samples.t[i * nm..(i + 1) * nm], &w, scale, &mut list);
         }
         if let Ok(mut g) = self.pool.2.lock() {
             g.push((key, list));
@@ -45,32 +45,32 @@ impl Trainer {
     /// ([`crate::loss::interlevel::unbounded_weight`]; 0 when they bound it
     /// everywhere, at most the ray's opacity), and the rays' mean opacity.
     pub fn proposal_bound(&self, batch: &[Sample]) -> Option<(f32, f32)> {
-        self.proposal.as_ref()?;
+        self.sampler.proposal.as_ref()?;
         let net = self.mlp();
         let pc = &self.params[..net.n_params];
         let nm = self.main_samples();
         let mut ws = Workspace::default();
         let (mut unbounded, mut opacity) = (0.0f64, 0.0f64);
         for (ci, rays) in batch.chunks(self.cfg.sampling.chunk_rays).enumerate() {
-            self.coarse_samples(rays, |i| hash32((ci * 7919 + i) as u32), &mut ws);
+            self.sampler.place(&self.cfg, rays, |i| hash32((ci * 7919 + i) as u32), &mut ws.samples);
             let mut acts = Acts::default();
-            if !ws.pos.is_empty() {
-                net.encode_footprint(pc, &ws.pos, &ws.foot, &mut acts);
-                net.forward_layers(pc, &ws.dirs, true, &mut acts);
+            if !ws.samples.pos.is_empty() {
+                net.encode_footprint(pc, &ws.samples.pos, &ws.samples.foot, &mut acts);
+                net.forward_layers(pc, &ws.samples.dirs, true, &mut acts);
             }
             for (i, Sample { bg, .. }) in rays.iter().enumerate() {
-                let s = ws.offs[i]..ws.offs[i + 1];
+                let s = ws.samples.offs[i]..ws.samples.offs[i + 1];
                 let mut kept_w = vec![0.0; s.len()];
                 if !s.is_empty() {
                     let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[3 * s.start..3 * s.end]);
-                    composite(sig, rgb, &ws.delta[s.clone()], *bg, &mut kept_w);
+                    composite(sig, rgb, &ws.samples.delta[s.clone()], *bg, &mut kept_w);
                 }
                 let mut w = vec![0.0f32; nm];
                 for (k, j) in s.clone().enumerate() {
-                    w[ws.kept[j] as usize] = kept_w[k];
+                    w[ws.samples.kept[j] as usize] = kept_w[k];
                 }
-                let prop = &ws.props[i];
-                let t = &ws.t_c[i * nm..(i + 1) * nm];
+                let prop = &ws.samples.props[i];
+                let t = &ws.samples.t[i * nm..(i + 1) * nm];
                 unbounded += crate::loss::interlevel::unbounded_weight(t, &w, &prop.edges(), &prop.w) as f64;
                 opacity += w.iter().sum::<f32>() as f64;
             }

@@ -21,7 +21,7 @@ impl Trainer {
     pub fn train_step(&mut self, data: &Dataset, progress: f64) -> StepStats {
         let c = &self.cfg;
         let mut times = StepTimes::default();
-        if self.grid.is_some()
+        if self.sampler.occupancy.is_some()
             && self.step as usize >= c.grid.warmup
             && (self.step as usize).is_multiple_of(c.grid.every)
         {
@@ -219,17 +219,19 @@ impl Trainer {
         let np = net.n_params;
         let (pc, pf) = self.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np.min(g.len()));
-        timed(&mut t.sample, || self.coarse_samples(rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), ws));
-        let n_c = ws.pos.len();
+        timed(&mut t.sample, || {
+            self.sampler.place(&self.cfg, rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), &mut ws.samples)
+        });
+        let n_c = ws.samples.pos.len();
         ws.w_c.resize(n_c, 0.0);
         if n_c > 0 {
-            timed(&mut t.encode, || net.encode_footprint(pc, &ws.pos, &ws.foot, &mut ws.acts_c));
-            timed(&mut t.forward, || net.forward_layers(pc, &ws.dirs, true, &mut ws.acts_c));
+            timed(&mut t.encode, || net.encode_footprint(pc, &ws.samples.pos, &ws.samples.foot, &mut ws.acts_c));
+            timed(&mut t.forward, || net.forward_layers(pc, &ws.samples.dirs, true, &mut ws.acts_c));
         }
         let sq_c = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, false));
         self.scale_near_gradients(rays, ws);
         ws.acts_c.keep_input_gradient(self.poses.is_some() && self.refines_poses());
-        if let Some(pg) = &self.proposal {
+        if let Some(pg) = &self.sampler.proposal {
             // the interlevel loss, a mean over the batch's rays as the colour loss is
             timed(&mut t.composite, || self.proposal_backward(pg, r, key, 1.5 * scale, ws));
         }
@@ -258,29 +260,29 @@ impl Trainer {
         ws.cdf.resize(nc, 0.0);
         ws.t_all.resize(r * na, 0.0);
         ws.w_f.resize(r * na, 0.0);
-        ws.start_samples();
+        ws.samples.start();
         for (i, Sample { ray, .. }) in rays.iter().enumerate() {
             let s = i * nc..(i + 1) * nc;
             let rk = hash32(key ^ crate::util::rng::stream::FINE_SAMPLES ^ (i as u32).wrapping_mul(0x27D4_EB2F));
             sample_pdf_f32(
-                &ws.t_c[s.clone()],
+                &ws.samples.t[s.clone()],
                 &ws.w_c[s.clone()],
                 |j| (j as f32 + jitter_q16(rk, j) as f32 / 65536.0) / nf as f32,
                 &mut ws.cdf,
                 &mut ws.t_f,
             );
             let all = &mut ws.t_all[i * na..(i + 1) * na];
-            merge_sorted(&ws.t_c[s], &ws.t_f, all);
-            ws.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
-            push_deltas(all, ray.dir_len, &mut ws.delta);
+            merge_sorted(&ws.samples.t[s], &ws.t_f, all);
+            ws.samples.pos.extend(all.iter().map(|&ti| ray.at(ti).to_array()));
+            push_deltas(all, ray.dir_len, &mut ws.samples.delta);
             if self.cfg.loss.distortion > 0.0 {
-                (0..na).for_each(|j| push_interval(ray, all, j, &mut ws.s_mid, &mut ws.s_width));
+                (0..na).for_each(|j| push_interval(ray, all, j, &mut ws.samples.s_mid, &mut ws.samples.s_width));
             }
-            ws.offs.push(ws.pos.len());
+            ws.samples.offs.push(ws.samples.pos.len());
         }
         t.sample += start.elapsed().as_secs_f64();
-        timed(&mut t.encode, || net.encode(pf, &ws.pos, &mut ws.acts_f));
-        timed(&mut t.forward, || net.forward_layers(pf, &ws.dirs, true, &mut ws.acts_f));
+        timed(&mut t.encode, || net.encode(pf, &ws.samples.pos, &mut ws.acts_f));
+        timed(&mut t.forward, || net.forward_layers(pf, &ws.samples.dirs, true, &mut ws.acts_f));
         let sq_f = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, true));
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
         (sq_c, sq_f, n_c + r * na, grid)
