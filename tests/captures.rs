@@ -7,7 +7,7 @@
 
 mod support;
 
-use nerf_train::dataset::synthetic::{write_colmap, ColmapText};
+use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, load_rgb, Format, Lens, LoadOptions, SceneKind, Split};
 use std::path::PathBuf;
 use support::captures::*;
@@ -341,4 +341,25 @@ fn training_on_a_capture_whose_rays_miss_the_scene_fails_at_once() {
     let e = stderr.lines().last().unwrap_or_default();
     assert!(e.contains("meet the scene") && e.contains("aabb"), "{e}");
     assert!(!out.join("model.nerf").exists() && !out.join("checkpoint.bin").exists());
+}
+
+#[test]
+fn photos_taken_at_another_exposure_are_noted_with_the_per_photo_correction() {
+    let d = tmp("exposure");
+    write_colmap(&d, SceneSpec { size: 64, train: 12, val: 0, test: 0 }, ColmapText::Binary, false).unwrap();
+    let said = || {
+        let data = load(&d, Split::Train, opts(Format::Colmap)).unwrap();
+        data.notes.into_iter().find(|n| n.contains("exposure"))
+    };
+    // rendered photos: one exposure
+    assert_eq!(said(), None);
+    // every third photo half as bright
+    for k in (0..12).step_by(3) {
+        let path = d.join(format!("images/img_{k:03}.jpg"));
+        let mut img = image::open(&path).unwrap().to_rgb8();
+        img.pixels_mut().for_each(|p| p.0.iter_mut().for_each(|c| *c /= 2));
+        img.save(&path).unwrap();
+    }
+    let note = said().expect("a note on the photos' exposure");
+    assert!(note.contains("×0.5") && note.contains("appearance"), "{note}");
 }

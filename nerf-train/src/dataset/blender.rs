@@ -281,6 +281,7 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
         // as stored: instant-ngp and nerfstudio read the pixels without the EXIF orientation, and
         // the poses and `w`, `h` describe those pixels
         upright: false,
+        measure_exposure: true,
     };
     let mut data = if !select_all {
         build(&path, &views, &points, fixed, copts(Selection::Holdout(opts.holdout)))?

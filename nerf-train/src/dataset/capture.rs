@@ -3,6 +3,7 @@
 //! `holdout`-th image held out, images loaded and intrinsics scaled to
 //! the loaded size. Used by the COLMAP and instant-ngp loaders.
 
+use super::exposure::Loaded;
 use super::fit::{fit_scene, pose_rows, Pose, SceneKind};
 use super::forward::{ndc_scene, ForwardFrame};
 use super::image_io::{image_size, load_mask, load_rgb, load_rgb_stored};
@@ -81,6 +82,10 @@ pub struct CaptureOptions {
     /// Apply each photo's EXIF orientation (false: the pixels as stored,
     /// as COLMAP, which ignores the tag, computed the poses on them).
     pub upright: bool,
+    /// Whether the points are the capture's sparse points (COLMAP's, a
+    /// `ply_file_path`'s), at which the training photos' exposure is
+    /// measured ([`super::exposure`]); LLFF's stand-ins are not.
+    pub measure_exposure: bool,
 }
 
 /// The views' names (what `eval --save` and `render` name their files
@@ -160,7 +165,7 @@ pub fn build(
     // names among the views a split can hold: all of them (the record of a hold-out names them all), or
     // the split's own
     let names: Vec<String> = vec![String::new(); first].into_iter().chain(view_names(&all[first..])).collect();
-    let (mut views, mut hidden) = (Vec::new(), Vec::new());
+    let (mut views, mut hidden, mut sources) = (Vec::new(), Vec::new(), Vec::new());
     for (i, v) in all.iter().enumerate().filter(|(i, _)| keep(*i)) {
         // the image's shape must be the camera's (the downscale crops at most n − 1 pixels a side); a photo
         // turned by its EXIF orientation, or another photo, is not what the poses were computed on: checked
@@ -217,6 +222,7 @@ pub fn build(
             continue;
         }
         views.push(View { name, file, camera, rgb, alpha, lens, mask });
+        sources.push(i);
     }
     if views.is_empty() {
         let hint = match opts.select {
@@ -267,7 +273,7 @@ pub fn build(
         }
     };
     scene.white_background = opts.white_background;
-    let notes = match hidden.len() {
+    let mut notes = match hidden.len() {
         0 => Vec::new(),
         n => vec![format!(
             "{}: {n} {} photo(s) left out, their masks hiding every pixel at this size ({})",
@@ -276,6 +282,14 @@ pub fn build(
             hidden.join(", ")
         )],
     };
+    if opts.split == Split::Train && opts.measure_exposure && !points.is_empty() {
+        let photos: Vec<Loaded<'_>> = views
+            .iter()
+            .zip(&sources)
+            .map(|(v, &i)| Loaded { view: &all[i], width: v.camera.width, height: v.camera.height, rgb: &v.rgb })
+            .collect();
+        notes.extend(super::exposure::note(path, &super::exposure::gains(&photos, points)));
+    }
     Ok(Dataset { scene, views, downscale: opts.downscale, notes, capture })
 }
 

@@ -189,6 +189,7 @@ pub fn load_colmap(dir: &Path, split: Split, opts: LoadOptions) -> Result<Datase
         white_background: false,
         nearest: None,
         upright: false,
+        measure_exposure: true,
     };
     let mut data = build(&model_dir, &views, &points, None, copts)?;
     let registered: HashSet<&Path> = views.iter().map(|v| v.image.as_path()).collect();

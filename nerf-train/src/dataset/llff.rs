@@ -145,6 +145,7 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
         white_background: false,
         nearest: Some(min_near),
         upright: false,
+        measure_exposure: false,
     };
     let mut data = build(&npy, &views, &near_points, None, copts)?;
     if data.scene.ndc.is_none() {

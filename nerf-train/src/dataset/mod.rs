@@ -7,6 +7,7 @@ mod blender;
 pub mod capture;
 pub mod colmap;
 pub mod colmap_io;
+pub mod exposure;
 pub mod fit;
 mod forward;
 mod image_io;
