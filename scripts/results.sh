@@ -37,7 +37,7 @@ steps=(
   "masks|15|scripts/masks.sh ROOT/fox 2000 && scripts/masks.sh ROOT/bird 2000"
   "room-region|17|scripts/room_region.sh 5m 0 '{}' '{\"feature_max_res\": 1024}'"
   "seeds|10|scripts/seeds.sh room 1000 0 1 2 3 4 5 6 7"
-  "layouts|10|scripts/layouts.sh ROOT 1500 && scripts/capture_bird.sh ROOT 1500"
+  "layouts|20|scripts/layouts.sh ROOT 1500 && scripts/capture_bird.sh ROOT 1500"
   "plain-build|12|scripts/plain_build_lego.sh ROOT 10"
   "ray-stages|25|scripts/ray_stages_default.sh ROOT 3"
   "bench|12|scripts/bench.sh"

@@ -220,7 +220,12 @@ TREATMENTS = """- `auto`: no flag but the preset; the scene model (object box, f
   `scripts/captures.sh` train `--preset fast`.
 - `scene-colmap` / `scene-room`: the built-in scene written by `nerf scene`
   as a 360° COLMAP capture on black / inside a coloured room
-  (`scripts/scene360.sh`)."""
+  (`scripts/scene360.sh`).
+- `… layout`: bird from its COLMAP folder and from the same cameras in
+  the other layouts (`scripts/layouts.sh DATA_ROOT 1500`): LLFF's
+  `poses_bounds.npy`, and nerfstudio's `transforms.json` with its sparse
+  points (`ply_file_path`) or without (the fit then has the cameras
+  alone), each 1 500 steps on one thread, seed 0."""
 
 
 def captures_section():

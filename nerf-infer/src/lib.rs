@@ -134,7 +134,8 @@
 //! [`format`](mod@format)) appear in the API and are re-exported.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
-// Unsafe code only in `arch` (SIMD loads and stores of checked slices).
+// Unsafe code only in `arch` (SIMD loads and stores of checked slices, and
+// the prefetch hint, which reads nothing).
 #![deny(unsafe_code)]
 // Numeric kernels index several arrays by the same sample/channel index;
 // iterator chains would hide that symmetry.

@@ -14,7 +14,7 @@ use std::path::PathBuf;
 
 #[path = "support/capture.rs"]
 mod support;
-use support::read_and_link;
+use support::{or_remove, read_and_link};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -30,7 +30,7 @@ fn main() {
 
 fn run(src: PathBuf, out: PathBuf) -> Result<(), String> {
     let (views, points, model_dir) = read_and_link(&src, &out)?;
-    write_poses_bounds(&out, &views, &points).map_err(|e| e.to_string())?;
+    or_remove(&out, write_poses_bounds(&out, &views, &points).map_err(|e| e.to_string()))?;
     eprintln!(
         "wrote {} ({} cameras from {}, {} sparse points)",
         out.join("poses_bounds.npy").display(),

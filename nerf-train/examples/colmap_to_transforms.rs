@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 #[path = "support/capture.rs"]
 mod support;
-use support::read_and_link;
+use support::{or_remove, read_and_link};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -37,7 +37,7 @@ fn main() {
 
 fn run(src: PathBuf, out: PathBuf, with_points: bool) -> Result<(), String> {
     let (views, points, model_dir) = read_and_link(&src, &out)?;
-    write_transforms(&out, &views, with_points.then_some(&points[..])).map_err(|e| e.to_string())?;
+    or_remove(&out, write_transforms(&out, &views, with_points.then_some(&points[..])).map_err(|e| e.to_string()))?;
     eprintln!(
         "wrote {} ({} cameras from {}{})",
         out.join("transforms.json").display(),

@@ -1,4 +1,5 @@
-//! Architecture-specific kernels and the one place that picks them.
+//! Architecture-specific kernels and the one place that picks them, and
+//! [`prefetch`], a hint that changes no value (so it has no reference).
 //!
 //! Each kernel here implements a contract that a portable reference in the
 //! crate also implements, bit for bit:

@@ -9,7 +9,8 @@ use std::path::Path;
 
 /// The cameras and sparse points of the COLMAP capture `src` (its model
 /// with the most registered photos), each photo linked into `out/images/`
-/// (`out`, which must not exist, is made); returns the model's folder too.
+/// (`out`, which must not exist, is made; removed again if a link
+/// fails); returns the model's folder too.
 pub fn read_and_link(src: &Path, out: &Path) -> Result<(Vec<CaptureView>, Vec<glam::DVec3>, String), String> {
     if out.exists() {
         return Err(format!("{}: already exists; name a new folder", out.display()));
@@ -21,12 +22,22 @@ pub fn read_and_link(src: &Path, out: &Path) -> Result<(Vec<CaptureView>, Vec<gl
     let (views, points) = colmap_views(src, &model_dir).map_err(|e| e.to_string())?;
     let images = out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| format!("{}: {e}", images.display()))?;
-    for v in &views {
+    let linked = views.iter().try_for_each(|v| {
         let name = v.image.file_name().ok_or_else(|| format!("{}: no file name", v.image.display()))?;
         let target = std::fs::canonicalize(&v.image).map_err(|e| format!("{}: {e}", v.image.display()))?;
-        link(&target, &images.join(name))?;
-    }
+        link(&target, &images.join(name))
+    });
+    or_remove(out, linked)?;
     Ok((views, points, model_dir.display().to_string()))
+}
+
+/// `written`, having removed `out` (made by [`read_and_link`]) if it
+/// failed, so that a rerun finds no half-written folder.
+pub fn or_remove(out: &Path, written: Result<(), String>) -> Result<(), String> {
+    if written.is_err() {
+        let _ = std::fs::remove_dir_all(out);
+    }
+    written
 }
 
 /// Links `at` to `target` (Unix only; elsewhere an error naming `at`).

@@ -293,10 +293,11 @@ pub fn load_ngp(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, 
     } else {
         build(&path, &views, &points, fixed, copts(Selection::From(0)))?
     };
-    if points.is_empty() && fixed.is_none() && data.scene.ndc.is_none() {
+    if ft.ply_file_path.is_none() && fixed.is_none() && data.scene.ndc.is_none() && split == Split::Train {
         notes.push(format!(
             "{}: no sparse points (no ply_file_path): the scene is fitted to the cameras alone, {}; a \
-             ply_file_path (as nerfstudio's ns-process-data writes it) or the COLMAP folder gives the fit its points",
+             ply_file_path (as nerfstudio's ns-process-data writes it), or training from the COLMAP folder the \
+             cameras came from, gives the fit its points",
             fit_file.display(),
             super::fit::without_points()
         ));
@@ -318,8 +319,11 @@ fn sparse_points(path: &Path, dir: &Path, t: &Transforms) -> Result<(Vec<glam::D
     let Some(name) = &t.ply_file_path else { return Ok((Vec::new(), Vec::new())) };
     let ply = beside(dir, name);
     if !ply.is_file() {
-        let note =
-            format!("{}: ply_file_path {name} not found: the scene is fitted to the cameras alone", path.display());
+        let note = format!(
+            "{}: ply_file_path {name} not found: the scene is fitted to the cameras alone, {}",
+            path.display(),
+            super::fit::without_points()
+        );
         return Ok((Vec::new(), vec![note]));
     }
     Ok((super::ply::read_ply_points(&ply)?, Vec::new()))

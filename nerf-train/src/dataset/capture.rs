@@ -286,7 +286,11 @@ pub fn build(
         let photos: Vec<Loaded<'_>> = views
             .iter()
             .zip(&sources)
-            .map(|(v, &i)| Loaded { view: &all[i], width: v.camera.width, height: v.camera.height, rgb: &v.rgb })
+            .map(|(v, &i)| {
+                let k = &all[i].intrinsics;
+                let (width, height) = (v.camera.width, v.camera.height);
+                Loaded { pose: all[i].pose, focal: k.focal, centre: k.centre, size: k.size, width, height, rgb: &v.rgb }
+            })
             .collect();
         notes.extend(super::exposure::note(path, &super::exposure::gains(&photos, points)));
     }

@@ -5,7 +5,7 @@
 //! whose gains spread widely (auto exposure, changing light) is one for
 //! the per-photo colour correction (`loss.appearance`).
 
-use super::capture::CaptureView;
+use super::fit::Pose;
 use glam::DVec3;
 
 /// Points sampled from the capture's sparse points, at most (every k-th).
@@ -25,11 +25,18 @@ const MIN_BRIGHTNESS: f32 = 0.05;
 /// above which [`note`] speaks.
 pub const SPREAD: f64 = 1.25;
 
-/// A training photo as loaded: its camera (capture space, full size) and
-/// its pixels at `width × height` (stored values, row-major).
+/// A training photo as loaded: its camera (capture space, at the photo's
+/// full size `size`) and its pixels at `width × height` (stored values,
+/// row-major).
 pub struct Loaded<'a> {
-    /// The photo's camera.
-    pub view: &'a CaptureView,
+    /// Camera-to-world pose, OpenGL axes, capture units.
+    pub pose: Pose,
+    /// Focal lengths along x and y, full-size pixels.
+    pub focal: [f64; 2],
+    /// Principal point from the top-left corner, full-size pixels.
+    pub centre: [f64; 2],
+    /// The full width and height `focal` and `centre` refer to.
+    pub size: [f64; 2],
     /// The loaded photo's width in pixels.
     pub width: u32,
     /// The loaded photo's height in pixels.
@@ -81,9 +88,9 @@ pub fn note(path: &std::path::Path, gains: &[Option<f64>]) -> Option<String> {
     (hi > SPREAD * lo).then(|| {
         format!(
             "{}: the photos differ in exposure: at the same sparse points their brightness spans ×{lo:.2} to \
-             ×{hi:.2} of the points' median (10th to 90th percentile of {} photos); --config \
-             '{{\"loss\": {{\"appearance\": true}}}}' fits a colour correction per photo (compare both on the held-out \
-             photos with nerf eval)",
+             ×{hi:.2} of the points' median (10th to 90th percentile of {} photos); a --config file holding \
+             {{\"loss\": {{\"appearance\": true}}}} fits a colour correction per photo: train with and without it \
+             and compare the two with nerf eval",
             path.display(),
             g.len()
         )
@@ -92,8 +99,7 @@ pub fn note(path: &std::path::Path, gains: &[Option<f64>]) -> Option<String> {
 
 /// The brightness of photo `p` at the point `q`, NaN where it does not see it.
 fn brightness(p: &Loaded<'_>, q: DVec3) -> f32 {
-    let (r, eye) = p.view.pose;
-    let k = &p.view.intrinsics;
+    let (r, eye) = p.pose;
     let d = q - eye;
     let z = -d.dot(r.z_axis);
     if z <= 1e-9 {
@@ -101,8 +107,8 @@ fn brightness(p: &Loaded<'_>, q: DVec3) -> f32 {
     }
     let (x, y) = (d.dot(r.x_axis) / z, -d.dot(r.y_axis) / z);
     // full-size pixel coordinates, then the loaded photo's
-    let u = (k.centre[0] + k.focal[0] * x) * p.width as f64 / k.size[0];
-    let v = (k.centre[1] + k.focal[1] * y) * p.height as f64 / k.size[1];
+    let u = (p.centre[0] + p.focal[0] * x) * p.width as f64 / p.size[0];
+    let v = (p.centre[1] + p.focal[1] * y) * p.height as f64 / p.size[1];
     if !(0.0..p.width as f64).contains(&u) || !(0.0..p.height as f64).contains(&v) {
         return f32::NAN;
     }

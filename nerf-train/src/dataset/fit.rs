@@ -58,7 +58,7 @@ pub const MIN_POINTS: usize = 20;
 pub fn without_points() -> String {
     format!(
         "the object box taken as ±{OBJECT_HALF_WITHOUT_POINTS} of the median camera distance about the cameras' \
-         focus and the near plane at its largest, {MAX_NEAR} of it"
+         focus and the near plane at its largest, {MAX_NEAR} of that distance"
     )
 }
 

@@ -148,11 +148,14 @@ pub fn load_llff(dir: &Path, split: super::types::Split, opts: LoadOptions) -> R
         measure_exposure: false,
     };
     let mut data = build(&npy, &views, &near_points, None, copts)?;
-    if data.scene.ndc.is_none() {
+    if data.scene.ndc.is_none() && split == super::types::Split::Train {
         data.notes.push(format!(
             "{}: no sparse points in this layout: each camera's near bound stands for the nearest thing it sees, \
-             the point at that depth on its optical axis (the object box and the near plane are fitted to those)",
-            npy.display()
+             the point at that depth on its optical axis (the near plane is fitted to those, and the object box \
+             when at least {} of them lie inside the camera ring; else {})",
+            npy.display(),
+            super::fit::MIN_POINTS,
+            super::fit::without_points()
         ));
     }
     Ok(data)

@@ -52,16 +52,19 @@ fn frame(v: &CaptureView) -> Result<serde_json::Value, DataError> {
         "fl_x": k.focal[0], "fl_y": k.focal[1], "cx": k.centre[0], "cy": k.centre[1],
         "w": k.size[0], "h": k.size[1],
     });
-    let coefficients = match v.lens {
-        Lens::Pinhole => vec![],
-        Lens::Opencv { k, p } if k[3..] == [0.0; 3] => {
-            vec![("k1", k[0]), ("k2", k[1]), ("k3", k[2]), ("p1", p[0]), ("p2", p[1])]
-        }
-        Lens::Fisheye { k } => vec![("k1", k[0]), ("k2", k[1]), ("k3", k[2]), ("k4", k[3])],
-        ref other => {
-            return Err(DataError::new(&v.image, format!("a lens nerfstudio's layout cannot hold: {other:?}")))
-        }
-    };
+    let coefficients =
+        match v.lens {
+            Lens::Pinhole => vec![],
+            Lens::Opencv { k, p } if k[3..] == [0.0; 3] => {
+                vec![("k1", k[0]), ("k2", k[1]), ("k3", k[2]), ("p1", p[0]), ("p2", p[1])]
+            }
+            Lens::Fisheye { k } => vec![("k1", k[0]), ("k2", k[1]), ("k3", k[2]), ("k4", k[3])],
+            _ => return Err(DataError::new(
+                &v.image,
+                "its lens (COLMAP's FULL_OPENCV with k4..k6, or THIN_PRISM_FISHEYE) is one nerfstudio's OPENCV and \
+                 OPENCV_FISHEYE cannot hold: undistort the photos first (colmap image_undistorter)",
+            )),
+        };
     f["camera_model"] = if matches!(v.lens, Lens::Fisheye { .. }) { "OPENCV_FISHEYE" } else { "OPENCV" }.into();
     for (key, value) in coefficients {
         f[key] = value.into();

@@ -12,8 +12,7 @@ pub mod proposal;
 use crate::composite::{push_deltas, LAST_DELTA};
 use crate::config::TrainConfig;
 use crate::loss::distortion::push_interval;
-use crate::train::{Sample, UNBOUNDED_SIGMA_INIT};
-use nerf_infer::camera::FOOTPRINT_POINTS;
+use nerf_infer::camera::{Ray, FOOTPRINT_POINTS};
 use occupancy::OccupancyGrid;
 use proposal::{ProposalGrid, RayProposal};
 
@@ -53,7 +52,8 @@ pub struct RaySamples {
     pub s_mid: Vec<f32>,
     /// See `s_mid`.
     pub s_width: Vec<f32>,
-    /// Each kept sample's index among its ray's samples (as `delta`).
+    /// Each kept sample's index among its ray's samples (one per sample of
+    /// `delta` as [`Sampler::place`] leaves it).
     pub kept: Vec<u32>,
     /// Each ray's proposal (runs with a proposal grid).
     pub props: Vec<RayProposal>,
@@ -74,12 +74,12 @@ impl RaySamples {
 
 impl Sampler {
     /// The grids `cfg` asks for, fresh: the occupancy grid all occupied,
-    /// the proposal grid at an unbounded scene's starting density.
-    pub fn new(cfg: &TrainConfig) -> Self {
+    /// the proposal grid at the density `sigma` (1/world units) everywhere
+    /// (an unbounded scene's network's starting density).
+    pub fn new(cfg: &TrainConfig, sigma: f32) -> Self {
         Sampler {
             occupancy: (cfg.grid.res > 0).then(|| OccupancyGrid::new(cfg.grid.res)),
-            proposal: (cfg.sampling.proposal_res > 0)
-                .then(|| ProposalGrid::new(cfg.sampling.proposal_res, UNBOUNDED_SIGMA_INIT)),
+            proposal: (cfg.sampling.proposal_res > 0).then(|| ProposalGrid::new(cfg.sampling.proposal_res, sigma)),
         }
     }
 
@@ -93,12 +93,19 @@ impl Sampler {
         }
     }
 
-    /// The samples of every ray of a chunk (jitter key per ray from
-    /// `key`), placed by the proposal grid or stratified, kept where the
-    /// occupancy grid is occupied: fills `out.t` (all
-    /// [`Sampler::main_samples`] per ray), and `pos`, `delta`, `offs`,
-    /// `dirs`, `kept` and, with the distortion loss, the intervals.
-    pub fn place(&self, cfg: &TrainConfig, rays: &[Sample], key: impl Fn(usize) -> u32, out: &mut RaySamples) {
+    /// The samples of every ray of a chunk `rays` (jitter key per ray from
+    /// `key`), placed by the proposal grid (its weights kept in
+    /// `out.props`) or stratified, kept where the occupancy grid is
+    /// occupied: fills `out.t` (all [`Sampler::main_samples`] per ray), and
+    /// `pos`, `foot` (rays with a footprint), `delta`, `offs`, `dirs`,
+    /// `kept` and, with the distortion loss, the intervals.
+    pub fn place<'r>(
+        &self,
+        cfg: &TrainConfig,
+        rays: impl ExactSizeIterator<Item = &'r Ray> + Clone,
+        key: impl Fn(usize) -> u32,
+        out: &mut RaySamples,
+    ) {
         let nc = self.main_samples(cfg);
         let intervals = cfg.loss.distortion > 0.0;
         let grid = self.occupancy.as_ref().map(|g| g.view());
@@ -112,8 +119,8 @@ impl Sampler {
         }
         // with footprints, every sample has its K points (a ray without one: its sample K times)
         const K: usize = FOOTPRINT_POINTS;
-        let any_foot = rays.iter().any(|s| s.ray.foot.is_some());
-        for (i, Sample { ray, .. }) in rays.iter().enumerate() {
+        let any_foot = rays.clone().any(|r| r.foot.is_some());
+        for (i, ray) in rays.enumerate() {
             let t = &mut out.t[i * nc..(i + 1) * nc];
             match &self.proposal {
                 Some(pg) => pg.place(ray, key(i), cfg.sampling.n_coarse as usize, t, &mut out.props[i]),

@@ -47,7 +47,12 @@ impl Trainer {
             None => batch,
         };
         for (ci, rays) in batch.chunks(self.cfg.sampling.chunk_rays).enumerate() {
-            self.sampler.place(&self.cfg, rays, |i| hash32((ci * 7919 + i) as u32), &mut ws.samples);
+            self.sampler.place(
+                &self.cfg,
+                rays.iter().map(|s| &s.ray),
+                |i| hash32((ci * 7919 + i) as u32),
+                &mut ws.samples,
+            );
             if ws.samples.pos.is_empty() {
                 continue;
             }

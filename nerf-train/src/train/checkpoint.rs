@@ -3,13 +3,15 @@
 //! own magic.
 //!
 //! Version 19 holds the state as named sections, one per field of
-//! [`Trainer`] (each in postcard), the configuration among them as JSON
+//! [`Trainer`] (each in postcard; its sampler's two grids are the `grid`
+//! and `proposal` sections), the configuration among them as JSON
 //! with its fields named: a field added to the trainer or its
 //! configuration leaves earlier checkpoints readable. Reading one that
 //! lacks a field takes the value [`ABSENT_MEANS`] gives it (what builds
 //! before the field did), or refuses the checkpoint naming the field; a
 //! field this build does not know (a newer build's) is refused by name.
-//! Version 18, the whole state in postcard, is still read.
+//! Version 18, the whole state in postcard, is still read, through its
+//! own layout.
 
 use super::*;
 use crate::error::Error;
@@ -27,7 +29,8 @@ pub const CHECKPOINT_MAGIC: &[u8; 8] = &nerf_infer::format::CHECKPOINT_MAGIC;
 pub const CHECKPOINT_VERSION: u16 = 19;
 
 /// The earliest checkpoint format [`Trainer::from_bytes`] reads: 18, the
-/// whole [`Trainer`] in postcard, as the types are laid out now.
+/// run's state in postcard, read through its own layout (the fields'
+/// types as this build defines them).
 pub const CHECKPOINT_VERSION_MIN: u16 = 18;
 
 /// Fields an earlier build's checkpoint may lack, by name (a section of
@@ -62,7 +65,7 @@ pub(super) mod scene_in_full {
 }
 
 /// A version 18 checkpoint's payload: the state's fields in this order,
-/// in postcard (the types as they are laid out now).
+/// in postcard (the types as this build defines them).
 #[derive(Deserialize)]
 #[cfg_attr(test, derive(Serialize))]
 pub(super) struct V18 {

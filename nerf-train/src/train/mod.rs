@@ -204,7 +204,7 @@ impl Trainer {
             params.extend(init(network_seed(seed, 1)));
         }
         let adam = Adam::new(params.len(), table_values(&net, params.len()));
-        let sampler = Sampler::new(&cfg);
+        let sampler = Sampler::new(&cfg, UNBOUNDED_SIGMA_INIT);
         Self {
             cfg,
             scene,

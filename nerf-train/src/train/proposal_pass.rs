@@ -52,7 +52,12 @@ impl Trainer {
         let mut ws = Workspace::default();
         let (mut unbounded, mut opacity) = (0.0f64, 0.0f64);
         for (ci, rays) in batch.chunks(self.cfg.sampling.chunk_rays).enumerate() {
-            self.sampler.place(&self.cfg, rays, |i| hash32((ci * 7919 + i) as u32), &mut ws.samples);
+            self.sampler.place(
+                &self.cfg,
+                rays.iter().map(|s| &s.ray),
+                |i| hash32((ci * 7919 + i) as u32),
+                &mut ws.samples,
+            );
             let mut acts = Acts::default();
             if !ws.samples.pos.is_empty() {
                 net.encode_footprint(pc, &ws.samples.pos, &ws.samples.foot, &mut acts);

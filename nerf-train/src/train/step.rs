@@ -220,7 +220,12 @@ impl Trainer {
         let (pc, pf) = self.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np.min(g.len()));
         timed(&mut t.sample, || {
-            self.sampler.place(&self.cfg, rays, |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)), &mut ws.samples)
+            self.sampler.place(
+                &self.cfg,
+                rays.iter().map(|s| &s.ray),
+                |i| hash32(key ^ (i as u32).wrapping_mul(0x85EB_CA6B)),
+                &mut ws.samples,
+            )
         });
         let n_c = ws.samples.pos.len();
         ws.w_c.resize(n_c, 0.0);
