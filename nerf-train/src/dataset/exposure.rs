@@ -9,17 +9,17 @@ use super::fit::Pose;
 use glam::DVec3;
 
 /// Points sampled from the capture's sparse points, at most (every k-th).
-const MAX_POINTS: usize = 2000;
+pub const MAX_POINTS: usize = 2000;
 
 /// Photos a point must be seen by to count.
-const MIN_VIEWS: usize = 3;
+pub const MIN_VIEWS: usize = 3;
 
 /// Points a photo must see to get a gain.
-const MIN_POINTS: usize = 20;
+pub const MIN_POINTS: usize = 20;
 
 /// Darkest median brightness (stored values, in `[0, 1]`) of a point that
 /// counts: ratios of near-black pixels are noise.
-const MIN_BRIGHTNESS: f32 = 0.05;
+pub const MIN_BRIGHTNESS: f32 = 0.05;
 
 /// The spread of the photos' gains (the 90th over the 10th percentile)
 /// above which [`note`] speaks.
