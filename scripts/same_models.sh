@@ -4,17 +4,25 @@
 # grid and fast presets and its room 40 steps at half size, each exported to
 # int16 and int8, by the working tree's build and by BASE's (a commit,
 # default HEAD~1), and the files compared. For changes meant not to change
-# what training computes (reorganising code).
+# what training computes (reorganising code). BASE_BIN names BASE's binary
+# when it is already built (else it is built in a worktree).
 #
 #   scripts/same_models.sh [BASE]
+#   BASE_BIN=old/nerf scripts/same_models.sh b85dbb6
 set -euo pipefail
+given=${BASE_BIN:+$(realpath "$BASE_BIN")}
 cd "$(dirname "$0")/.."
 base=${1:-HEAD~1}
 work=$(mktemp -d)
 trap 'git worktree remove --force "$work/base" >/dev/null 2>&1 || true; rm -rf "$work"' EXIT
-git worktree add --detach "$work/base" "$base" >/dev/null 2>&1
 cargo build --release --quiet
-(cd "$work/base" && CARGO_TARGET_DIR="$work/target" cargo build --release --quiet)
+if [ -n "$given" ]; then
+  base_bin=$given
+else
+  git worktree add --detach "$work/base" "$base" >/dev/null 2>&1
+  (cd "$work/base" && CARGO_TARGET_DIR="$work/target" cargo build --release --quiet)
+  base_bin=$work/target/release/nerf
+fi
 target/release/nerf scene --out "$work/scene" --size 24 --train 8 >/dev/null
 run() {  # BIN OUT
   for p in default grid fast; do
@@ -28,7 +36,7 @@ run() {  # BIN OUT
   done
 }
 run target/release/nerf "$work/new"
-run "$work/target/release/nerf" "$work/old"
+run "$base_bin" "$work/old"
 differ=0
 for r in default grid fast room; do
   for f in model int8 int16; do
