@@ -10,6 +10,10 @@
 //!   about 10 samples per ray and of larger chunks; throughput in
 //!   multiply-accumulates. Read the layers' GFLOP/s per thread that
 //!   `nerf train` reports (`mlp_gflops_per_thread`) against these.
+//! - `adam/table`: one [`Adam::update_averaged`] of a feature grid's table
+//!   the size of flower's at 1008×756 (about 6.3 M values; 40 % of them with
+//!   a gradient, the others skipped) and its moving average, on all threads;
+//!   throughput in table values. Read `nerf train`'s `adam` stage against it.
 //!
 //! `cargo bench --bench train_step`
 
@@ -17,6 +21,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nerf_train::config::TrainConfig;
 use nerf_train::dataset::synthetic::{write_blender, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
+use nerf_train::optim::adam::Adam;
 use nerf_train::train::Trainer;
 use nerf_train::util::gemm::{matmul, View};
 use std::hint::black_box;
@@ -54,5 +59,29 @@ fn products(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, steps, products);
+fn adam(c: &mut Criterion) {
+    let mut g = c.benchmark_group("adam");
+    g.sample_size(20);
+    // flower's table at 1008×756: the default's 8 levels of 2 values sized to 4 096 cells and 2¹⁹ entries
+    let mut cfg = TrainConfig::features();
+    cfg.fit_features_to(4096);
+    let grid = cfg.feature_grid().expect("a feature grid");
+    let n = (0..grid.levels()).map(|l| grid.entries(l)).sum::<usize>() * grid.width as usize;
+    // 4 values in 10 with a gradient, spread evenly over the table
+    let grad: Vec<f32> = (0..n as u64)
+        .map(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 32)
+        .map(|h| (h % 10 < 4) as u8 as f32 * 1e-3)
+        .collect();
+    let (mut p, mut average) = (vec![0.1f32; n], vec![0.1f32; n]);
+    let mut adam = Adam::new(n, n);
+    g.throughput(Throughput::Elements(n as u64));
+    g.bench_function("table", |b| {
+        b.iter(|| {
+            adam.update_averaged(&mut p, black_box(&grad), 1e-2, 0.9, 0.99, 1e-15, 0.0, Some((&mut average, 0.999)))
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, steps, products, adam);
 criterion_main!(benches);

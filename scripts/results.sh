@@ -20,6 +20,7 @@ steps=(
   "full|95|scripts/lego_full.sh ROOT 90 1"
   "paper|90|scripts/paper_table.sh ROOT/flower 20 ROOT/lego 60"
   "paper-configs|65|scripts/paper_configs.sh ROOT/flower 7400 '{}' '{\"features\": {\"width\": 4}}' '{\"features\": {\"levels\": 16}}' '{\"sampling\": {\"proposal_res\": 128, \"n_coarse\": 128}, \"loss\": {\"distortion\": 0.001}}'"
+  "paper-screen|70|scripts/paper_configs.sh ROOT/flower 3000 '{}' '{\"optimiser\": {\"lr\": 0.02}}' '{\"optimiser\": {\"lr\": 0.03}}' '{\"features\": {\"max_res\": 2048}}' '{\"sampling\": {\"n_main\": 24}}' '{\"loss\": {\"distortion\": 0.01}}' && scripts/paper_configs.sh ROOT/flower 25601 '{\"optimiser\": {\"lr\": 0.02}}'"
   "tradeoff|12|scripts/tradeoff.sh ROOT 10"
   "fast-int8|35|scripts/fast_int8.sh ROOT 60000"
   "int8-loss|15|scripts/int8_loss.sh ROOT 3"

@@ -11,6 +11,7 @@
 #   BASE_BIN=old/nerf scripts/same_models.sh b85dbb6
 set -euo pipefail
 given=${BASE_BIN:+$(realpath "$BASE_BIN")}
+[ -z "$given" ] || [ -x "$given" ] || { echo "BASE_BIN=$BASE_BIN: not an executable" >&2; exit 2; }
 cd "$(dirname "$0")/.."
 base=${1:-HEAD~1}
 work=$(mktemp -d)

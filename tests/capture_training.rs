@@ -225,34 +225,6 @@ fn llff_captures_are_fitted_as_colmap_ones() {
 }
 
 #[test]
-fn forward_facing_captures_with_a_feature_grid_train_at_the_fitted_rate_unless_the_configuration_names_one() {
-    use nerf_train::config::{json, Preset, TrainConfig};
-    use nerf_train::dataset::synthetic::write_llff;
-    use nerf_train::run::{fit_to_data, Fit};
-    let d = tmp("llff-lr");
-    write_llff(&d.join("forward"), spec()).unwrap();
-    write_colmap(&d.join("object"), spec(), ColmapText::Binary, true).unwrap();
-    let object = LoadOptions { scene: SceneKind::Object, ..opts(Format::Auto) };
-    let object = load(&d.join("object"), Split::Train, object).unwrap();
-    let fwd = load(&d.join("forward"), Split::Train, opts(Format::Auto)).unwrap();
-    let base = Preset::default().config();
-    let fitted = fit_to_data(&base, Fit::ALL, &fwd).unwrap();
-    assert_eq!(fitted.cfg.optimiser.lr, base.optimiser.lr * TrainConfig::FORWARD_FACING_LR_FACTOR);
-    assert!(
-        fitted.notes.iter().any(|n| n.contains("learning rate") && n.contains("optimiser.lr")),
-        "{:?}",
-        fitted.notes
-    );
-    // a rate the configuration names, an object scene, a network without a feature grid: as given
-    let over = json::parse(r#"{"optimiser": {"lr": 0.01}}"#).unwrap();
-    let named = fit_to_data(&base, Fit::unless_named(&over), &fwd).unwrap();
-    assert_eq!(named.cfg.optimiser.lr, base.optimiser.lr);
-    assert_eq!(fit_to_data(&base, Fit::ALL, &object).unwrap().cfg.optimiser.lr, base.optimiser.lr);
-    let grid = Preset::Grid.config();
-    assert_eq!(fit_to_data(&grid, Fit::ALL, &fwd).unwrap().cfg.optimiser.lr, grid.optimiser.lr);
-}
-
-#[test]
 fn llff_captures_read_the_downscaled_copies_they_ship() {
     use nerf_train::dataset::synthetic::write_llff_room;
     let d = tmp("llff-images-n");

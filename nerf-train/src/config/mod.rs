@@ -141,13 +141,6 @@ impl TrainConfig {
     /// (docs/RESULTS.md, "The network's samples per ray in training" and
     /// "The network's samples per ray with a proposal grid").
     pub const PROPOSAL_RENDER_MAIN: u16 = 16;
-
-    /// The factor on the learning rate ([`OptimiserConfig::lr`]) that
-    /// `nerf train` gives a forward-facing scene trained with a feature
-    /// grid (unless the configuration names the rate): 2, the default's
-    /// 0.01 made 0.02. On flower at 1008×756 (3 000 steps, docs/RESULTS.md,
-    /// "The paper's protocol") 0.02 scores 0.23 dB above 0.01.
-    pub const FORWARD_FACING_LR_FACTOR: f32 = 2.0;
 }
 
 #[cfg(test)]

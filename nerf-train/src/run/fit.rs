@@ -1,8 +1,7 @@
 //! The choices a run makes for its data: the proposal grid of open scenes,
 //! the feature grid and samples sized to what the photos resolve, the
 //! distortion loss and the render sample count that go with the proposal
-//! grid, the learning rate of forward-facing scenes. `nerf train` makes
-//! each one unless its `--config` names the field.
+//! grid. `nerf train` makes each one unless its `--config` names the field.
 
 use crate::config::{json, TrainConfig};
 use crate::dataset::Dataset;
@@ -29,27 +28,23 @@ pub struct Fit {
     /// where the proposal grid is turned on in an unbounded scene (a
     /// forward-facing one renders at the samples it trains with).
     pub render: bool,
-    /// Scale the learning rate by [`TrainConfig::FORWARD_FACING_LR_FACTOR`]
-    /// in a forward-facing scene trained with a feature grid.
-    pub lr: bool,
 }
 
 impl Fit {
     /// Every choice made for the data.
-    pub const ALL: Fit =
-        Fit { features: true, samples: true, proposal: true, distortion: true, render: true, lr: true };
+    pub const ALL: Fit = Fit { features: true, samples: true, proposal: true, distortion: true, render: true };
 
     /// For a configuration given whole, as [`TrainConfig`] rather than a
     /// preset: its feature grid and samples kept as they are, the proposal
     /// grid (with its distortion loss and render samples) still turned on
-    /// for open scenes, and the forward-facing learning rate scaled.
+    /// for open scenes.
     pub const KEEP_SIZES: Fit = Fit { features: false, samples: false, ..Fit::ALL };
 
     /// Every choice but those whose fields the configuration file `over`
     /// (parsed by [`json::parse`]) names: `features.max_res` or
     /// `features.log2_table`; `sampling.n_coarse`; `sampling.proposal_res`;
     /// `loss.distortion`; `sampling.n_main_render` or `sampling.n_main` (a
-    /// chosen training count renders at itself); `optimiser.lr`.
+    /// chosen training count renders at itself).
     pub fn unless_named(over: &serde_json::Value) -> Fit {
         let names = |section, field| json::names(over, section, field);
         Fit {
@@ -58,7 +53,6 @@ impl Fit {
             proposal: !names("sampling", "proposal_res"),
             distortion: !names("loss", "distortion"),
             render: !names("sampling", "n_main_render") && !names("sampling", "n_main"),
-            lr: !names("optimiser", "lr"),
         }
     }
 }
@@ -106,9 +100,6 @@ pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted
         })?;
         cfg = with;
     }
-    if fit.lr && data.scene.ndc.is_some() && cfg.features.levels > 0 {
-        cfg.optimiser.lr *= TrainConfig::FORWARD_FACING_LR_FACTOR;
-    }
     if let Some(cells) = data.resolvable_cells() {
         if fit.features {
             cfg.fit_features_to(cells);
@@ -151,12 +142,6 @@ fn notes(base: &TrainConfig, cfg: &TrainConfig, data: &Dataset, kind: &str) -> V
         notes.push(format!(
             "samples per ray set for the photos: {} (was {}); set sampling.n_coarse with --config to choose",
             cfg.sampling.n_coarse, base.sampling.n_coarse
-        ));
-    }
-    if cfg.optimiser.lr != base.optimiser.lr {
-        notes.push(format!(
-            "forward-facing scene: learning rate {} (was {}); set optimiser.lr with --config to choose",
-            cfg.optimiser.lr, base.optimiser.lr
         ));
     }
     if cfg.loss.pose_refine && data.scene.ndc.is_some() {
