@@ -36,20 +36,13 @@ struct BiasCorrections {
 
 impl BiasCorrections {
     /// The corrections after `k ≥ 1` updates, as [`Adam::update`] computes them.
-    #[inline(always)]
     fn at(&self, k: u32) -> (f32, f32) {
+        let (b1, b2) = self.betas;
         match self.by_step.get(k as usize - 1) {
             Some(&c) => c,
-            None if self.capped => self.computed(k),
+            None if self.capped => (correction(b1, k), correction(b2, k)),
             None => (1.0, 1.0),
         }
-    }
-
-    /// The corrections after `k` updates past the table's end, computed.
-    #[cold]
-    #[inline(never)]
-    fn computed(&self, k: u32) -> (f32, f32) {
-        (correction(self.betas.0, k), correction(self.betas.1, k))
     }
 
     fn fit(&mut self, b1: f32, b2: f32) {
@@ -66,10 +59,10 @@ impl BiasCorrections {
 }
 
 /// One parameter's update with gradient `g` and bias corrections `bc`
-/// (`1 − β₁ᵗ`, `1 − β₂ᵗ`): the moments, then the parameter.
+/// (`1 − β₁ᵗ`, `1 − β₂ᵗ`) at rates `h`: the moments, then the parameter.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn step(p: &mut f32, g: f32, m: &mut f32, v: &mut f32, bc: (f32, f32), lr: f32, b1: f32, b2: f32, eps: f32) {
+fn step(p: &mut f32, g: f32, m: &mut f32, v: &mut f32, bc: (f32, f32), h: Hyper) {
+    let Hyper { lr, b1, b2, eps } = h;
     *m = b1 * *m + (1.0 - b1) * g;
     *v = b2 * *v + (1.0 - b2) * g * g;
     *p -= lr * (*m / bc.0) / ((*v / bc.1).sqrt() + eps);
@@ -179,14 +172,14 @@ struct Hyper {
 }
 
 // The blocks' loops are functions of their own (not inlined into the
-// parallel closures): inlined, the table's loop compiled to code three
-// times slower for the same arithmetic.
+// parallel closures): inlined, the table's loop compiled to slower code
+// for the same arithmetic (`scripts/step_ab.sh`, docs/EXPERIMENTS.md).
 
 /// One block of dense parameters' updates with bias corrections `bc`.
 #[inline(never)]
 fn dense_block(p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], bc: (f32, f32), h: Hyper) {
     for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
-        step(p, g, m, v, bc, h.lr, h.b1, h.b2, h.eps);
+        step(p, g, m, v, bc, h);
     }
 }
 
@@ -208,7 +201,7 @@ fn sparse_block(
             continue;
         }
         *k = k.saturating_add(1);
-        step(p, g, m, v, bias.at(*k), h.lr, h.b1, h.b2, h.eps);
+        step(p, g, m, v, bias.at(*k), h);
     }
 }
 
