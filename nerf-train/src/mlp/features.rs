@@ -36,6 +36,7 @@ impl Mlp {
         for l in 0..f.levels() {
             let (level, rest) = gt.split_at_mut(f.entries(l) * f.width as usize);
             let n = a.s * a.k;
+            // a non-finite gradient is found by the step's check of the whole
             self.scatter_level(l, &a.corners[l * n..(l + 1) * n], &a.dgf, level);
             gt = rest;
         }
@@ -46,11 +47,12 @@ impl Mlp {
     /// per sample, with the level's `P` corners from the forward pass)
     /// to `gl`, the gradient of that level's entries (`entries(l) × width`
     /// values). Consecutive samples in the same cell (a ray's samples in a
-    /// coarse level) are summed first and written once.
-    pub(super) fn scatter_level(&self, l: usize, corners: &[Corners], dgf: &[f32], gl: &mut [f32]) {
-        let Some(f) = &self.features else { return };
+    /// coarse level) are summed first and written once. Returns whether
+    /// every sum written is finite.
+    pub(super) fn scatter_level(&self, l: usize, corners: &[Corners], dgf: &[f32], gl: &mut [f32]) -> bool {
+        let Some(f) = &self.features else { return true };
         let nl = f.levels();
-        per_width!(f.width as usize, W => scatter_level_w::<W>(nl, l, corners, dgf, gl));
+        per_width!(f.width as usize, W => scatter_level_w::<W>(nl, l, corners, dgf, gl))
     }
 
     /// Swaps the grid-value gradient of the last [`Mlp::backward_layers`]
@@ -66,9 +68,10 @@ impl Mlp {
     /// gradient of the feature grid's table (the parameters from
     /// [`Mlp::table`] on): one level per task, chunks in the order given,
     /// so the sums do not depend on the thread count and each task's
-    /// writes stay within one level's entries.
-    pub fn scatter_table(&self, grads: &[GridGrad], gt: &mut [f32]) {
-        let Some(f) = &self.features else { return };
+    /// writes stay within one level's entries. Returns whether every value
+    /// written is finite (then so is every value of `gt`, if it was before).
+    pub fn scatter_table(&self, grads: &[GridGrad], gt: &mut [f32]) -> bool {
+        let Some(f) = &self.features else { return true };
         let mut levels = Vec::with_capacity(f.levels());
         let mut rest = gt;
         for l in 0..f.levels() {
@@ -76,11 +79,15 @@ impl Mlp {
             levels.push((l, level));
             rest = r;
         }
-        levels.into_par_iter().for_each(|(l, gl)| {
+        let level = |(l, gl): (usize, &mut [f32])| {
+            let mut finite = true;
             for g in grads {
-                self.scatter_level(l, &g.corners[l * g.s..(l + 1) * g.s], &g.dgf, gl);
+                finite &= self.scatter_level(l, &g.corners[l * g.s..(l + 1) * g.s], &g.dgf, gl);
             }
-        });
+            finite
+        };
+        // every level scattered, finite or not (no short cut)
+        levels.into_par_iter().map(level).reduce(|| true, |a, b| a & b)
     }
 
     /// The first part of [`Mlp::forward`]: the positions' encoding (γ and
@@ -167,15 +174,29 @@ pub(super) fn footprint_level<const W: usize>(
 }
 
 /// [`Mlp::scatter_level`] of a grid of width `W` and `nl` levels.
-pub(super) fn scatter_level_w<const W: usize>(nl: usize, l: usize, corners: &[Corners], dgf: &[f32], gl: &mut [f32]) {
+pub(super) fn scatter_level_w<const W: usize>(
+    nl: usize,
+    l: usize,
+    corners: &[Corners],
+    dgf: &[f32],
+    gl: &mut [f32],
+) -> bool {
     let mut acc = [[0.0f32; W]; 8];
     let mut cell: Option<[u32; 8]> = None;
+    // whether every sum written is finite: a non-finite value stays so under
+    // further additions, so checking each write finds any in the level
+    let mut finite = true;
     let flush = |entry: &[u32; 8], acc: &mut [[f32; W]; 8], gl: &mut [f32]| {
+        let mut ok = true;
         for (e, a) in entry.iter().zip(acc.iter_mut()) {
             let g = &mut gl[*e as usize * W..][..W];
-            g.iter_mut().zip(a.iter()).for_each(|(g, v)| *g += v);
+            g.iter_mut().zip(a.iter()).for_each(|(g, v)| {
+                *g += v;
+                ok &= g.is_finite();
+            });
             *a = [0.0; W];
         }
+        ok
     };
     const AHEAD: usize = 8;
     for (i, c) in corners.iter().enumerate() {
@@ -188,7 +209,7 @@ pub(super) fn scatter_level_w<const W: usize>(nl: usize, l: usize, corners: &[Co
         }
         if cell != Some(c.entry) {
             if let Some(entry) = &cell {
-                flush(entry, &mut acc, gl);
+                finite &= flush(entry, &mut acc, gl);
             }
             cell = Some(c.entry);
         }
@@ -198,6 +219,7 @@ pub(super) fn scatter_level_w<const W: usize>(nl: usize, l: usize, corners: &[Co
         }
     }
     if let Some(entry) = &cell {
-        flush(entry, &mut acc, gl);
+        finite &= flush(entry, &mut acc, gl);
     }
+    finite
 }

@@ -268,8 +268,22 @@ fn scatter_equals_backward(footprint: bool) {
         grads.push(gg);
     }
     let mut table = vec![0.0; m.n_params - m.table];
-    m.scatter_table(&grads, &mut table);
+    assert!(m.scatter_table(&grads, &mut table), "finite sums reported as such");
     assert!(table.iter().filter(|v| **v != 0.0).count() > 20);
     assert_eq!(&whole[..m.table], &layers[..]);
     assert_eq!(&whole[m.table..], &table[..]);
+    // one value infinite, or finite values whose sum overflows f32: reported, and every level still scattered
+    let last = grads.len() - 1;
+    grads[last].dgf.iter_mut().for_each(|d| *d = f32::MAX);
+    let mut big = vec![0.0; table.len()];
+    assert!(!m.scatter_table(&grads, &mut big), "an overflowing sum goes unreported");
+    grads[last].dgf.iter_mut().for_each(|d| *d = 0.0);
+    grads[last].dgf[1] = f32::INFINITY;
+    let mut inf = vec![0.0; table.len()];
+    assert!(!m.scatter_table(&grads, &mut inf), "an infinite gradient goes unreported");
+    // the rest as the other chunks alone make it: only one point's corners (8 entries) differ
+    let mut others = vec![0.0; table.len()];
+    assert!(m.scatter_table(&grads[..last], &mut others));
+    let differ: Vec<f32> = inf.iter().zip(&others).filter(|(a, b)| a != b).map(|(a, _)| *a).collect();
+    assert!(!differ.is_empty() && differ.len() <= 8 * 2 && differ.iter().all(|v| !v.is_finite()), "{differ:?}");
 }

@@ -89,9 +89,11 @@ impl Adam {
     /// moments, and its value but for the decay, where the dense update
     /// would keep moving it for tens of steps on momentum alone). First,
     /// `table_decay` λ (AdamW's decoupled weight decay; 0: off) scales every
-    /// table parameter by `1 − lr·λ`, reached by a ray or not.
+    /// table parameter by `1 − lr·λ`, reached by a ray or not. Leaves `g`
+    /// zeroed, ready for the next step's sum (a table's gradient is tens of
+    /// megabytes, mostly zeros: only the values read as non-zero are written).
     #[allow(clippy::too_many_arguments)]
-    pub fn update(&mut self, p: &mut [f32], g: &[f32], lr: f32, b1: f32, b2: f32, eps: f32, table_decay: f32) {
+    pub fn update(&mut self, p: &mut [f32], g: &mut [f32], lr: f32, b1: f32, b2: f32, eps: f32, table_decay: f32) {
         self.update_averaged(p, g, lr, b1, b2, eps, table_decay, None);
     }
 
@@ -99,12 +101,13 @@ impl Adam {
     /// into its moving average in the same pass: `a ← a + (1 − b)(p − a)`
     /// (`b` in [0, 1]; `a` holds as many values as `p`). The same values as
     /// the update followed by a separate pass, in one parallel sweep over
-    /// the parameters (a feature grid's table makes tens of megabytes).
+    /// the parameters (a feature grid's table makes tens of megabytes);
+    /// leaves `g` zeroed.
     #[allow(clippy::too_many_arguments)]
     pub fn update_averaged(
         &mut self,
         p: &mut [f32],
-        g: &[f32],
+        g: &mut [f32],
         lr: f32,
         b1: f32,
         b2: f32,
@@ -128,7 +131,7 @@ impl Adam {
         // table makes millions of parameters)
         const BLOCK: usize = 1 << 16;
         let (p, ps) = p.split_at_mut(from);
-        let (g, gs) = g.split_at(from);
+        let (g, gs) = g.split_at_mut(from);
         let (m, ms) = self.m.split_at_mut(from);
         let (v, vs) = self.v.split_at_mut(from);
         let (a, a_s) = match average {
@@ -139,7 +142,7 @@ impl Adam {
             None => (blocks_of(None, p.len(), BLOCK), blocks_of(None, ps.len(), BLOCK)),
         };
         let h = Hyper { lr, b1, b2, eps };
-        let blocks = p.par_chunks_mut(BLOCK).zip(g.par_chunks(BLOCK)).zip(m.par_chunks_mut(BLOCK));
+        let blocks = p.par_chunks_mut(BLOCK).zip(g.par_chunks_mut(BLOCK)).zip(m.par_chunks_mut(BLOCK));
         blocks.zip(v.par_chunks_mut(BLOCK)).zip(a).for_each(|((((p, g), m), v), a)| {
             dense_block(p, g, m, v, bc, h);
             fold(p, a, b);
@@ -150,7 +153,7 @@ impl Adam {
         self.bias.fit(b1, b2);
         let bias = &self.bias;
         let keep = 1.0 - lr * table_decay;
-        let blocks = ps.par_chunks_mut(BLOCK).zip(gs.par_chunks(BLOCK)).zip(ms.par_chunks_mut(BLOCK));
+        let blocks = ps.par_chunks_mut(BLOCK).zip(gs.par_chunks_mut(BLOCK)).zip(ms.par_chunks_mut(BLOCK));
         let blocks = blocks.zip(vs.par_chunks_mut(BLOCK)).zip(self.steps.par_chunks_mut(BLOCK));
         blocks.zip(a_s).for_each(|(((((p, g), m), v), steps), a)| {
             if keep != 1.0 {
@@ -175,33 +178,34 @@ struct Hyper {
 // parallel closures): inlined, the table's loop compiled to slower code
 // for the same arithmetic (`scripts/step_ab.sh`, docs/EXPERIMENTS.md).
 
-/// One block of dense parameters' updates with bias corrections `bc`.
+/// One block of dense parameters' updates with bias corrections `bc`;
+/// zeroes the block's gradient.
 #[inline(never)]
-fn dense_block(p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32], bc: (f32, f32), h: Hyper) {
-    for (((p, &g), m), v) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()) {
-        step(p, g, m, v, bc, h);
+fn dense_block(p: &mut [f32], g: &mut [f32], m: &mut [f32], v: &mut [f32], bc: (f32, f32), h: Hyper) {
+    for (((p, g), m), v) in p.iter_mut().zip(g.iter_mut()).zip(m.iter_mut()).zip(v.iter_mut()) {
+        step(p, std::mem::take(g), m, v, bc, h);
     }
 }
 
 /// One block of a table's updates: a parameter with a zero gradient is
-/// skipped, the others count their updates in `steps` and take their own
-/// bias corrections.
+/// skipped, the others count their updates in `steps`, take their own
+/// bias corrections and have their gradient zeroed.
 #[inline(never)]
 fn sparse_block(
     p: &mut [f32],
-    g: &[f32],
+    g: &mut [f32],
     m: &mut [f32],
     v: &mut [f32],
     steps: &mut [u32],
     bias: &BiasCorrections,
     h: Hyper,
 ) {
-    for ((((p, &g), m), v), k) in p.iter_mut().zip(g).zip(m.iter_mut()).zip(v.iter_mut()).zip(steps) {
-        if g == 0.0 {
+    for ((((p, g), m), v), k) in p.iter_mut().zip(g.iter_mut()).zip(m.iter_mut()).zip(v.iter_mut()).zip(steps) {
+        if *g == 0.0 {
             continue;
         }
         *k = k.saturating_add(1);
-        step(p, g, m, v, bias.at(*k), h);
+        step(p, std::mem::take(g), m, v, bias.at(*k), h);
     }
 }
 
@@ -233,7 +237,7 @@ mod tests {
         let mut a = Adam::new(2, 0);
         let mut p = [1.0f32, -2.0];
         for k in 1..=10 {
-            a.update(&mut p, &[0.5, -4.0], 0.01, 0.9, 0.999, 1e-8, 0.0);
+            a.update(&mut p, &mut [0.5, -4.0], 0.01, 0.9, 0.999, 1e-8, 0.0);
             assert!((p[0] - (1.0 - 0.01 * k as f32)).abs() < 1e-5, "step {k}: {}", p[0]);
             assert!((p[1] - (-2.0 + 0.01 * k as f32)).abs() < 1e-5);
         }
@@ -246,9 +250,11 @@ mod tests {
         let (mut p, mut q) = (vec![0.5f32; 12], vec![0.5f32; 12]);
         for k in 0..3000 {
             // never exactly zero
-            let g: Vec<f32> = (0..12).map(|i| ((i * 7 + k * 3) % 11) as f32 * 0.1 - 0.55).collect();
-            dense.update(&mut p, &g, 0.01, 0.9, 0.99, 1e-15, 0.0);
-            sparse.update(&mut q, &g, 0.01, 0.9, 0.99, 1e-15, 0.0);
+            let mut g: Vec<f32> = (0..12).map(|i| ((i * 7 + k * 3) % 11) as f32 * 0.1 - 0.55).collect();
+            let mut h = g.clone();
+            dense.update(&mut p, &mut g, 0.01, 0.9, 0.99, 1e-15, 0.0);
+            sparse.update(&mut q, &mut h, 0.01, 0.9, 0.99, 1e-15, 0.0);
+            assert!(g.iter().chain(&h).all(|&g| g == 0.0), "the gradients are left zeroed");
         }
         assert_eq!(p, q);
         assert_eq!(sparse.steps, vec![3000; 8]);
@@ -258,9 +264,9 @@ mod tests {
     fn table_values_without_a_gradient_keep_their_value_and_moments() {
         let mut a = Adam::new(6, 4);
         let mut p = vec![1.0f32; 6];
-        a.update(&mut p, &[0.1, 0.1, 0.5, 0.0, 0.0, -0.5], 0.01, 0.9, 0.99, 1e-15, 0.0);
+        a.update(&mut p, &mut [0.1, 0.1, 0.5, 0.0, 0.0, -0.5], 0.01, 0.9, 0.99, 1e-15, 0.0);
         let after_one = p.clone();
-        a.update(&mut p, &[0.1, 0.1, 0.0, 0.25, 0.0, 0.0], 0.01, 0.9, 0.99, 1e-15, 0.0);
+        a.update(&mut p, &mut [0.1, 0.1, 0.0, 0.25, 0.0, 0.0], 0.01, 0.9, 0.99, 1e-15, 0.0);
         // each value's first update moves it by lr·sign(g); the layers' values
         // (the first two) move on every step, table value 4 never did
         assert_eq!(a.steps, vec![1, 1, 0, 1]);
@@ -276,7 +282,7 @@ mod tests {
     fn table_decay_scales_every_table_value_and_no_layer_value() {
         let mut a = Adam::new(4, 2);
         let mut p = vec![1.0f32; 4];
-        a.update(&mut p, &[0.0, 0.0, 0.0, 0.25], 0.1, 0.9, 0.99, 1e-15, 0.5);
+        a.update(&mut p, &mut [0.0, 0.0, 0.0, 0.25], 0.1, 0.9, 0.99, 1e-15, 0.5);
         // layers: no gradient, no move; table: × (1 − 0.1·0.5), then Adam's step
         assert_eq!(&p[..3], &[1.0, 1.0, 0.95]);
         assert!((p[3] - (0.95 - 0.1)).abs() < 1e-6, "{p:?}");
@@ -304,11 +310,13 @@ mod tests {
         let mut q = p.clone();
         let (mut a, mut b) = (p.clone(), p.clone());
         for k in 0..5 {
-            let g: Vec<f32> =
+            let mut g: Vec<f32> =
                 (0..n).map(|i| if (i + k) % 3 == 0 { 0.0 } else { ((i * 7 + k) % 11) as f32 - 5.0 }).collect();
+            let mut h = g.clone();
             let d = 0.9 - 0.1 * k as f32;
-            fused.update_averaged(&mut p, &g, 0.01, 0.9, 0.99, 1e-15, 0.5, Some((&mut a, d)));
-            apart.update(&mut q, &g, 0.01, 0.9, 0.99, 1e-15, 0.5);
+            fused.update_averaged(&mut p, &mut g, 0.01, 0.9, 0.99, 1e-15, 0.5, Some((&mut a, d)));
+            apart.update(&mut q, &mut h, 0.01, 0.9, 0.99, 1e-15, 0.5);
+            assert!(g.iter().chain(&h).all(|&g| g == 0.0), "the gradients are left zeroed");
             b.iter_mut().zip(&q).for_each(|(b, &q)| *b += (1.0 - d) * (q - *b));
         }
         assert_eq!(p, q);
@@ -322,8 +330,8 @@ mod tests {
         let mut a = Adam::new(1, 0);
         let mut p = [3.0f32];
         for _ in 0..2000 {
-            let g = [2.0 * (p[0] - 1.5)];
-            a.update(&mut p, &g, 0.01, 0.9, 0.999, 1e-8, 0.0);
+            let mut g = [2.0 * (p[0] - 1.5)];
+            a.update(&mut p, &mut g, 0.01, 0.9, 0.999, 1e-8, 0.0);
         }
         assert!((p[0] - 1.5).abs() < 1e-2);
     }

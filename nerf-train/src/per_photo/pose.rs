@@ -69,7 +69,7 @@ impl Poses {
 
     /// One Adam step at learning rate `lr` on `grad` (as `params`), then
     /// [`Poses::recentre`].
-    pub fn update(&mut self, grad: &[f32], lr: f32, beta1: f32, beta2: f32, eps: f32) {
+    pub fn update(&mut self, grad: &mut [f32], lr: f32, beta1: f32, beta2: f32, eps: f32) {
         self.adam.update(&mut self.params, grad, lr, beta1, beta2, eps, 0.0);
         self.recentre();
     }

@@ -135,7 +135,7 @@ impl ProposalGrid {
     }
 
     /// One Adam step on the summed gradient `grad` (dense, `res³`).
-    pub fn step(&mut self, grad: &[f32], lr: f32, b1: f32, b2: f32, eps: f32) {
+    pub fn step(&mut self, grad: &mut [f32], lr: f32, b1: f32, b2: f32, eps: f32) {
         self.adam.update(&mut self.log_sigma, grad, lr, b1, b2, eps, 0.0);
     }
 

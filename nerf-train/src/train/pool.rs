@@ -40,6 +40,12 @@ impl GradPool {
     /// Returns a buffer (zeroed here) for later steps.
     pub(super) fn give(&self, mut v: Vec<f32>) {
         v.par_chunks_mut(1 << 16).for_each(|b| b.fill(0.0));
+        self.give_zeroed(v);
+    }
+    /// Returns a buffer whose values are all zero (as [`crate::optim::Adam`]
+    /// leaves a gradient) for later steps.
+    pub(super) fn give_zeroed(&self, v: Vec<f32>) {
+        debug_assert!(v.iter().all(|&x| x == 0.0), "a gradient buffer returned with values in it");
         if let Ok(mut p) = self.0.lock() {
             p.push(v);
         }

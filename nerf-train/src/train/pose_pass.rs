@@ -34,7 +34,7 @@ impl Trainer {
     /// One Adam step of the pose corrections on the step's gradient `grad`
     /// (as [`Poses::params`]) at [`OptimiserConfig::pose_lr`](crate::config::OptimiserConfig::pose_lr),
     /// decayed as the network's `lr` (this step's rate) is.
-    pub(super) fn step_poses(&mut self, grad: &[f32], lr: f32) {
+    pub(super) fn step_poses(&mut self, grad: &mut [f32], lr: f32) {
         let c = &self.cfg;
         let Some(p) = self.poses.as_mut().filter(|p| grad.len() == p.params.len()) else { return };
         if grad.iter().all(|g| g.is_finite()) {

@@ -16,7 +16,7 @@ impl Trainer {
         }
         if grad.iter().all(|g| g.is_finite()) {
             let c = &self.cfg;
-            pg.step(&grad, lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
+            pg.step(&mut grad, lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
         }
     }
 

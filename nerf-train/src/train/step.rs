@@ -50,7 +50,7 @@ impl Trainer {
                 *a = Appearance::new(photos);
             }
         }
-        let (grad, sq_c, sq_f, samples, PerPhoto { appearance: mut photos, pose }) =
+        let (mut grad, sq_c, sq_f, samples, PerPhoto { appearance: mut photos, mut pose }, finite) =
             self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
         let mse_f = if self.cfg.sampling.n_fine > 0 { sq_f / n } else { sq_c / n };
@@ -63,9 +63,10 @@ impl Trainer {
             skipped: false,
             times,
         };
-        if !loss.is_finite() || !all_finite(&grad) {
+        if !loss.is_finite() || !finite {
             self.skipped += 1;
             stats.skipped = true;
+            self.pool.give(grad);
         } else {
             let lr = self.learning_rate(progress);
             let c = &self.cfg;
@@ -78,7 +79,7 @@ impl Trainer {
             timed(&mut stats.times.adam, || {
                 adam.update_averaged(
                     p,
-                    &grad,
+                    &mut grad,
                     lr,
                     c.optimiser.beta1,
                     c.optimiser.beta2,
@@ -96,12 +97,13 @@ impl Trainer {
                 let c = &self.cfg;
                 a.update(&mut photos, appearance::LR_SHARE * lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
             }
-            timed(&mut stats.times.adam, || self.step_poses(&pose, lr));
+            timed(&mut stats.times.adam, || self.step_poses(&mut pose, lr));
+            // Adam left it zeroed
+            self.pool.give_zeroed(grad);
         }
         if let Ok(mut g) = self.pool.2.lock() {
             g.clear();
         }
-        self.pool.give(grad);
         self.step += 1;
         stats
     }
@@ -115,19 +117,20 @@ impl Trainer {
     /// gradient is scattered afterwards, one level per task, chunk after
     /// chunk ([`Mlp::scatter_table`]).
     pub fn gradients(&self, batch: &[Sample], step_key: u32) -> (Vec<f32>, f64, f64, usize) {
-        let (g, c, f, n, _) = self.gradients_timed(batch, step_key, &mut StepTimes::default());
+        let (g, c, f, n, ..) = self.gradients_timed(batch, step_key, &mut StepTimes::default());
         (g, c, f, n)
     }
 
     /// [`Trainer::gradients`], adding the time of its stages to `times`
-    /// (`chunks` and its split, `scatter`), and the photos' corrections'
-    /// gradients ([`PerPhoto`]).
+    /// (`chunks` and its split, `scatter`), the photos' corrections'
+    /// gradients ([`PerPhoto`]) and whether every value of the gradient is
+    /// finite.
     pub(super) fn gradients_timed(
         &self,
         batch: &[Sample],
         step_key: u32,
         times: &mut StepTimes,
-    ) -> (Vec<f32>, f64, f64, usize, PerPhoto) {
+    ) -> (Vec<f32>, f64, f64, usize, PerPhoto, bool) {
         let start = std::time::Instant::now();
         // the proposal grid's gradient is this batch's alone
         if let Ok(mut g) = self.pool.2.lock() {
@@ -163,7 +166,8 @@ impl Trainer {
         times.add(&split);
         times.chunks += start.elapsed().as_secs_f64();
         if dense == np {
-            return (dense_grad, sq_c, sq_f, samples, photos);
+            let finite = all_finite(&dense_grad);
+            return (dense_grad, sq_c, sq_f, samples, photos, finite);
         }
         let start = std::time::Instant::now();
         let mut grad = self.pool.take(np);
@@ -171,10 +175,11 @@ impl Trainer {
         self.pool.give(dense_grad);
         grids.sort_unstable_by_key(|(ci, _)| *ci);
         let grids: Vec<GridGrad> = grids.into_iter().map(|(_, g)| g).collect();
-        net.scatter_table(&grids, &mut grad[dense..]);
+        // the table's part checked by the scatter as it writes (it starts zeroed)
+        let finite = net.scatter_table(&grids, &mut grad[dense..]) && all_finite(&grad[..dense]);
         self.pool.give_grids(grids);
         times.scatter += start.elapsed().as_secs_f64();
-        (grad, sq_c, sq_f, samples, photos)
+        (grad, sq_c, sq_f, samples, photos, finite)
     }
 
     /// The accumulators of groups `range` ([`Trainer::gradients_timed`]),
@@ -294,8 +299,8 @@ impl Trainer {
     }
 }
 
-/// Whether every value of `g` is finite (tens of megabytes with a feature
-/// grid's table: checked in parallel blocks).
+/// Whether every value of `g` is finite (checked in parallel blocks: a
+/// model without a feature grid may hold a million parameters).
 fn all_finite(g: &[f32]) -> bool {
     g.par_chunks(1 << 16).all(|b| b.iter().all(|g| g.is_finite()))
 }
