@@ -28,9 +28,9 @@ fn main() {
     }
 }
 
-fn run(src: PathBuf, out: PathBuf) -> Result<(), String> {
+fn run(src: PathBuf, out: PathBuf) -> Result<(), Box<dyn std::error::Error>> {
     let (views, points, model_dir) = read_and_link(&src, &out)?;
-    or_remove(&out, write_poses_bounds(&out, &views, &points).map_err(|e| e.to_string()))?;
+    or_remove(&out, write_poses_bounds(&out, &views, &points))?;
     eprintln!(
         "wrote {} ({} cameras from {}, {} sparse points)",
         out.join("poses_bounds.npy").display(),

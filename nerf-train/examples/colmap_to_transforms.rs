@@ -35,9 +35,9 @@ fn main() {
     }
 }
 
-fn run(src: PathBuf, out: PathBuf, with_points: bool) -> Result<(), String> {
+fn run(src: PathBuf, out: PathBuf, with_points: bool) -> Result<(), Box<dyn std::error::Error>> {
     let (views, points, model_dir) = read_and_link(&src, &out)?;
-    or_remove(&out, write_transforms(&out, &views, with_points.then_some(&points[..])).map_err(|e| e.to_string()))?;
+    or_remove(&out, write_transforms(&out, &views, with_points.then_some(&points[..])))?;
     eprintln!(
         "wrote {} ({} cameras from {}{})",
         out.join("transforms.json").display(),

@@ -55,12 +55,12 @@ fn normal(rng: &mut Rng) -> f64 {
     (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
 }
 
-fn run(src: PathBuf, out: PathBuf, degrees: f64, shift: f64, holdout: usize) -> Result<(), String> {
+fn run(src: PathBuf, out: PathBuf, degrees: f64, shift: f64, holdout: usize) -> Result<(), Box<dyn std::error::Error>> {
     if out.exists() {
-        return Err(format!("{}: already exists; name a new folder", out.display()));
+        return Err(format!("{}: already exists; name a new folder", out.display()).into());
     }
-    let (model_dir, _) = choose_model(&src, None).map_err(|e| e.to_string())?;
-    let (mut views, points) = colmap_views(&src, &model_dir).map_err(|e| e.to_string())?;
+    let (model_dir, _) = choose_model(&src, None)?;
+    let (mut views, points) = colmap_views(&src, &model_dir)?;
     let centre = views.iter().map(|v| v.pose.1).sum::<DVec3>() / views.len().max(1) as f64;
     let mut dist: Vec<f64> = views.iter().map(|v| v.pose.1.distance(centre)).collect();
     dist.sort_by(f64::total_cmp);
@@ -87,7 +87,7 @@ fn run(src: PathBuf, out: PathBuf, degrees: f64, shift: f64, holdout: usize) -> 
         let target = std::fs::canonicalize(&v.image).map_err(|e| format!("{}: {e}", v.image.display()))?;
         std::os::unix::fs::symlink(&target, images.join(name)).map_err(|e| format!("{}: {e}", images.display()))?;
     }
-    write_poses_bounds(&out, &views, &points).map_err(|e| e.to_string())?;
+    write_poses_bounds(&out, &views, &points)?;
     let n = changed.max(1) as f64;
     eprintln!(
         "wrote {}: {changed} of {} cameras turned {:.3}° and moved {:.4} capture units on average (median camera \

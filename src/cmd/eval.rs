@@ -1,7 +1,7 @@
 //! `nerf eval`: renders a split through nerf-infer and prints one JSON
 //! object with PSNR, SSIM, per-view scores, µs per ray and model size.
 
-use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult, Split};
+use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdError, CmdResult, Split};
 use clap::Parser;
 use nerf_infer::RenderOptions;
 use nerf_train::dataset::save_png_rgb;
@@ -110,12 +110,12 @@ pub struct Report {
 
 /// Runs `nerf eval`.
 pub fn run(a: Args) -> CmdResult {
-    out!("{}", serde_json::to_string(&evaluate(&a)?).map_err(|e| e.to_string())?);
+    out!("{}", serde_json::to_string(&evaluate(&a)?)?);
     Ok(())
 }
 
 /// Evaluates and returns the report `nerf eval` prints.
-pub fn evaluate(a: &Args) -> Result<Report, String> {
+pub fn evaluate(a: &Args) -> CmdResult<Report> {
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
     let downscale = a.capture.downscale_for(&model);
@@ -139,13 +139,10 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
         _ => None,
     };
     let pb = super::progress(data.views.len() as u64, "{bar:30} {pos}/{len} views ({eta})");
-    let results = with_threads(a.threads, || -> Result<Vec<(_, _, Option<f64>)>, String> {
+    let results = with_threads(a.threads, || -> CmdResult<Vec<(_, _, Option<f64>)>> {
         let mut out = Vec::new();
         for v in &data.views {
-            let render = || {
-                render_view_marching(&model, opts, v, !a.no_coarse_skip)
-                    .map_err(|e| format!("{}: {e}", a.model.display()))
-            };
+            let render = || render_view_marching(&model, opts, v, !a.no_coarse_skip).map_err(CmdError::file(&a.model));
             let mut r = render()?;
             let s = score_rendered(&r, v);
             for _ in 1..a.repeat {
@@ -153,14 +150,12 @@ pub fn evaluate(a: &Args) -> Result<Report, String> {
                 r.secs_per_ray = r.secs_per_ray.min(again.secs_per_ray);
             }
             if let Some(dir) = &a.save {
-                save_png_rgb(&dir.join(format!("{}.png", v.name)), r.width, r.height, &r.rgb)
-                    .map_err(|e| e.to_string())?;
-                save_png_rgb(&dir.join(format!("{}_gt.png", v.name)), r.width, r.height, &v.rgb)
-                    .map_err(|e| e.to_string())?;
+                save_png_rgb(&dir.join(format!("{}.png", v.name)), r.width, r.height, &r.rgb)?;
+                save_png_rgb(&dir.join(format!("{}_gt.png", v.name)), r.width, r.height, &v.rgb)?;
             }
             let vs_ref = match &reference {
                 Some(m) => {
-                    let rr = render_view(m, RenderOptions::from_model(m), v).map_err(|e| format!("reference: {e}"))?;
+                    let rr = render_view(m, RenderOptions::from_model(m), v).map_err(CmdError::within("reference"))?;
                     Some(psnr(&r.rgb, &rr.rgb))
                 }
                 None => None,

@@ -1,6 +1,6 @@
 //! `nerf export`: writes the model with 32-, 16- or 8-bit weights.
 
-use super::{decode, read_model, write_atomic, ActBits, CmdResult, TableBits};
+use super::{decode, read_model, write_atomic, ActBits, CmdError, CmdResult, TableBits};
 use nerf_infer::Scheme;
 use nerf_train::export::{quantise_with, OwnedModel, Quantisation};
 use std::path::PathBuf;
@@ -72,19 +72,20 @@ fn refuse_existing(out: &std::path::Path, force: bool) -> CmdResult {
     if let Some(mut f) = regular.then(|| std::fs::File::open(out).ok()).flatten() {
         let mut magic = [0u8; 8];
         let n = f.read(&mut magic).unwrap_or(0);
+        let refused = |reason: String| Err(CmdError::Flag { flag: "--out", reason });
         if n == 8 && magic == nerf_infer::format::CHECKPOINT_MAGIC {
-            return Err(format!(
-                "--out {}: is a training checkpoint (a run resumes from it); a model never replaces one: choose \
-                 another file",
+            return refused(format!(
+                "{}: is a training checkpoint (a run resumes from it); a model never replaces one: choose another \
+                 file",
                 out.display()
             ));
         }
         if !(n >= 4 && &magic[..4] == b"NERF") {
-            return Err(format!("--out {}: exists and is not a model file; refusing to replace it", out.display()));
+            return refused(format!("{}: exists and is not a model file; refusing to replace it", out.display()));
         }
         if !force {
-            return Err(format!(
-                "--out {}: holds a model already; replace it with --force, or choose another file",
+            return refused(format!(
+                "{}: holds a model already; replace it with --force, or choose another file",
                 out.display()
             ));
         }
@@ -113,35 +114,37 @@ impl Args {
 /// Runs `nerf export`.
 pub fn run(a: Args) -> CmdResult {
     if a.act_bits == ActBits::A8 && a.bits != Scheme::I8 {
-        return Err("--act-bits 8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into());
+        return Err(CmdError::Flag {
+            flag: "--act-bits",
+            reason: "8 needs --bits 8 (8-bit activations are an int8-weight scheme)".into(),
+        });
     }
     if a.table_bits != TableBits::T16 {
         // the scheme asked for, before the model is read: narrow_table checks the model's again
-        nerf_train::export::narrow_table_fits(a.bits, a.table_bits.bits()).map_err(|_| {
-            format!("--table-bits {} needs --bits 16 or 8 (an f32 model keeps an f32 table)", a.table_bits.bits())
+        nerf_train::export::narrow_table_fits(a.bits, a.table_bits.bits()).map_err(|_| CmdError::Flag {
+            flag: "--table-bits",
+            reason: format!("{} needs --bits 16 or 8 (an f32 model keeps an f32 table)", a.table_bits.bits()),
         })?;
     }
     if !a.int8_layers.is_empty() && a.bits != Scheme::I16 {
-        return Err("--int8-layers needs --bits 16 (it narrows layers of an int16 model)".into());
+        return Err(CmdError::Flag {
+            flag: "--int8-layers",
+            reason: "needs --bits 16 (it narrows layers of an int16 model)".into(),
+        });
     }
     super::refuse_same_file(&a.out, "--out", &a.model)?;
     refuse_existing(&a.out, a.force)?;
     let bytes = read_model(&a.model)?;
     let model = decode(&a.model, &bytes)?;
+    let refused = |reason: String| Err(CmdError::File { path: a.model.clone(), reason });
     let mut owned = match a.bits {
         Scheme::F32 if model.scheme() == Scheme::F32 => OwnedModel::from_model(&model),
-        Scheme::F32 => {
-            return Err(format!("{}: model is already quantised; export from the f32 model", a.model.display()))
-        }
+        Scheme::F32 => return refused("model is already quantised; export from the f32 model".into()),
         scheme => {
             let act_bits = a.act_bits;
             let layers = model.coarse.layers.len();
             if let Some(&bad) = a.int8_layers.iter().find(|&&i| i >= layers) {
-                return Err(format!(
-                    "{}: --int8-layers {bad}: the network has layers 0 to {}",
-                    a.model.display(),
-                    layers - 1
-                ));
+                return refused(format!("--int8-layers {bad}: the network has layers 0 to {}", layers - 1));
             }
             quantise_with(
                 &model,
@@ -150,32 +153,33 @@ pub fn run(a: Args) -> CmdResult {
                     ..Quantisation::new(scheme).with_act_bits(act_bits)
                 },
             )
-            .map_err(|e| format!("{}: {e}", a.model.display()))?
+            .map_err(CmdError::file(&a.model))?
         }
     };
     if a.table_bits != TableBits::T16 {
-        nerf_train::export::narrow_table(&mut owned, a.table_bits.bits())
-            .map_err(|e| format!("{}: --table-bits {}: {e}", a.model.display(), a.table_bits.bits()))?;
+        nerf_train::export::narrow_table(&mut owned, a.table_bits.bits()).map_err(|e| CmdError::File {
+            path: a.model.clone(),
+            reason: format!("--table-bits {}: {e}", a.table_bits.bits()),
+        })?;
     }
     if let Some(r) = a.grid_res {
-        nerf_train::export::coarsen_grid(&mut owned, r).map_err(|e| format!("{}: {e}", a.model.display()))?;
+        nerf_train::export::coarsen_grid(&mut owned, r).map_err(CmdError::file(&a.model))?;
     }
     if let Some(n) = a.coarse {
         owned.samples.coarse = n;
     }
     if let Some(n) = a.fine {
         if owned.fine.is_none() && owned.proposal.is_none() {
-            return Err(format!(
-                "{}: --fine {n}: the model has neither a fine network nor a proposal grid (set --coarse)",
-                a.model.display()
+            return refused(format!(
+                "--fine {n}: the model has neither a fine network nor a proposal grid (set --coarse)"
             ));
         }
         if owned.proposal.is_some() && n > 255 {
-            return Err(format!("{}: --fine {n}: a model with a proposal grid takes 1..=255", a.model.display()));
+            return refused(format!("--fine {n}: a model with a proposal grid takes 1..=255"));
         }
         owned.samples.fine = n;
     }
-    let out = owned.to_bytes().map_err(|e| format!("{}: {e}", a.out.display()))?;
+    let out = owned.to_bytes().map_err(CmdError::file(&a.out))?;
     write_atomic(&a.out, &out)?;
     let acts = match a.bits {
         Scheme::F32 => String::new(),

@@ -3,7 +3,7 @@
 //! the agreement of its silhouette with a capture's alpha masks.
 
 use super::{decode, load_split, num_in, progress, read_model, refuse_same_file, with_threads, write_atomic};
-use super::{CaptureArgs, CmdResult, Split};
+use super::{CaptureArgs, CmdError, CmdResult, Split};
 use nerf_train::dataset::load_rgba;
 use nerf_train::mesh::silhouette::{iou, silhouette};
 use nerf_train::mesh::{extract, sample_density, write, Mesh, MeshOptions, MeshStats};
@@ -68,11 +68,14 @@ enum Kind {
     Obj,
 }
 
-fn kind(out: &Path) -> Result<Kind, String> {
+fn kind(out: &Path) -> CmdResult<Kind> {
     match out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("ply") => Ok(Kind::Ply),
         Some("obj") => Ok(Kind::Obj),
-        _ => Err(format!("--out {}: the file name must end in .ply or .obj", out.display())),
+        _ => Err(CmdError::Flag {
+            flag: "--out",
+            reason: format!("{}: the file name must end in .ply or .obj", out.display()),
+        }),
     }
 }
 
@@ -81,14 +84,18 @@ pub fn run(a: Args) -> CmdResult {
     let kind = kind(&a.out)?;
     refuse_same_file(&a.out, "--out", &a.model)?;
     if !(a.threshold.is_finite() && a.threshold > 0.0) {
-        return Err(format!("--threshold {}: must be a positive density", a.threshold));
+        return Err(CmdError::Flag {
+            flag: "--threshold",
+            reason: format!("{}: must be a positive density", a.threshold),
+        });
     }
+    let out_refused = |reason: String| Err(CmdError::Flag { flag: "--out", reason });
     match std::fs::symlink_metadata(&a.out) {
         Ok(m) if m.is_dir() => {
-            return Err(format!("--out {}: is a folder; give a file ending in .ply or .obj", a.out.display()))
+            return out_refused(format!("{}: is a folder; give a file ending in .ply or .obj", a.out.display()))
         }
         Ok(_) if !a.force => {
-            return Err(format!("--out {}: exists; replace it with --force, or choose another file", a.out.display()))
+            return out_refused(format!("{}: exists; replace it with --force, or choose another file", a.out.display()))
         }
         _ => {}
     }
@@ -100,24 +107,26 @@ pub fn run(a: Args) -> CmdResult {
         None => None,
     };
     let opts = MeshOptions { resolution: a.resolution, threshold: a.threshold, colours: !a.no_colours };
-    let (mesh, dropped) = with_threads(a.threads, || -> Result<(Mesh, usize), String> {
+    let (mesh, dropped) = with_threads(a.threads, || -> CmdResult<(Mesh, usize)> {
         let pb = progress(a.resolution as u64 + 1, "density {bar:40} {pos}/{len} planes {elapsed}/{eta}");
         let density = sample_density(&m, a.resolution, &|_| pb.inc(1));
         pb.finish_and_clear();
         // no surface: nothing to write, and an empty mesh is not a closed one
         let peak = density.iter().copied().fold(f32::NEG_INFINITY, f32::max);
         if peak.is_nan() || peak < a.threshold {
-            return Err(format!(
-                "{}: no surface at --threshold {}: the density sampled on the {}³ grid peaks at {}; give a lower \
-                 --threshold",
-                a.model.display(),
-                a.threshold,
-                a.resolution,
-                nerf_train::error::number(peak as f64)
-            ));
+            return Err(CmdError::File {
+                path: a.model.clone(),
+                reason: format!(
+                    "no surface at --threshold {}: the density sampled on the {}³ grid peaks at {}; give a lower \
+                     --threshold",
+                    a.threshold,
+                    a.resolution,
+                    nerf_train::error::number(peak as f64)
+                ),
+            });
         }
         eprintln!("extracting the surface{}", if opts.colours { " and its colours" } else { "" });
-        let mut mesh = extract(&m, &density, opts).map_err(|e| format!("{}: {e}", a.model.display()))?;
+        let mut mesh = extract(&m, &density, opts).map_err(CmdError::file(&a.model))?;
         let dropped = mesh.drop_small_pieces(a.min_piece);
         Ok((mesh, dropped))
     })??;
@@ -140,13 +149,13 @@ pub fn run(a: Args) -> CmdResult {
         silhouette_iou: per_view.as_ref().map(|v| v.iter().sum::<f64>() / v.len().max(1) as f64),
         silhouette_iou_per_view: per_view,
     };
-    println!("{}", serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?);
+    println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
 }
 
 /// The camera and alpha mask (alpha > ½) of each view of `--masks`, to
 /// compare the mesh's silhouette with.
-fn masks(dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Result<Vec<(nerf_infer::Camera, Vec<bool>)>, String> {
+fn masks(dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> CmdResult<Vec<(nerf_infer::Camera, Vec<bool>)>> {
     use rayon::prelude::*;
     let capture = a.capture.for_model(m, &a.model)?;
     let data = load_split(dir, a.split, capture.downscale_for(m), capture)?;
@@ -154,23 +163,18 @@ fn masks(dir: &Path, a: &Args, m: &nerf_infer::Model<'_>) -> Result<Vec<(nerf_in
     data.views
         .par_iter()
         .map(|v| {
-            let (w, h, _, alpha) = load_rgba(&v.file, data.downscale, false).map_err(|e| e.to_string())?;
+            let (w, h, _, alpha) = load_rgba(&v.file, data.downscale, false)?;
+            let refused = |reason: String| CmdError::File { path: v.file.clone(), reason };
             // an opaque photo has no mask: its IoU would say nothing
             let alpha = alpha.ok_or_else(|| {
-                format!(
-                    "{}: --masks {}: the photo has no alpha channel; give a capture whose photos are masked (RGBA, as \
+                refused(format!(
+                    "--masks {}: the photo has no alpha channel; give a capture whose photos are masked (RGBA, as \
                      Blender renders them)",
-                    v.file.display(),
                     dir.display()
-                )
+                ))
             })?;
             if (w, h) != (v.camera.width, v.camera.height) {
-                return Err(format!(
-                    "{}: alpha mask {w}x{h} but camera {}x{}",
-                    v.file.display(),
-                    v.camera.width,
-                    v.camera.height
-                ));
+                return Err(refused(format!("alpha mask {w}x{h} but camera {}x{}", v.camera.width, v.camera.height)));
             }
             Ok((v.camera, alpha.iter().map(|&x| x > 0.5).collect()))
         })

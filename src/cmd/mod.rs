@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod capture;
 pub mod demo;
+pub mod error;
 pub mod eval;
 pub mod export;
 pub mod fit;
@@ -17,23 +18,22 @@ pub mod tradeoff;
 pub mod train;
 pub mod web;
 
+use error::OutOfRange;
+pub use error::{CmdError, CmdResult};
 use nerf_infer::format::Framing;
 use nerf_train::dataset::{self, Dataset, Format, LoadOptions, SceneKind, Split};
 pub use nerf_train::export::ActBits;
 use std::path::{Path, PathBuf};
 
-/// A command's failure: one line for the user.
-pub type CmdResult = Result<(), String>;
-
 /// A clap value parser for numbers in `lo..=hi`: anything else (not a
 /// number, NaN, out of range) is refused at parse time with the range in
 /// the message, which clap prefixes with the flag.
-pub fn num_in<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+pub fn num_in<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, OutOfRange> + Clone + Send + Sync + 'static
 where
     T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
 {
     move |s: &str| {
-        let range = || format!("expected a number from {lo} to {hi}");
+        let range = || OutOfRange { lo: lo.to_string(), hi: hi.to_string() };
         let v: T = s.trim().parse().map_err(|_| range())?;
         // NaN compares false both ways and is refused here
         if v >= lo && v <= hi {
@@ -141,23 +141,25 @@ impl CaptureArgs {
     /// its training capture: the hold-out, the scene treatment and the lens
     /// where not given. A `--llffhold` other than the model's is refused: the
     /// held-out views would include views it was trained on.
-    pub fn for_model(self, model: &nerf_infer::Model<'_>, path: &Path) -> Result<Self, String> {
+    pub fn for_model(self, model: &nerf_infer::Model<'_>, path: &Path) -> CmdResult<Self> {
         let Some(c) = model.capture else { return Ok(self) };
         if let Some(h) = self.llffhold.filter(|&h| h != c.holdout as usize) {
-            return Err(format!(
-                "{}: the model was trained without every {}-th view (--llffhold {}); --llffhold {h} would score views \
-                 it was trained on: leave --llffhold out",
-                path.display(),
-                c.holdout,
-                c.holdout
-            ));
+            return Err(CmdError::File {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "the model was trained without every {}-th view (--llffhold {}); --llffhold {h} would score views \
+                     it was trained on: leave --llffhold out",
+                    c.holdout, c.holdout
+                ),
+            });
         }
         if self.undistort && !c.lens {
-            return Err(format!(
-                "{}: --undistort: the model was trained with --ignore-distortion (its photos taken as pinholes), so \
-                 there is no lens to undo; leave --undistort out",
-                path.display()
-            ));
+            return Err(CmdError::File {
+                path: path.to_path_buf(),
+                reason: "--undistort: the model was trained with --ignore-distortion (its photos taken as pinholes), \
+                         so there is no lens to undo; leave --undistort out"
+                    .into(),
+            });
         }
         let scene = match c.framing {
             Framing::Files => SceneKind::Auto,
@@ -179,12 +181,12 @@ impl CaptureArgs {
     }
 }
 
-/// Loads a split, mapping errors to one line and printing the loader's
-/// notes (skipped frames) as warnings.
-pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs) -> Result<Dataset, String> {
+/// Loads a split, printing the loader's notes (skipped frames) as
+/// warnings.
+pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs) -> CmdResult<Dataset> {
     let holdout = capture.llffhold.unwrap_or(DEFAULT_HOLDOUT);
     if holdout == 0 {
-        return Err("--llffhold must be at least 1".into());
+        return Err(CmdError::Flag { flag: "--llffhold", reason: "must be at least 1".into() });
     }
     let opts = LoadOptions {
         format: capture.format,
@@ -195,7 +197,7 @@ pub fn load_split(dir: &Path, split: Split, downscale: u32, capture: CaptureArgs
         undistort: capture.undistort,
         sparse_model: capture.sparse_model,
     };
-    let data = dataset::load(dir, split, opts).map_err(|e| e.to_string())?;
+    let data = dataset::load(dir, split, opts)?;
     for n in &data.notes {
         eprintln!("warning: {n}");
     }
@@ -233,32 +235,34 @@ pub fn same_frame(data: &Dataset, model: &nerf_infer::Model<'_>, model_path: &Pa
     let (d, m) = (data.scene.ndc.is_some(), model.scene.ndc.is_some());
     if d != m {
         let kind = |ndc: bool| if ndc { "forward-facing (NDC)" } else { "inward-looking" };
-        return Err(format!(
-            "{}: the model is {} but the dataset loads as {}; give the --scene the model was trained with",
-            model_path.display(),
-            kind(m),
-            kind(d)
-        ));
+        return Err(CmdError::File {
+            path: model_path.to_path_buf(),
+            reason: format!(
+                "the model is {} but the dataset loads as {}; give the --scene the model was trained with",
+                kind(m),
+                kind(d)
+            ),
+        });
     }
     Ok(())
 }
 
 /// Reads a model file into memory.
-pub fn read_model(path: &Path) -> Result<Vec<u8>, String> {
+pub fn read_model(path: &Path) -> CmdResult<Vec<u8>> {
     // the header's payload length is a u32
     let max = nerf_infer::format::HEADER_LEN as u64 + u32::MAX as u64;
     Ok(nerf_train::util::userfile::read_user_file(path, max, "model file")?)
 }
 
 /// Decodes a model, naming the file on failure.
-pub fn decode<'a>(path: &Path, bytes: &'a [u8]) -> Result<nerf_infer::Model<'a>, String> {
-    nerf_infer::Model::from_bytes(bytes).map_err(|e| format!("{}: {e}", path.display()))
+pub fn decode<'a>(path: &Path, bytes: &'a [u8]) -> CmdResult<nerf_infer::Model<'a>> {
+    nerf_infer::Model::from_bytes(bytes).map_err(CmdError::file(path))
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same
 /// directory, then a rename, so a failure never leaves a partial file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    nerf_train::util::atomic::write(path, bytes).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> CmdResult {
+    nerf_train::util::atomic::write(path, bytes).map_err(CmdError::io(path, "cannot write"))
 }
 
 /// `path` made absolute with its symbolic links resolved, as far as it
@@ -284,22 +288,28 @@ fn resolved(path: &Path) -> PathBuf {
 /// Refuses an output (`flag`'s value `out`) that lies inside the dataset
 /// folder `data` or is the folder itself: outputs never go among the
 /// inputs, whose images they could replace.
-pub fn refuse_inside(out: &Path, flag: &str, data: &Path) -> CmdResult {
+pub fn refuse_inside(out: &Path, flag: &'static str, data: &Path) -> CmdResult {
     let (o, d) = (resolved(out), resolved(data));
     if o.starts_with(&d) {
-        return Err(format!(
-            "{flag} {}: inside the dataset folder {}; choose a folder outside it (outputs never go among the inputs)",
-            out.display(),
-            data.display()
-        ));
+        return Err(CmdError::Flag {
+            flag,
+            reason: format!(
+                "{}: inside the dataset folder {}; choose a folder outside it (outputs never go among the inputs)",
+                out.display(),
+                data.display()
+            ),
+        });
     }
     Ok(())
 }
 
 /// Refuses to write the output `out` (`flag`'s value) over the input file `input`.
-pub fn refuse_same_file(out: &Path, flag: &str, input: &Path) -> CmdResult {
+pub fn refuse_same_file(out: &Path, flag: &'static str, input: &Path) -> CmdResult {
     if resolved(out) == resolved(input) {
-        return Err(format!("{flag} {}: is the input file; write to another file", out.display()));
+        return Err(CmdError::Flag {
+            flag,
+            reason: format!("{}: is the input file; write to another file", out.display()),
+        });
     }
     Ok(())
 }
@@ -308,16 +318,18 @@ pub fn refuse_same_file(out: &Path, flag: &str, input: &Path) -> CmdResult {
 /// directory: no file is created, and the lock goes when the process
 /// ends, however it ends) so that two runs never write one folder; fails,
 /// naming the folder, if another process holds it.
-pub fn lock_run_dir(dir: &Path) -> Result<std::fs::File, String> {
-    let f =
-        std::fs::File::open(dir).map_err(|e| format!("{}: cannot open the folder to lock it: {e}", dir.display()))?;
+pub fn lock_run_dir(dir: &Path) -> CmdResult<std::fs::File> {
+    let f = std::fs::File::open(dir).map_err(CmdError::io(dir, "cannot open the folder to lock it"))?;
     #[cfg(unix)]
     {
         use std::os::fd::AsRawFd;
         // SAFETY: flock on a file descriptor this function owns; no memory is shared.
         let r = unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
         if r != 0 {
-            return Err(format!("{}: another process is using this folder", dir.display()));
+            return Err(CmdError::File {
+                path: dir.to_path_buf(),
+                reason: "another process is using this folder".into(),
+            });
         }
     }
     Ok(f)
@@ -337,13 +349,13 @@ pub fn shell_quote(p: &Path) -> String {
 }
 
 /// Creates an output directory, naming it on failure.
-pub fn create_dir(dir: &Path) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: cannot create directory: {e}", dir.display()))
+pub fn create_dir(dir: &Path) -> CmdResult {
+    std::fs::create_dir_all(dir).map_err(CmdError::io(dir, "cannot create directory"))
 }
 
 /// Runs `f` on a rayon pool of `threads` threads (0 = all cores).
-pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T, String> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(|e| format!("thread pool: {e}"))?;
+pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> CmdResult<T> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().map_err(CmdError::within("thread pool"))?;
     Ok(pool.install(f))
 }
 

@@ -20,7 +20,7 @@
 //! command ends, well or not, the record lists the files the folder then
 //! holds.
 
-use super::{create_dir, lock_run_dir};
+use super::{create_dir, lock_run_dir, CmdError, CmdResult};
 use std::collections::BTreeSet;
 use std::path::{Component, Path, PathBuf};
 
@@ -46,12 +46,12 @@ pub struct OutDir {
 
 /// Every file under `dir` (symbolic links as files, not followed), as
 /// paths relative to it, the record left out.
-fn files(dir: &Path) -> Result<BTreeSet<PathBuf>, String> {
+fn files(dir: &Path) -> CmdResult<BTreeSet<PathBuf>> {
     let mut out = BTreeSet::new();
     let mut todo = vec![PathBuf::new()];
     while let Some(rel) = todo.pop() {
-        let rd =
-            std::fs::read_dir(dir.join(&rel)).map_err(|e| format!("{}: cannot list: {e}", dir.join(&rel).display()))?;
+        let here = dir.join(&rel);
+        let rd = std::fs::read_dir(&here).map_err(CmdError::io(&here, "cannot list"))?;
         for e in rd.filter_map(|e| e.ok()) {
             let p = rel.join(e.file_name());
             match e.file_type() {
@@ -80,9 +80,16 @@ impl OutDir {
     /// Claims `dir` (the value of `flag`) for `command`, which treats its
     /// earlier outputs as `earlier` says; `force` is the command's
     /// `--force` (see the module doc).
-    pub fn claim(dir: &Path, flag: &str, command: &'static str, earlier: Earlier, force: bool) -> Result<Self, String> {
+    pub fn claim(
+        dir: &Path,
+        flag: &'static str,
+        command: &'static str,
+        earlier: Earlier,
+        force: bool,
+    ) -> CmdResult<Self> {
+        let refused = |reason: String| Err(CmdError::Flag { flag, reason });
         if dir.exists() && !dir.is_dir() {
-            return Err(format!("{flag} {}: not a folder", dir.display()));
+            return refused(format!("{}: not a folder", dir.display()));
         }
         create_dir(dir)?;
         let lock = lock_run_dir(dir)?;
@@ -90,9 +97,9 @@ impl OutDir {
         let (owner, ours) = record(dir).unwrap_or_default();
         if let Some(other) = present.iter().find(|p| !ours.contains(*p)) {
             let run = ["model.nerf", "checkpoint.bin", "train.jsonl"].iter().any(|f| other.as_os_str() == *f);
-            return Err(format!(
-                "{flag} {}: holds {}{}, which nerf {command} did not write (no nerf command recorded it, so even \
-                 --force leaves it); give a new or empty folder",
+            return refused(format!(
+                "{}: holds {}{}, which nerf {command} did not write (no nerf command recorded it, so even --force \
+                 leaves it); give a new or empty folder",
                 dir.display(),
                 other.display(),
                 if run { ", a training run's" } else { "" }
@@ -102,8 +109,8 @@ impl OutDir {
         if let (Some(first), true, false) = (present.first(), needs_force, force) {
             let whose =
                 if owner == command { format!("an earlier run of nerf {command}") } else { format!("nerf {owner}") };
-            return Err(format!(
-                "{flag} {}: holds the outputs of {whose} ({} and {} more); give a new or empty folder, or --force to \
+            return refused(format!(
+                "{}: holds the outputs of {whose} ({} and {} more); give a new or empty folder, or --force to \
                  replace them",
                 dir.display(),
                 first.display(),
@@ -113,8 +120,7 @@ impl OutDir {
         // the earlier run's outputs, all of them recorded: gone before the new ones are written
         for p in &present {
             let full = dir.join(p);
-            std::fs::remove_file(&full)
-                .map_err(|e| format!("{}: cannot remove an earlier output: {e}", full.display()))?;
+            std::fs::remove_file(&full).map_err(CmdError::io(&full, "cannot remove an earlier output"))?;
             // the folders that held it, if now empty (a folder holding anything stays)
             for a in p.ancestors().skip(1).filter(|a| !a.as_os_str().is_empty()) {
                 if std::fs::remove_dir(dir.join(a)).is_err() {
@@ -129,7 +135,7 @@ impl OutDir {
     }
 
     /// Records the files the folder now holds as this command's.
-    pub fn write_record(&self) -> Result<(), String> {
+    pub fn write_record(&self) -> CmdResult {
         let mut text = format!("nerf {}\n", self.command);
         for p in files(&self.dir)? {
             text.push_str(&p.to_string_lossy());

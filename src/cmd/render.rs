@@ -3,7 +3,7 @@
 //! colour, the depth as 16-bit PNG in scene units (the step written to
 //! `depth.json`) and as a colour-mapped preview, and the opacity.
 
-use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdResult};
+use super::{decode, load_split, num_in, read_model, with_threads, CaptureArgs, CmdError, CmdResult};
 use nerf_infer::format::Scene;
 use nerf_infer::Orbit;
 use nerf_infer::{Camera, RenderOptions};
@@ -87,16 +87,14 @@ fn save_depth_opacity(out: &Path, name: &str, r: &Rendered, scene: &Scene, step:
         let d = r.depth[(y * r.width + x) as usize];
         image::Luma([(d / step).round().clamp(0.0, 65535.0) as u16])
     });
-    nerf_train::util::atomic::write_png(&path, &d16)
-        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
+    nerf_train::util::atomic::write_png(&path, &d16).map_err(CmdError::io(&path, "cannot write PNG"))?;
     let spacing = |d: f32| scene.unbounded.map_or(d, |u| nerf_infer::unbounded::s_of_t(d, u.linear_until));
     let (near, far) = (spacing(scene.near), spacing(scene.far));
     let preview: Vec<[f32; 3]> =
         r.depth.iter().map(|&d| colour_map(1.0 - (spacing(d) - near) / (far - near))).collect();
-    save_png_rgb(&out.join(format!("{name}_depth_preview.png")), r.width, r.height, &preview)
-        .map_err(|e| e.to_string())?;
+    save_png_rgb(&out.join(format!("{name}_depth_preview.png")), r.width, r.height, &preview)?;
     let grey: Vec<[f32; 3]> = r.opacity.iter().map(|&a| [a; 3]).collect();
-    save_png_rgb(&out.join(format!("{name}_opacity.png")), r.width, r.height, &grey).map_err(|e| e.to_string())
+    Ok(save_png_rgb(&out.join(format!("{name}_opacity.png")), r.width, r.height, &grey)?)
 }
 
 /// A blue → green → yellow → red colour map of `v` in `[0, 1]`.
@@ -118,12 +116,15 @@ pub fn run(a: Args) -> CmdResult {
     if let Some(p) = &a.camera_path {
         // the render writes the expanded path as OUT/camera_path.json: never over the file it reads
         if super::refuse_same_file(&a.out.join("camera_path.json"), "--out", p).is_err() {
-            return Err(format!(
-                "--out {}: would replace the --camera-path file {} with the expanded camera list; choose another \
-                 --out",
-                a.out.display(),
-                p.display()
-            ));
+            return Err(CmdError::Flag {
+                flag: "--out",
+                reason: format!(
+                    "{}: would replace the --camera-path file {} with the expanded camera list; choose another \
+                     --out",
+                    a.out.display(),
+                    p.display()
+                ),
+            });
         }
     }
     let ds = a.capture.downscale_for(&model);
@@ -131,7 +132,11 @@ pub fn run(a: Args) -> CmdResult {
         (_, Some(n), _, _) => {
             let o = Orbit::of(&model);
             let cams = (0..n).map(|k| o.camera(k as f32 / n as f32, a.size, a.size));
-            Some(cams.collect::<Result<_, _>>().map_err(|e| format!("{}: the model's orbit: {e}", a.model.display()))?)
+            let orbit = |e: nerf_infer::Error| CmdError::File {
+                path: a.model.clone(),
+                reason: format!("the model's orbit: {e}"),
+            };
+            Some(cams.collect::<Result<_, _>>().map_err(orbit)?)
         }
         (Some(dir), _, Some(n), _) => {
             // every view: holdout 1 makes the whole capture the test split
@@ -142,7 +147,7 @@ pub fn run(a: Args) -> CmdResult {
             let mut views: Vec<_> = views.into_iter().map(|v| (v.name, v.camera)).collect();
             views.sort_by(|x, y| x.0.cmp(&y.0));
             let cams: Vec<Camera> = views.into_iter().map(|v| v.1).collect();
-            Some(smooth_trajectory(&cams, n, a.size).map_err(|e| format!("{}: {e}", dir.display()))?)
+            Some(smooth_trajectory(&cams, n, a.size).map_err(CmdError::file(dir))?)
         }
         (_, _, _, Some(file)) => Some(read_camera_path(file, a.size)?),
         _ => None,
@@ -161,15 +166,17 @@ pub fn run(a: Args) -> CmdResult {
             data.views.into_iter().map(|v| (v.name.clone(), Box::new(v) as Box<dyn PixelRays>)).collect()
         }
         _ => {
-            return Err("give --data DIR --split S, --orbit N, --data DIR --trajectory N, or --camera-path FILE".into())
+            return Err(CmdError::Usage(
+                "give --data DIR --split S, --orbit N, --data DIR --trajectory N, or --camera-path FILE".into(),
+            ))
         }
     };
     // a frame's size, checked before any is allocated: a camera path's aspect sets its height
     if let Some((name, (w, h))) = cams.iter().map(|(n, c)| (n, c.size())).find(|(_, (w, h))| *w.max(h) > MAX_SIDE) {
-        return Err(format!(
+        return Err(CmdError::Usage(format!(
             "{name}: a frame of {w}×{h} pixels (at most {MAX_SIDE} on a side){}; give a smaller --size",
             if a.camera_path.is_some() { ", from the camera path's aspect and --size" } else { "" }
-        ));
+        )));
     }
     let opts = RenderOptions::from_model(&model);
     let (near, far) = (model.scene.near, model.scene.far);
@@ -180,14 +187,14 @@ pub fn run(a: Args) -> CmdResult {
     // a path's frames are kept for its GIF (RGBA, 4 bytes a pixel): checked before any is rendered
     let gif_bytes = path.as_ref().map_or(0, |p| p.iter().map(|c| 4 * c.width as u64 * c.height as u64).sum::<u64>());
     if gif_bytes > MAX_GIF_BYTES {
-        return Err(format!(
+        return Err(CmdError::Usage(format!(
             "the GIF of {} frames at --size {} would need {:.1} GB in memory (at most {} GB): fewer frames or a smaller \
              --size",
             cams.len(),
             a.size,
             gif_bytes as f64 / 1e9,
             MAX_GIF_BYTES / 1_000_000_000
-        ));
+        )));
     }
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "render", super::outdir::Earlier::Replace, a.force)?;
     // stopped between views: the folder's record names what was written, which the same command replaces
@@ -202,11 +209,14 @@ pub fn run(a: Args) -> CmdResult {
     let mut frames = Vec::new();
     for (k, (name, cam)) in cams.iter().enumerate() {
         if super::interrupt::received() {
-            return Err(format!("interrupted after {k} of {} views; the same command replaces them", cams.len()));
+            return Err(CmdError::Interrupted(format!(
+                "interrupted after {k} of {} views; the same command replaces them",
+                cams.len()
+            )));
         }
-        let r = with_threads(a.threads, || render_view(&model, opts, cam.as_ref()))?
-            .map_err(|e| format!("{}: {e}", a.model.display()))?;
-        save_png_rgb(&a.out.join(format!("{name}.png")), r.width, r.height, &r.rgb).map_err(|e| e.to_string())?;
+        let r =
+            with_threads(a.threads, || render_view(&model, opts, cam.as_ref()))?.map_err(CmdError::file(&a.model))?;
+        save_png_rgb(&a.out.join(format!("{name}.png")), r.width, r.height, &r.rgb)?;
         save_depth_opacity(&a.out, name, &r, &model.scene, step)?;
         if path.is_some() {
             frames.push(gif_frame(&r));
@@ -238,16 +248,18 @@ fn gif_frame(r: &Rendered) -> image::RgbaImage {
     img
 }
 
-fn write_gif(path: &Path, frames: Vec<image::RgbaImage>) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: cannot write GIF: {e}", path.display());
+/// Writes `frames` as an endlessly looping GIF at `path` (80 ms a frame), atomically.
+fn write_gif(path: &Path, frames: Vec<image::RgbaImage>) -> CmdResult {
+    let encoding =
+        |e: image::ImageError| CmdError::File { path: path.to_path_buf(), reason: format!("cannot write GIF: {e}") };
     let mut bytes = Vec::new();
     {
         let mut enc = image::codecs::gif::GifEncoder::new_with_speed(&mut bytes, 10);
-        enc.set_repeat(image::codecs::gif::Repeat::Infinite).map_err(|e| err(&e))?;
+        enc.set_repeat(image::codecs::gif::Repeat::Infinite).map_err(encoding)?;
         for img in frames {
             let frame = image::Frame::from_parts(img, 0, 0, image::Delay::from_numer_denom_ms(80, 1));
-            enc.encode_frame(frame).map_err(|e| err(&e))?;
+            enc.encode_frame(frame).map_err(encoding)?;
         }
     }
-    nerf_train::util::atomic::write(path, &bytes).map_err(|e| err(&e))
+    nerf_train::util::atomic::write(path, &bytes).map_err(CmdError::io(path, "cannot write GIF"))
 }

@@ -3,6 +3,7 @@
 //! `--resume`, lines logged after the checkpoint's step are dropped, since
 //! those steps are trained again.
 
+use super::{CmdError, CmdResult};
 use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -17,8 +18,7 @@ pub struct RunLog {
 impl RunLog {
     /// Opens `path`: emptied for a fresh run (`resume_step` `None`), or
     /// cut back to the lines with `step ≤ resume_step` when resuming.
-    pub fn open(path: &Path, resume_step: Option<u64>) -> Result<Self, String> {
-        let err = |e: std::io::Error| format!("{}: cannot write: {e}", path.display());
+    pub fn open(path: &Path, resume_step: Option<u64>) -> CmdResult<Self> {
         let kept = match resume_step {
             None => String::new(),
             Some(step) => {
@@ -32,17 +32,17 @@ impl RunLog {
                     .collect()
             }
         };
-        nerf_train::util::atomic::write(path, kept.as_bytes()).map_err(err)?;
-        let file = OpenOptions::new().append(true).open(path).map_err(err)?;
+        nerf_train::util::atomic::write(path, kept.as_bytes()).map_err(CmdError::io(path, "cannot write"))?;
+        let file = OpenOptions::new().append(true).open(path).map_err(CmdError::io(path, "cannot write"))?;
         Ok(Self { file, path: path.to_path_buf(), len: kept.len() as u64 })
     }
 
     /// Appends one line; on failure the file is cut back to whole lines.
-    pub fn append(&mut self, v: &serde_json::Value) -> Result<(), String> {
+    pub fn append(&mut self, v: &serde_json::Value) -> CmdResult {
         let line = format!("{v}\n");
         if let Err(e) = self.file.write_all(line.as_bytes()).and_then(|_| self.file.flush()) {
             let _ = self.file.set_len(self.len);
-            return Err(format!("{}: cannot write: {e}", self.path.display()));
+            return Err(CmdError::io(&self.path, "cannot write")(e));
         }
         self.len += line.len() as u64;
         Ok(())

@@ -1,6 +1,6 @@
 //! `nerf scene`: writes the built-in scene as datasets.
 
-use super::{num_in, CmdResult};
+use super::{num_in, CmdError, CmdResult};
 use nerf_train::dataset::synthetic::{write_blender, write_colmap, write_llff, write_llff_room, ColmapText, SceneSpec};
 use std::path::PathBuf;
 
@@ -48,9 +48,11 @@ pub fn run(a: Args) -> CmdResult {
     ];
     for (k, (name, write)) in captures.iter().enumerate() {
         if super::interrupt::received() {
-            return Err(format!("interrupted after {k} of 6 captures; the same command replaces them"));
+            return Err(CmdError::Interrupted(format!(
+                "interrupted after {k} of 6 captures; the same command replaces them"
+            )));
         }
-        write(&a.out.join(name), spec).map_err(|e| e.to_string())?;
+        write(&a.out.join(name), spec)?;
     }
     eprintln!("wrote {} (blender/, llff/, colmap/, colmap_text/, room/, room_llff/)", a.out.display());
     Ok(())

@@ -7,7 +7,9 @@
 //! writes `tradeoff.csv` and `tradeoff.png` (PSNR against µs/ray, Pareto
 //! front marked) and prints the table.
 
-use super::{decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdResult, Split};
+use super::{
+    decode, load_split, num_in, read_model, with_threads, write_atomic, CaptureArgs, CmdError, CmdResult, Split,
+};
 use nerf_infer::{Model, RenderOptions, Scheme};
 use nerf_train::eval::score_view;
 use nerf_train::export::{quantise_with, ActBits, Quantisation};
@@ -119,19 +121,20 @@ pub fn run(a: Args) -> CmdResult {
     let bytes = read_model(&a.model)?;
     let mf = decode(&a.model, &bytes)?;
     if mf.scheme() != Scheme::F32 {
-        return Err(format!("{}: give the f32 model; its int16 and int8 variants are made from it", a.model.display()));
+        return Err(CmdError::File {
+            path: a.model.clone(),
+            reason: "give the f32 model; its int16 and int8 variants are made from it".into(),
+        });
     }
-    let quantised = |scheme, act_bits| {
-        quantise_with(&mf, &Quantisation::new(scheme).with_act_bits(act_bits))
-            .and_then(|m| m.to_bytes().map_err(|e| nerf_train::Error::Export(e.to_string())))
+    let quantised = |scheme, act_bits| -> CmdResult<Vec<u8>> {
+        Ok(quantise_with(&mf, &Quantisation::new(scheme).with_act_bits(act_bits))?.to_bytes()?)
     };
     let (q16, q8, q8a8) = (
         quantised(Scheme::I16, ActBits::A16)?,
         quantised(Scheme::I8, ActBits::A16)?,
         quantised(Scheme::I8, ActBits::A8)?,
     );
-    let decoded = |bytes| Model::from_bytes(bytes).map_err(|e| e.to_string());
-    let (m16, m8, m8a8) = (decoded(&q16)?, decoded(&q8)?, decoded(&q8a8)?);
+    let (m16, m8, m8a8) = (Model::from_bytes(&q16)?, Model::from_bytes(&q8)?, Model::from_bytes(&q8a8)?);
     let downscale = a.capture.downscale_for(&mf);
     let capture = a.capture.for_model(&mf, &a.model)?;
     let data = load_split(&a.data, a.split, downscale, capture)?;
@@ -162,8 +165,7 @@ pub fn run(a: Args) -> CmdResult {
             };
             let mut secs = 0.0;
             for v in views {
-                let (r, s) =
-                    with_threads(1, || score_view(model, opts, v))?.map_err(|e| format!("{}: {e}", k.label()))?;
+                let (r, s) = with_threads(1, || score_view(model, opts, v))?.map_err(CmdError::within(k.label()))?;
                 secs += r.secs_per_ray;
                 if rep == 0 {
                     let n = views.len() as f64;

@@ -6,7 +6,7 @@
 //! element `#result`, C being the CRC-32 of the frame's RGB bytes, which
 //! `nerf render MODEL --orbit 1 --size 64` writes as PNG.
 
-use super::{create_dir, decode, read_model, write_atomic, CmdResult};
+use super::{create_dir, decode, read_model, write_atomic, CmdError, CmdResult};
 use nerf_infer::Orbit;
 use std::path::PathBuf;
 
@@ -32,16 +32,18 @@ const CHECK_SIZE: u32 = 64;
 
 /// The WebAssembly module, built by build.rs.
 #[cfg(web_viewer)]
-fn module() -> Result<&'static [u8], String> {
+fn module() -> CmdResult<&'static [u8]> {
     Ok(include_bytes!(concat!(env!("OUT_DIR"), "/nerf_web.wasm")))
 }
 
 #[cfg(not(web_viewer))]
-fn module() -> Result<&'static [u8], String> {
-    Err("this nerf binary was built without the browser viewer (the wasm32-unknown-unknown target was not \
+fn module() -> CmdResult<&'static [u8]> {
+    Err(CmdError::Usage(
+        "this nerf binary was built without the browser viewer (the wasm32-unknown-unknown target was not \
          installed): run `rustup target add wasm32-unknown-unknown`, then `cargo build --release` (or `cargo install \
          --path .`) again; the build notices the new target"
-        .into())
+            .into(),
+    ))
 }
 
 /// Runs `nerf web`.
@@ -52,8 +54,9 @@ pub fn run(a: Args) -> CmdResult {
     let m = decode(&a.model, &bytes)?;
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "web", super::outdir::Earlier::Replace, a.force)?;
     let o = Orbit::of(&m);
-    let cam =
-        o.camera(0.0, CHECK_SIZE, CHECK_SIZE).map_err(|e| format!("{}: the model's orbit: {e}", a.model.display()))?;
+    let cam = o
+        .camera(0.0, CHECK_SIZE, CHECK_SIZE)
+        .map_err(|e| CmdError::File { path: a.model.clone(), reason: format!("the model's orbit: {e}") })?;
     // fx fy cx cy, then [R | t] row by row
     let r = cam.rotation.transpose();
     let mut values = vec![cam.fx, cam.fy, cam.cx, cam.cy];

@@ -5,21 +5,23 @@
 use nerf_train::dataset::capture::CaptureView;
 use nerf_train::dataset::colmap::colmap_views;
 use nerf_train::dataset::reconstructions::choose_model;
+use std::error::Error;
 use std::path::Path;
 
 /// The cameras and sparse points of the COLMAP capture `src` (its model
 /// with the most registered photos), each photo linked into `out/images/`
 /// (`out`, which must not exist, is made; removed again if a link
 /// fails); returns the model's folder too.
-pub fn read_and_link(src: &Path, out: &Path) -> Result<(Vec<CaptureView>, Vec<glam::DVec3>, String), String> {
+#[allow(clippy::type_complexity)]
+pub fn read_and_link(src: &Path, out: &Path) -> Result<(Vec<CaptureView>, Vec<glam::DVec3>, String), Box<dyn Error>> {
     if out.exists() {
-        return Err(format!("{}: already exists; name a new folder", out.display()));
+        return Err(format!("{}: already exists; name a new folder", out.display()).into());
     }
-    let (model_dir, note) = choose_model(src, None).map_err(|e| e.to_string())?;
+    let (model_dir, note) = choose_model(src, None)?;
     if let Some(note) = note {
         eprintln!("note: {note}");
     }
-    let (views, points) = colmap_views(src, &model_dir).map_err(|e| e.to_string())?;
+    let (views, points) = colmap_views(src, &model_dir)?;
     let images = out.join("images");
     std::fs::create_dir_all(&images).map_err(|e| format!("{}: {e}", images.display()))?;
     let linked = views.iter().try_for_each(|v| {
@@ -33,7 +35,7 @@ pub fn read_and_link(src: &Path, out: &Path) -> Result<(Vec<CaptureView>, Vec<gl
 
 /// `written`, having removed `out` (made by [`read_and_link`]) if it
 /// failed, so that a rerun finds no half-written folder.
-pub fn or_remove(out: &Path, written: Result<(), String>) -> Result<(), String> {
+pub fn or_remove<E>(out: &Path, written: Result<(), E>) -> Result<(), E> {
     if written.is_err() {
         let _ = std::fs::remove_dir_all(out);
     }
@@ -42,12 +44,12 @@ pub fn or_remove(out: &Path, written: Result<(), String>) -> Result<(), String> 
 
 /// Links `at` to `target` (Unix only; elsewhere an error naming `at`).
 #[cfg(unix)]
-fn link(target: &Path, at: &Path) -> Result<(), String> {
-    std::os::unix::fs::symlink(target, at).map_err(|e| format!("{}: {e}", at.display()))
+fn link(target: &Path, at: &Path) -> Result<(), Box<dyn Error>> {
+    std::os::unix::fs::symlink(target, at).map_err(|e| format!("{}: {e}", at.display()).into())
 }
 
 /// Links `at` to `target` (Unix only; elsewhere an error naming `at`).
 #[cfg(not(unix))]
-fn link(_: &Path, at: &Path) -> Result<(), String> {
-    Err(format!("{}: symbolic links need a Unix system", at.display()))
+fn link(_: &Path, at: &Path) -> Result<(), Box<dyn Error>> {
+    Err(format!("{}: symbolic links need a Unix system", at.display()).into())
 }

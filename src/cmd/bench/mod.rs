@@ -9,7 +9,7 @@
 //! not yet done as a task of its own (a child process, so each scene's peak
 //! memory is its own and a crash is one failed row), then gathers.
 
-use super::{num_in, CmdResult};
+use super::{num_in, CmdError, CmdResult};
 use nerf_train::config::Preset;
 use std::path::PathBuf;
 
@@ -71,19 +71,22 @@ pub fn run(a: Args) -> CmdResult {
     if a.list {
         return list(&a);
     }
-    let out = a.out.clone().ok_or("--out is required")?;
+    let out = a.out.clone().ok_or(CmdError::Flag { flag: "--out", reason: "is required".into() })?;
     if a.gather {
         let settings = Settings::read(&out)?;
         return table::gather(&settings, &out);
     }
     if a.minutes.is_none() && a.iters.is_none() {
-        return Err("give a training budget per scene: --minutes or --iters".into());
+        return Err(CmdError::Usage("give a training budget per scene: --minutes or --iters".into()));
     }
     super::refuse_inside(&out, "--out", &a.suite)?;
     let settings = Settings::from_args(&a)?;
     let n = settings.scenes.len();
     if let Some(i) = a.task.filter(|&i| i >= n) {
-        return Err(format!("--task {i}: the suite {} has {n} scenes (tasks 0 to {})", a.suite.display(), n - 1));
+        return Err(CmdError::Flag {
+            flag: "--task",
+            reason: format!("{i}: the suite {} has {n} scenes (tasks 0 to {})", a.suite.display(), n - 1),
+        });
     }
     settings.claim(&out)?;
     match a.task {
@@ -116,14 +119,16 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
     // on Linux the running binary itself, even if a rebuild has replaced its file since
     let exe = match std::path::Path::new("/proc/self/exe") {
         p if cfg!(target_os = "linux") && p.exists() => p.to_path_buf(),
-        _ => std::env::current_exe().map_err(|e| format!("cannot find this program to run its tasks: {e}"))?,
+        _ => std::env::current_exe().map_err(CmdError::within("cannot find this program to run its tasks"))?,
     };
     // `bench` first, then `--task I`, then the rest as given (a `--` among them stays last)
     let args: Vec<std::ffi::OsString> = std::env::args_os().skip(1).collect();
     let at = args.iter().position(|a| a == "bench").map_or(0, |i| i + 1);
     super::interrupt::forward_to(0);
     let interrupted = |name: &str| {
-        Err(format!("interrupted during scene {name}: the same command resumes the suite where it stopped"))
+        Err(CmdError::Interrupted(format!(
+            "interrupted during scene {name}: the same command resumes the suite where it stopped"
+        )))
     };
     let n = settings.scenes.len();
     for (i, s) in settings.scenes.iter().enumerate() {
@@ -141,7 +146,7 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
         cmd.args(&task_args);
         #[cfg(unix)]
         std::os::unix::process::CommandExt::process_group(&mut cmd, 0);
-        let mut child = cmd.spawn().map_err(|e| format!("cannot start task {i} ({}): {e}", exe.display()))?;
+        let mut child = cmd.spawn().map_err(CmdError::within(format!("cannot start task {i} ({})", exe.display())))?;
         super::interrupt::forward_to(child.id());
         // an interrupt between the start and the line above was counted but not passed on
         if super::interrupt::received() {
@@ -151,7 +156,7 @@ fn sequential(settings: &Settings, out: &std::path::Path) -> CmdResult {
                 libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
             }
         }
-        let status = child.wait().map_err(|e| format!("task {i}: {e}"))?;
+        let status = child.wait().map_err(CmdError::within(format!("task {i}")))?;
         super::interrupt::forward_to(0);
         if super::interrupt::received() {
             return interrupted(&s.name);

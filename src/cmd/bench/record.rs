@@ -5,6 +5,7 @@
 
 use super::suite::{self, Scene};
 use super::Args;
+use crate::cmd::{CmdError, CmdResult};
 use std::path::{Path, PathBuf};
 
 /// The record's file name in the output folder.
@@ -31,7 +32,7 @@ pub struct Settings {
 
 impl Settings {
     /// The settings of a run with `a`'s flags (its scenes discovered now).
-    pub fn from_args(a: &Args) -> Result<Self, String> {
+    pub fn from_args(a: &Args) -> CmdResult<Self> {
         let config = match &a.config {
             Some(p) => {
                 let text =
@@ -55,21 +56,24 @@ impl Settings {
     }
 
     /// Reads the record of the bench in `out` (for `--gather`).
-    pub fn read(out: &Path) -> Result<Self, String> {
+    pub fn read(out: &Path) -> CmdResult<Self> {
         let path = out.join(RECORD);
         if !path.is_file() {
-            return Err(format!(
-                "{}: no bench has run here (no {RECORD}): run `nerf bench SUITE --out {}` or its --task I first",
-                out.display(),
-                crate::cmd::shell_quote(out)
-            ));
+            return Err(CmdError::File {
+                path: out.to_path_buf(),
+                reason: format!(
+                    "no bench has run here (no {RECORD}): run `nerf bench SUITE --out {}` or its --task I first",
+                    crate::cmd::shell_quote(out)
+                ),
+            });
         }
         let text =
             nerf_train::util::userfile::read_user_text(&path, nerf_train::util::userfile::MAX_JSON, "bench record")?;
-        let s: Self =
-            serde_json::from_str(&text).map_err(|e| format!("{}: not a bench record: {e}", path.display()))?;
+        let not_a_record =
+            |why: String| CmdError::File { path: path.clone(), reason: format!("not a bench record: {why}") };
+        let s: Self = serde_json::from_str(&text).map_err(|e| not_a_record(e.to_string()))?;
         if s.scenes.is_empty() {
-            return Err(format!("{}: not a bench record: it names no scene", path.display()));
+            return Err(not_a_record("it names no scene".into()));
         }
         Ok(s)
     }
@@ -78,34 +82,39 @@ impl Settings {
     /// or checks the record already there. Refuses a folder that holds
     /// files and no record (not a bench's), and a record of other scenes
     /// or flags, naming what differs.
-    pub fn claim(&self, out: &Path) -> Result<(), String> {
+    pub fn claim(&self, out: &Path) -> CmdResult {
         super::super::create_dir(out)?;
         let path = out.join(RECORD);
         if !path.exists() {
             // a folder of someone else's: refused; what tasks starting at the same time write is not someone else's
             let foreign = std::fs::read_dir(out)
-                .map_err(|e| format!("{}: cannot list: {e}", out.display()))?
+                .map_err(CmdError::io(out, "cannot list"))?
                 .filter_map(|e| e.ok())
                 .map(|e| e.file_name().to_string_lossy().into_owned())
                 .find(|n| n != RECORD && n != "scenes" && !n.starts_with(".tmp"));
             if let Some(f) = foreign {
-                return Err(format!(
-                    "--out {}: holds {f} and no {RECORD}: not a bench's folder; choose an empty or new one",
-                    out.display()
-                ));
+                return Err(CmdError::Flag {
+                    flag: "--out",
+                    reason: format!(
+                        "{}: holds {f} and no {RECORD}: not a bench's folder; choose an empty or new one",
+                        out.display()
+                    ),
+                });
             }
-            let text = serde_json::to_string_pretty(self).map_err(|e| e.to_string())?;
+            let text = serde_json::to_string_pretty(self)?;
             // of tasks starting together exactly one writes the record, whole; the others compare with it
-            nerf_train::util::atomic::write_new(&path, text.as_bytes())
-                .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+            nerf_train::util::atomic::write_new(&path, text.as_bytes()).map_err(CmdError::io(&path, "cannot write"))?;
         }
         let there = Self::read(out)?;
         match self.difference(&there) {
             None => Ok(()),
-            Some(d) => Err(format!(
-                "--out {}: holds a bench run {d}; rerun with its flags to resume it, or choose another --out",
-                out.display()
-            )),
+            Some(d) => Err(CmdError::Flag {
+                flag: "--out",
+                reason: format!(
+                    "{}: holds a bench run {d}; rerun with its flags to resume it, or choose another --out",
+                    out.display()
+                ),
+            }),
         }
     }
 

@@ -3,7 +3,7 @@
 //! on one core with early termination at 10⁻³ transmittance.
 
 use super::suite::Scene;
-use crate::cmd::{decode, load_split, read_model, with_threads, CaptureArgs};
+use crate::cmd::{decode, load_split, read_model, with_threads, CaptureArgs, CmdError, CmdResult};
 use nerf_infer::RenderOptions;
 use nerf_train::dataset::Dataset;
 use nerf_train::eval::{render_view, score_rendered};
@@ -32,24 +32,27 @@ pub struct Scores {
 }
 
 /// The views `scene` is scored on, at its protocol.
-pub fn load_scored(scene: &Scene) -> Result<Dataset, String> {
+pub fn load_scored(scene: &Scene) -> CmdResult<Dataset> {
     let capture = CaptureArgs { downscale: Some(scene.downscale), ..CaptureArgs::default() };
     let data = load_split(&scene.dir, scene.scored_split(), scene.downscale, capture)?;
     if data.views.is_empty() {
-        return Err(format!("{}: no {} views to score", scene.dir.display(), scene.scored_split().name()));
+        return Err(CmdError::File {
+            path: scene.dir.clone(),
+            reason: format!("no {} views to score", scene.scored_split().name()),
+        });
     }
     Ok(data)
 }
 
 /// Scores the model in `path` on `data`; writes its render of the first
 /// view beside the photo into `first` (PNG) if given.
-pub fn score(path: &Path, data: &Dataset, threads: usize, first: Option<&Path>) -> Result<Scores, String> {
+pub fn score(path: &Path, data: &Dataset, threads: usize, first: Option<&Path>) -> CmdResult<Scores> {
     let bytes = read_model(path)?;
     let model = decode(path, &bytes)?;
-    let err = |e: nerf_infer::Error| format!("{}: {e}", path.display());
+    let err = |e: nerf_infer::Error| CmdError::file(path)(e);
     let pb = crate::cmd::progress(data.views.len() as u64, "scoring {bar:30} {pos}/{len} views ({eta})");
     let (mut psnr, mut ssim) = (0.0, 0.0);
-    with_threads(threads, || -> Result<(), String> {
+    with_threads(threads, || -> CmdResult {
         for (i, v) in data.views.iter().enumerate() {
             let r = render_view(&model, RenderOptions::from_model(&model), v).map_err(err)?;
             let s = score_rendered(&r, v);
@@ -64,7 +67,7 @@ pub fn score(path: &Path, data: &Dataset, threads: usize, first: Option<&Path>) 
     pb.finish_and_clear();
     let mut opts = RenderOptions::from_model(&model);
     opts.early_stop = TIMED_EARLY_STOP;
-    let timed = with_threads(1, || -> Result<Vec<(f64, f64)>, String> {
+    let timed = with_threads(1, || -> CmdResult<Vec<(f64, f64)>> {
         let views = &data.views[..TIMED_VIEWS.min(data.views.len())];
         views
             .iter()
@@ -85,12 +88,13 @@ pub fn score(path: &Path, data: &Dataset, threads: usize, first: Option<&Path>) 
 }
 
 /// Writes the render (left) and the photo (right) of one view as one PNG.
-fn side_by_side(path: &Path, w: u32, h: u32, render: &[[f32; 3]], photo: &[[f32; 3]]) -> Result<(), String> {
+fn side_by_side(path: &Path, w: u32, h: u32, render: &[[f32; 3]], photo: &[[f32; 3]]) -> CmdResult {
     let (wu, hu) = (w as usize, h as usize);
     let mut rgb = vec![[0.0f32; 3]; 2 * wu * hu];
     for y in 0..hu {
         rgb[2 * y * wu..2 * y * wu + wu].copy_from_slice(&render[y * wu..(y + 1) * wu]);
         rgb[2 * y * wu + wu..2 * (y + 1) * wu].copy_from_slice(&photo[y * wu..(y + 1) * wu]);
     }
-    nerf_train::dataset::save_png_rgb(path, 2 * w, h, &rgb).map_err(|e| format!("{}: {e}", path.display()))
+    // the data error names the file
+    Ok(nerf_train::dataset::save_png_rgb(path, 2 * w, h, &rgb)?)
 }

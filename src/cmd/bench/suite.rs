@@ -6,6 +6,7 @@
 //! ordered by folder name (byte order): that order numbers the tasks of
 //! `--task`.
 
+use crate::cmd::{CmdError, CmdResult};
 use nerf_train::dataset::{detect, Format};
 use std::path::{Path, PathBuf};
 
@@ -121,17 +122,20 @@ fn scene_at(dir: &Path, name: String, capture_downscale: u32) -> Option<Scene> {
 /// subfolders that hold a scene, or the folder itself if it is one.
 /// Captures are run at `capture_downscale`. Fails naming the folder when
 /// it holds no scene.
-pub fn discover(suite: &Path, capture_downscale: u32) -> Result<Vec<Scene>, String> {
+pub fn discover(suite: &Path, capture_downscale: u32) -> CmdResult<Vec<Scene>> {
     let abs = std::path::absolute(suite).unwrap_or_else(|_| suite.to_path_buf());
     if !abs.is_dir() {
-        return Err(format!("{}: no such folder (SUITE is a folder of scenes, or one scene)", suite.display()));
+        return Err(CmdError::File {
+            path: suite.to_path_buf(),
+            reason: "no such folder (SUITE is a folder of scenes, or one scene)".into(),
+        });
     }
     let own_name = abs.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
     if let Some(s) = scene_at(&abs, own_name, capture_downscale) {
         return Ok(vec![s]);
     }
     let mut dirs: Vec<(String, PathBuf)> = std::fs::read_dir(&abs)
-        .map_err(|e| format!("{}: cannot list: {e}", suite.display()))?
+        .map_err(CmdError::io(suite, "cannot list"))?
         .filter_map(|e| e.ok())
         .filter(|e| e.path().is_dir())
         .map(|e| (e.file_name().to_string_lossy().into_owned(), e.path()))
@@ -140,11 +144,12 @@ pub fn discover(suite: &Path, capture_downscale: u32) -> Result<Vec<Scene>, Stri
     dirs.sort();
     let scenes: Vec<Scene> = dirs.into_iter().filter_map(|(n, p)| scene_at(&p, n, capture_downscale)).collect();
     if scenes.is_empty() {
-        return Err(format!(
-            "{}: no scene found: neither the folder nor a subfolder holds transforms_train.json (Blender), \
-             poses_bounds.npy (LLFF), transforms.json (instant-ngp, nerfstudio) or a COLMAP sparse model",
-            suite.display()
-        ));
+        return Err(CmdError::File {
+            path: suite.to_path_buf(),
+            reason: "no scene found: neither the folder nor a subfolder holds transforms_train.json (Blender), \
+                     poses_bounds.npy (LLFF), transforms.json (instant-ngp, nerfstudio) or a COLMAP sparse model"
+                .into(),
+        });
     }
     Ok(scenes)
 }

@@ -5,7 +5,7 @@
 
 use super::task::{read_row, Row};
 use super::Settings;
-use crate::cmd::{write_atomic, CmdResult};
+use crate::cmd::{write_atomic, CmdError, CmdResult};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -71,22 +71,24 @@ pub fn gather(settings: &Settings, out: &Path) -> CmdResult {
             }
             Some(Err(e)) => {
                 failed.push(format!("task {i} ({}): {e}", s.name));
-                rows.push(Row { error: Some(e), ..Row::of(s, i) });
+                rows.push(Row { error: Some(e.to_string()), ..Row::of(s, i) });
             }
             None => missing.push(format!("task {i} ({})", s.name)),
         }
     }
     if rows.is_empty() {
-        return Err(format!(
-            "{}: no task has left a result yet ({} scenes; none of {}/NAME/result.json exists)",
-            out.display(),
-            settings.scenes.len(),
-            out.join("scenes").display()
-        ));
+        return Err(CmdError::File {
+            path: out.to_path_buf(),
+            reason: format!(
+                "no task has left a result yet ({} scenes; none of {}/NAME/result.json exists)",
+                settings.scenes.len(),
+                out.join("scenes").display()
+            ),
+        });
     }
     write_atomic(&out.join("table.md"), markdown(settings, &rows, &missing).as_bytes())?;
     write_atomic(&out.join("table.csv"), csv(&rows).as_bytes())?;
-    let json = serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?;
+    let json = serde_json::to_string_pretty(&rows)?;
     write_atomic(&out.join("table.json"), json.as_bytes())?;
     let panels: Vec<nerf_train::plot::Panel> = rows
         .iter()
@@ -96,8 +98,7 @@ pub fn gather(settings: &Settings, out: &Path) -> CmdResult {
             reference: r.published.map(|p| p.0),
         })
         .collect();
-    nerf_train::plot::panels(&out.join("psnr_minutes.png"), "PSNR (dB) against training minutes", &panels)
-        .map_err(|e| e.to_string())?;
+    nerf_train::plot::panels(&out.join("psnr_minutes.png"), "PSNR (dB) against training minutes", &panels)?;
     for m in &missing {
         eprintln!("warning: {m}: no result yet (not run, or stopped before it finished)");
     }
@@ -109,12 +110,12 @@ pub fn gather(settings: &Settings, out: &Path) -> CmdResult {
     if failed.is_empty() && missing.is_empty() {
         return Ok(());
     }
-    Err(format!(
+    Err(CmdError::Unreached(format!(
         "{} of {n} scenes failed, {} have no result yet (named above); {} holds the rest",
         failed.len(),
         missing.len(),
         out.join("table.md").display()
-    ))
+    )))
 }
 
 /// `x` with `d` decimals, or blank.

@@ -4,7 +4,7 @@
 use super::score::{self, Scores};
 use super::suite::{self, Scene};
 use super::Settings;
-use crate::cmd::{export, train, CmdResult};
+use crate::cmd::{export, train, CmdError, CmdResult};
 use nerf_train::train::Trainer;
 use std::path::{Path, PathBuf};
 
@@ -77,10 +77,10 @@ pub fn scene_dir(out: &Path, scene: &Scene) -> PathBuf {
 }
 
 /// The row a task left for `scene` in `out`, if any.
-pub fn read_row(out: &Path, scene: &Scene) -> Option<Result<Row, String>> {
+pub fn read_row(out: &Path, scene: &Scene) -> Option<CmdResult<Row>> {
     let path = scene_dir(out, scene).join(RESULT);
     let text = std::fs::read_to_string(&path).ok()?;
-    Some(serde_json::from_str(&text).map_err(|e| format!("{}: not a result: {e}", path.display())))
+    Some(serde_json::from_str(&text).map_err(|e| CmdError::File { path, reason: format!("not a result: {e}") }))
 }
 
 /// Whether `scene`'s task finished without error.
@@ -93,19 +93,25 @@ pub fn done(out: &Path, scene: &Scene) -> bool {
 /// a failed row naming the error if any step fails (and the task fails).
 pub fn run(settings: &Settings, index: usize, out: &Path, threads: usize) -> CmdResult {
     let n = settings.scenes.len();
-    let scene = settings.scenes.get(index).ok_or_else(|| {
-        format!("--task {index}: the suite {} has {n} scenes (tasks 0 to {})", settings.suite.display(), n.max(1) - 1)
+    let scene = settings.scenes.get(index).ok_or_else(|| CmdError::Flag {
+        flag: "--task",
+        reason: format!("{index}: the suite {} has {n} scenes (tasks 0 to {})", settings.suite.display(), n.max(1) - 1),
     })?;
     let dir = scene_dir(out, scene);
     super::super::create_dir(&dir)?;
     let _lock = lock(&dir.join(LOCK)).map_err(|e| match e {
-        Locked::Busy => {
-            format!("--task {index} (scene {}): another process is running this task in {}", scene.name, dir.display())
-        }
-        Locked::Failed(e) => format!(
-            "{}: cannot lock: {e} (the output folder's file system must support POSIX locks, as NFS does)",
-            dir.join(LOCK).display()
-        ),
+        Locked::Busy => CmdError::Flag {
+            flag: "--task",
+            reason: format!(
+                "{index} (scene {}): another process is running this task in {}",
+                scene.name,
+                dir.display()
+            ),
+        },
+        Locked::Failed(e) => CmdError::File {
+            path: dir.join(LOCK),
+            reason: format!("cannot lock: {e} (the output folder's file system must support POSIX locks, as NFS does)"),
+        },
     })?;
     if done(out, scene) {
         eprintln!("task {index} (scene {}): done before, kept ({})", scene.name, dir.join(RESULT).display());
@@ -124,11 +130,11 @@ pub fn run(settings: &Settings, index: usize, out: &Path, threads: usize) -> Cmd
         (a, b) => a.or(b),
     };
     if let Err(e) = &result {
-        row.error = Some(e.clone());
+        row.error = Some(e.to_string());
     }
-    let text = serde_json::to_string_pretty(&row).map_err(|e| e.to_string())?;
+    let text = serde_json::to_string_pretty(&row)?;
     super::super::write_atomic(&dir.join(RESULT), text.as_bytes())?;
-    result.map_err(|e| format!("scene {}: {e}", scene.name))
+    result.map_err(CmdError::within(format!("scene {}", scene.name)))
 }
 
 /// Writes a failed row for task `index` (`scene`) that ended with `status`
@@ -148,7 +154,7 @@ pub fn record_crash(out: &Path, scene: &Scene, index: usize, status: std::proces
         _ => return Ok(()),
     };
     let row = Row { error: Some(format!("the task {why}")), ..Row::of(scene, index) };
-    let text = serde_json::to_string_pretty(&row).map_err(|e| e.to_string())?;
+    let text = serde_json::to_string_pretty(&row)?;
     super::super::write_atomic(&scene_dir(out, scene).join(RESULT), text.as_bytes())
 }
 
@@ -156,15 +162,17 @@ pub fn record_crash(out: &Path, scene: &Scene, index: usize, status: std::proces
 fn run_scene(settings: &Settings, scene: &Scene, dir: &Path, threads: usize, row: &mut Row) -> CmdResult {
     let run = dir.join("run");
     let ckpt = run.join("checkpoint.bin");
-    let read_trainer = || -> Result<Trainer, String> {
+    let read_trainer = || -> CmdResult<Trainer> {
         let b = nerf_train::util::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
-        Trainer::from_bytes(&b).map_err(|e| {
-            format!("{}: {e}; remove {} to train this scene from the start", ckpt.display(), run.display())
+        Trainer::from_bytes(&b).map_err(|e| CmdError::File {
+            path: ckpt.clone(),
+            reason: format!("{e}; remove {} to train this scene from the start", run.display()),
         })
     };
     let stopped = || {
-        crate::cmd::interrupt::received()
-            .then(|| "interrupted: the same nerf bench command (or its --task) resumes it".to_string())
+        crate::cmd::interrupt::received().then(|| {
+            CmdError::Interrupted("interrupted: the same nerf bench command (or its --task) resumes it".into())
+        })
     };
     let finished = |tr: &Trainer| match (settings.iters, settings.minutes) {
         (Some(n), _) => tr.step >= n,
@@ -177,7 +185,8 @@ fn run_scene(settings: &Settings, scene: &Scene, dir: &Path, threads: usize, row
         a.minutes = settings.minutes;
         a.iters = settings.iters;
         a.capture.downscale = Some(scene.downscale);
-        a.preset = settings.preset.as_deref().map(|p| clap::ValueEnum::from_str(p, false)).transpose()?;
+        let preset = settings.preset.as_deref().map(|p| clap::ValueEnum::from_str(p, false));
+        a.preset = preset.transpose().map_err(CmdError::Usage)?;
         a.config = settings.config.as_ref().map(|(p, _)| p.clone());
         a.seed = settings.seed;
         a.threads = threads;

@@ -10,7 +10,7 @@
 //! or interrupted capture leaves nothing behind but COLMAP's log, in the
 //! system's temporary folder.
 
-use super::{lock_run_dir, num_in, refuse_inside, shell_quote, CmdResult};
+use super::{lock_run_dir, num_in, refuse_inside, shell_quote, CmdError, CmdResult};
 use nerf_train::dataset::colmap_io::read_model;
 use nerf_train::dataset::reconstructions::{choose_model, numbered_models, registered_images};
 use std::path::{Path, PathBuf};
@@ -78,17 +78,23 @@ pub fn run(a: Args) -> CmdResult {
     let input = a.photos.as_ref().or(a.video.as_ref()).expect("clap requires one");
     if let Some(p) = &a.photos {
         if !p.is_dir() {
-            return Err(format!("--photos {}: not a folder of photos", p.display()));
+            return Err(CmdError::Flag {
+                flag: "--photos",
+                reason: format!("{}: not a folder of photos", p.display()),
+            });
         }
         refuse_inside(&a.out, "--out", p)?;
     } else if !input.is_file() {
-        return Err(format!("--video {}: no such file", input.display()));
+        return Err(CmdError::Flag { flag: "--video", reason: format!("{}: no such file", input.display()) });
     }
     if a.matcher == Matcher::VocabTree && a.vocab_tree.is_none() {
-        return Err("--matcher vocab-tree: give the tree file with --vocab-tree FILE".into());
+        return Err(CmdError::Flag {
+            flag: "--matcher",
+            reason: "vocab-tree: give the tree file with --vocab-tree FILE".into(),
+        });
     }
     if let Some(t) = a.vocab_tree.as_ref().filter(|t| !t.is_file()) {
-        return Err(format!("--vocab-tree {}: no such file", t.display()));
+        return Err(CmdError::Flag { flag: "--vocab-tree", reason: format!("{}: no such file", t.display()) });
     }
     // absolute: the frames' stage runs in another folder
     let out = output_folder(&a.out)?;
@@ -103,11 +109,14 @@ pub fn run(a: Args) -> CmdResult {
             if s.photos.len() < 3 {
                 let skipped = s.skipped();
                 let skipped = if skipped.is_empty() { String::new() } else { format!(" (skipped: {skipped})") };
-                return Err(format!(
-                    "--photos {}: {} readable JPEG or PNG photos{skipped}; COLMAP needs at least 3 (50 to 200 is usual)",
-                    p.display(),
-                    s.photos.len()
-                ));
+                return Err(CmdError::Flag {
+                    flag: "--photos",
+                    reason: format!(
+                        "{}: {} readable JPEG or PNG photos{skipped}; COLMAP needs at least 3 (50 to 200 is usual)",
+                        p.display(),
+                        s.photos.len()
+                    ),
+                });
             }
             if !a.camera_per_photo {
                 s.one_size("--photos", p)?;
@@ -120,8 +129,7 @@ pub fn run(a: Args) -> CmdResult {
     let mut partial = Partial::claim(&out)?;
     let work = partial.work.clone();
     let log_path = partial.log();
-    let mut log =
-        std::fs::File::create(&log_path).map_err(|e| format!("{}: cannot create: {e}", log_path.display()))?;
+    let mut log = std::fs::File::create(&log_path).map_err(CmdError::io(&log_path, "cannot create"))?;
     let t0 = Instant::now();
     let mut times = Vec::new();
 
@@ -151,8 +159,10 @@ pub fn run(a: Args) -> CmdResult {
             stage::run(ff, &args, Some(&images), "frames", &mut log).map_err(|e| partial.fail(e))?;
             let frames = photos::survey(&images, "frames").map(|s| s.photos.len()).unwrap_or(0);
             if frames < 3 {
-                return Err(partial
-                    .fail(format!("{}: {frames} frames; COLMAP needs at least 3 (raise --fps)", input.display())));
+                return Err(partial.fail(CmdError::File {
+                    path: input.clone(),
+                    reason: format!("{frames} frames; COLMAP needs at least 3 (raise --fps)"),
+                }));
             }
             (frames, true)
         }
@@ -186,10 +196,13 @@ pub fn run(a: Args) -> CmdResult {
     stage_ok(run_colmap(&extract, "features", &mut log), &log)?;
     if std::fs::metadata(&db).map(|m| m.len() == 0).unwrap_or(true) {
         return stage_ok(
-            Err(format!(
-                "--colmap {}: feature_extractor ended well but wrote no database; is it COLMAP?",
-                a.colmap.display()
-            )),
+            Err(CmdError::Flag {
+                flag: "--colmap",
+                reason: format!(
+                    "{}: feature_extractor ended well but wrote no database; is it COLMAP?",
+                    a.colmap.display()
+                ),
+            }),
             &log,
         );
     }
@@ -238,20 +251,23 @@ pub fn run(a: Args) -> CmdResult {
         os("--output_path"),
         sparse.into(),
     ];
-    let mapped = run_colmap(&mapper, "mapper", &mut log).map_err(|e| format!("{e}; {}", stage::diagnose(&log_path)));
+    let mapped =
+        run_colmap(&mapper, "mapper", &mut log).map_err(|e| e.noted(format!("; {}", stage::diagnose(&log_path))));
     stage_ok(mapped, &log)?;
     times.push(("mapper", stage.elapsed().as_secs_f64()));
 
     // every reconstruction, the one chosen first
     let models = numbered_models(&work);
     if models.is_empty() {
-        return stage_ok(Err(format!("COLMAP registered no photos: {}", stage::diagnose(&log_path))), &log);
+        let registered_none =
+            CmdError::Program { stage: "COLMAP registered no photos".into(), reason: stage::diagnose(&log_path) };
+        return stage_ok(Err(registered_none), &log);
     }
     let mut lines = Vec::new();
-    let mut summary = || -> Result<(), String> {
-        let (chosen, _) = choose_model(&work, None).map_err(|e| e.to_string())?;
+    let mut summary = || -> CmdResult {
+        let (chosen, _) = choose_model(&work, None)?;
         for (k, dir) in &models {
-            let n = registered_images(dir).map_err(|e| e.to_string())?;
+            let n = registered_images(dir)?;
             let err = mean_reprojection_error(dir)?;
             let mark = if *dir == chosen { " (nerf train loads this one)" } else { "" };
             lines.push(format!(
@@ -276,23 +292,27 @@ pub fn run(a: Args) -> CmdResult {
 /// `--out` as the capture is renamed onto: a symbolic link is followed to
 /// its folder (the link is kept); refused if it holds anything, or if it
 /// is a link to nothing.
-fn output_folder(out: &Path) -> Result<PathBuf, String> {
+fn output_folder(out: &Path) -> CmdResult<PathBuf> {
+    let refused = |reason: String| CmdError::Flag { flag: "--out", reason };
     let is_link = std::fs::symlink_metadata(out).map(|m| m.file_type().is_symlink()).unwrap_or(false);
     let out = if is_link {
         std::fs::canonicalize(out).map_err(|e| {
-            format!("--out {}: a symbolic link to something that cannot be reached ({e}); name a folder", out.display())
+            refused(format!(
+                "{}: a symbolic link to something that cannot be reached ({e}); name a folder",
+                out.display()
+            ))
         })?
     } else {
-        std::path::absolute(out).map_err(|e| format!("--out {}: {e}", out.display()))?
+        std::path::absolute(out).map_err(|e| refused(format!("{}: {e}", out.display())))?
     };
     if out.exists() && !out.is_dir() {
-        return Err(format!("--out {}: exists and is not a folder; name a new folder", out.display()));
+        return Err(refused(format!("{}: exists and is not a folder; name a new folder", out.display())));
     }
     if out.exists() && std::fs::read_dir(&out).map(|mut d| d.next().is_some()).unwrap_or(true) {
-        return Err(format!("--out {}: exists and is not empty; name a new folder", out.display()));
+        return Err(refused(format!("{}: exists and is not empty; name a new folder", out.display())));
     }
     if out.file_name().is_none() {
-        return Err(format!("--out {}: not a folder name", out.display()));
+        return Err(refused(format!("{}: not a folder name", out.display())));
     }
     Ok(out)
 }
@@ -310,16 +330,20 @@ struct Partial {
 }
 
 impl Partial {
-    fn claim(out: &Path) -> Result<Self, String> {
+    fn claim(out: &Path) -> CmdResult<Self> {
         let name = out.file_name().expect("output_folder checks the name").to_string_lossy().into_owned();
         let parent = out.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         super::create_dir(parent)?;
         let created_out = !out.exists();
         if created_out {
-            std::fs::create_dir(out).map_err(|e| format!("--out {}: cannot create: {e}", out.display()))?;
+            std::fs::create_dir(out).map_err(|e| CmdError::Flag {
+                flag: "--out",
+                reason: format!("{}: cannot create: {e}", out.display()),
+            })?;
         }
-        let lock = lock_run_dir(out).map_err(|e| {
-            format!("--out {e} (another nerf capture is writing it); wait for it, or name another folder")
+        let lock = lock_run_dir(out).map_err(|e| CmdError::Flag {
+            flag: "--out",
+            reason: format!("{e} (another nerf capture is writing it); wait for it, or name another folder"),
         });
         let lock = match lock {
             Ok(l) => l,
@@ -336,7 +360,7 @@ impl Partial {
             if created_out {
                 let _ = std::fs::remove_dir(out);
             }
-            return Err(format!("{}: exists; remove it or name another --out", work.display()));
+            return Err(CmdError::File { path: work, reason: "exists; remove it or name another --out".into() });
         }
         let p = Self { out: out.to_path_buf(), work, created_out, done: false, _lock: lock };
         // every interrupt stops the running stage, which the stage loop sees within 200 ms: never an exit
@@ -353,7 +377,7 @@ impl Partial {
 
     /// `e`, with where COLMAP's log is kept: a new file in the system's
     /// temporary folder (the work folder goes with the failure).
-    fn fail(&self, e: String) -> String {
+    fn fail(&self, e: CmdError) -> CmdError {
         let kept = std::env::temp_dir().join(format!(
             "nerf-capture-{}-{}.log",
             std::process::id(),
@@ -366,23 +390,18 @@ impl Partial {
             .open(&kept)
             .and_then(|mut to| std::io::copy(&mut std::fs::File::open(self.log())?, &mut to));
         match copied {
-            Ok(_) => format!("{e} (nothing was written to --out; COLMAP's log: {})", kept.display()),
-            Err(_) => format!("{e} (nothing was written to --out)"),
+            Ok(_) => e.noted(format!(" (nothing was written to --out; COLMAP's log: {})", kept.display())),
+            Err(_) => e.noted(" (nothing was written to --out)"),
         }
     }
 
     /// Renames the work folder onto `--out`; if that fails, the capture is
     /// kept in the work folder, and the error says so.
-    fn finish(&mut self) -> Result<(), String> {
+    fn finish(&mut self) -> CmdResult {
         let renamed = std::fs::rename(&self.work, &self.out);
         self.done = true;
-        renamed.map_err(|e| {
-            format!(
-                "cannot rename the finished capture onto {}: {e}; it is kept in {}",
-                self.out.display(),
-                self.work.display()
-            )
-        })
+        let part = format!("cannot rename the finished capture onto {}", self.out.display());
+        renamed.map_err(|e| CmdError::within(part)(e).noted(format!("; it is kept in {}", self.work.display())))
     }
 }
 
@@ -401,8 +420,8 @@ impl Drop for Partial {
 /// The mean reprojection error (pixels) of the model in `dir`: its points'
 /// errors weighted by how many photos see each (COLMAP's mean over
 /// observations).
-fn mean_reprojection_error(dir: &Path) -> Result<f64, String> {
-    let rec = read_model(dir).map_err(|e| e.to_string())?;
+fn mean_reprojection_error(dir: &Path) -> CmdResult<f64> {
+    let rec = read_model(dir)?;
     let (sum, n) =
         rec.points.iter().fold((0.0, 0.0), |(s, n), p| (s + p.error * p.track_len as f64, n + p.track_len as f64));
     Ok(if n > 0.0 { sum / n } else { f64::NAN })

@@ -2,6 +2,7 @@
 //! readable JPEG or PNG photos and their sizes, what was skipped and why,
 //! and their copy into the capture.
 
+use crate::cmd::{CmdError, CmdResult};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -30,8 +31,9 @@ fn extension(p: &Path) -> String {
 
 /// Lists `dir` (`flag`'s value): each file named as a photo is opened to
 /// read its size (the header only).
-pub fn survey(dir: &Path, flag: &str) -> Result<Survey, String> {
-    let entries = std::fs::read_dir(dir).map_err(|e| format!("{flag} {}: cannot list: {e}", dir.display()))?;
+pub fn survey(dir: &Path, flag: &'static str) -> CmdResult<Survey> {
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| CmdError::Flag { flag, reason: format!("{}: cannot list: {e}", dir.display()) })?;
     let mut paths: Vec<PathBuf> = entries.filter_map(|e| e.ok()).map(|e| e.path()).collect();
     paths.sort();
     let mut s = Survey::default();
@@ -85,7 +87,7 @@ impl Survey {
     /// Refuses photos of several sizes for one shared camera (COLMAP
     /// skips those whose size differs from the first one's), naming each
     /// size with a count and an example.
-    pub fn one_size(&self, flag: &str, dir: &Path) -> Result<(), String> {
+    pub fn one_size(&self, flag: &'static str, dir: &Path) -> CmdResult {
         let mut sizes: BTreeMap<(u32, u32), (usize, &Path)> = BTreeMap::new();
         for (p, size) in &self.photos {
             sizes.entry(*size).or_insert((0, p)).0 += 1;
@@ -99,21 +101,24 @@ impl Survey {
                 format!("{w}×{h}: {n}, e.g. {}", p.file_name().unwrap_or_default().to_string_lossy())
             })
             .collect();
-        Err(format!(
-            "{flag} {}: photos of {} sizes ({}) cannot share one camera; give --camera-per-photo (a camera for each \
-             photo), or photos of one size",
-            dir.display(),
-            sizes.len(),
-            list.join("; ")
-        ))
+        Err(CmdError::Flag {
+            flag,
+            reason: format!(
+                "{}: photos of {} sizes ({}) cannot share one camera; give --camera-per-photo (a camera for each \
+                 photo), or photos of one size",
+                dir.display(),
+                sizes.len(),
+                list.join("; ")
+            ),
+        })
     }
 }
 
 /// Copies the surveyed photos into `to`.
-pub fn copy(s: &Survey, to: &Path) -> Result<(), String> {
+pub fn copy(s: &Survey, to: &Path) -> CmdResult {
     for (p, _) in &s.photos {
         let name = p.file_name().expect("a listed file");
-        std::fs::copy(p, to.join(name)).map_err(|e| format!("{}: cannot copy: {e}", p.display()))?;
+        std::fs::copy(p, to.join(name)).map_err(CmdError::io(p, "cannot copy"))?;
     }
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! checked to be what they are named, run headless with their output in
 //! the capture's log, shown while they run, stopped on an interrupt.
 
-use crate::cmd::{interrupt, CmdResult};
+use crate::cmd::{interrupt, CmdError, CmdResult};
 use std::io::{BufRead, BufReader, IsTerminal, Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -14,23 +14,27 @@ const HEARTBEAT: Duration = Duration::from_secs(30);
 /// `program` if it runs and answers as `package` does (COLMAP's `help`
 /// or ffmpeg's `-version` names it), else an error naming `flag` and how
 /// to install `package`.
-pub fn find_program(program: &Path, flag: &str, package: &str) -> Result<PathBuf, String> {
+pub fn find_program(program: &Path, flag: &'static str, package: &str) -> CmdResult<PathBuf> {
     let probe = if package == "ffmpeg" { "-version" } else { "help" };
-    let out = Command::new(program).arg(probe).stdin(Stdio::null()).output().map_err(|e| {
-        format!(
-            "{flag} {}: cannot run it ({e}); install {package} (Debian/Ubuntu: apt-get install {package}; macOS: brew \
+    let out = Command::new(program).arg(probe).stdin(Stdio::null()).output().map_err(|e| CmdError::Flag {
+        flag,
+        reason: format!(
+            "{}: cannot run it ({e}); install {package} (Debian/Ubuntu: apt-get install {package}; macOS: brew \
              install {package}) or give its path with {flag}",
             program.display()
-        )
+        ),
     })?;
     let said = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     if !said.to_ascii_lowercase().contains(package) {
-        return Err(format!(
-            "{flag} {}: `{} {probe}` does not answer as {package} does (its output does not name {package}); give the \
-             {package} program with {flag}",
-            program.display(),
-            program.display()
-        ));
+        return Err(CmdError::Flag {
+            flag,
+            reason: format!(
+                "{}: `{} {probe}` does not answer as {package} does (its output does not name {package}); give the \
+                 {package} program with {flag}",
+                program.display(),
+                program.display()
+            ),
+        });
     }
     Ok(program.to_path_buf())
 }
@@ -72,7 +76,10 @@ pub fn run(
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .map_err(|e| format!("{stage}: cannot run {}: {e}", program.display()))?;
+        .map_err(|e| CmdError::Program {
+            stage: stage.into(),
+            reason: format!("cannot run {}: {e}", program.display()),
+        })?;
     let pb = indicatif::ProgressBar::new_spinner();
     pb.set_style(
         indicatif::ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {wide_msg}").expect("template"),
@@ -137,14 +144,17 @@ pub fn run(
     if stopped.is_none() {
         let _ = (a.join(), b.join());
     }
-    let status = child.wait().map_err(|e| format!("{stage}: {e}"))?;
+    let status = child.wait().map_err(|e| CmdError::Program { stage: stage.into(), reason: e.to_string() })?;
     pb.finish_and_clear();
     if stopped.is_some() {
-        return Err(format!("{stage}: interrupted; {} stopped", program.display()));
+        return Err(CmdError::Interrupted(format!("{stage}: interrupted; {} stopped", program.display())));
     }
     if !status.success() {
         let last: Vec<String> = tail.into_iter().collect();
-        return Err(format!("{stage}: {} failed ({status}); its last lines: {}", program.display(), last.join(" | ")));
+        return Err(CmdError::Program {
+            stage: stage.into(),
+            reason: format!("{} failed ({status}); its last lines: {}", program.display(), last.join(" | ")),
+        });
     }
     eprintln!("{stage}: done in {:.1} s", start.elapsed().as_secs_f64());
     Ok(())

@@ -6,7 +6,7 @@ use super::*;
 /// The fixed-point model file's size for configuration `cfg` on `scene`:
 /// a model of that shape with random weights, exported as `nerf fit`
 /// exports a trained one (an upper bound: training can only prune).
-pub(super) fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: Scheme) -> Result<usize, String> {
+pub(super) fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: Scheme) -> CmdResult<usize> {
     let mut twin = random_model(cfg, scene, 0, 1.0);
     // the records a trained model may carry, at their largest (varints): the size is then an upper bound
     twin.meta.iterations = u32::MAX;
@@ -30,11 +30,15 @@ pub(super) fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, b
         };
         twin.orbit = Some(orbit);
     }
-    let f = twin.to_bytes().map_err(|e| e.to_string())?;
-    let m = nerf_infer::Model::from_bytes(&f).map_err(|e| e.to_string())?;
+    let f = twin.to_bytes()?;
+    let m = nerf_infer::Model::from_bytes(&f)?;
     let q = quantise(&m, bits)?;
-    Ok(q.to_bytes().map_err(|e| e.to_string())?.len())
+    Ok(q.to_bytes()?.len())
 }
+
+/// A configuration shrunk to fit a budget, what it gave up ("feature table
+/// 2^15 -> 2^10 entries per level") and its model's size in bytes.
+pub(super) type Shrunk = (TrainConfig, Vec<String>, usize);
 
 /// `cfg` shrunk until its model fits `max` bytes, in this order, each
 /// step only as far as needed: the feature table halved down to 2¹⁰
@@ -42,13 +46,12 @@ pub(super) fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, b
 /// down to 32³, the table halved down to 2⁸, the grid coarsened down to
 /// 16³. Returns the configuration, what it gave up, and its size, or
 /// (`Ok(Err)`) the smallest size if it cannot fit.
-#[allow(clippy::type_complexity)]
 pub(super) fn fit_budget(
     cfg: &TrainConfig,
     scene: nerf_infer::format::Scene,
     bits: Scheme,
     max: usize,
-) -> Result<Result<(TrainConfig, Vec<String>, usize), usize>, String> {
+) -> CmdResult<Result<Shrunk, usize>> {
     let mut c = cfg.clone();
     let mut bytes = model_bytes(&c, scene, bits)?;
     for (table_floor, grid_floor) in [(TABLE_FLOOR_LOG2, 32), (8, 16)] {

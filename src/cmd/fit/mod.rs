@@ -19,7 +19,7 @@
 //! accurate candidate that fits is kept; with it, the fastest that reaches
 //! the target. What each candidate gave up to fit is printed and tabled.
 
-use super::{create_dir, eval, fixed_scheme, num_in, train, write_atomic, CaptureArgs, CmdResult};
+use super::{create_dir, eval, fixed_scheme, num_in, train, write_atomic, CaptureArgs, CmdError, CmdResult};
 use nerf_infer::camera::FOOTPRINT_POINTS;
 use nerf_infer::Scheme;
 use nerf_train::config::TrainConfig;
@@ -159,7 +159,7 @@ struct Row {
 
 /// `nerf eval` of `model` on the validation views, with `coarse` samples
 /// per ray, timing the fastest of `repeat` renders of each view.
-fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> Result<eval::Report, String> {
+fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> CmdResult<eval::Report> {
     let args = eval::Args {
         split: Split::Val,
         capture: a.capture,
@@ -174,11 +174,11 @@ fn score(a: &Args, model: &Path, threads: usize, coarse: u16, repeat: u32) -> Re
 
 /// Trains candidate `name`, quantises it (`model_fixed.nerf` beside the
 /// run's `model.nerf`) and scores both at the trained samples per ray.
-fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, String> {
+fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> CmdResult<Row> {
     let dir = a.out.join(name);
     create_dir(&dir)?;
     let cfg_path = dir.join("config.json");
-    write_atomic(&cfg_path, serde_json::to_string_pretty(cfg).map_err(|e| e.to_string())?.as_bytes())?;
+    write_atomic(&cfg_path, serde_json::to_string_pretty(cfg)?.as_bytes())?;
     let args = train::Args {
         capture: a.capture,
         seed: a.seed,
@@ -188,20 +188,20 @@ fn try_one(a: &Args, name: &'static str, cfg: &TrainConfig) -> Result<Row, Strin
         force: true,
         ..train::Args::new(a.data.clone(), a.minutes, dir.clone())
     };
-    train::run_config(args, cfg.clone()).map_err(|e| match e.starts_with("interrupted") {
+    train::run_config(args, cfg.clone()).map_err(|e| match e {
         // a candidate's checkpoint cannot be resumed through fit
-        true => format!(
+        CmdError::Interrupted(_) => CmdError::Interrupted(format!(
             "interrupted while training candidate {}: nerf fit does not resume; run it again with a new --out",
             dir.display()
-        ),
-        false => e,
+        )),
+        e => e,
     })?;
     let f32_path = dir.join("model.nerf");
     let bytes = super::read_model(&f32_path)?;
     let m = super::decode(&f32_path, &bytes)?;
     let scheme = a.bits;
-    let q = quantise(&m, scheme).and_then(|q| q.to_bytes().map_err(|e| nerf_train::Error::Export(e.to_string())));
-    let q = q.map_err(|e| format!("{}: {e}", f32_path.display()))?;
+    let q = quantise(&m, scheme).map_err(CmdError::file(&f32_path))?;
+    let q = q.to_bytes().map_err(CmdError::file(&f32_path))?;
     let fixed_path = dir.join("model_fixed.nerf");
     write_atomic(&fixed_path, &q)?;
     let steps = m.meta.iterations;
@@ -218,7 +218,7 @@ fn score_row(
     coarse: u16,
     steps: u32,
     bytes: usize,
-) -> Result<Row, String> {
+) -> CmdResult<Row> {
     let rf = score(a, &dir.join("model.nerf"), a.threads, coarse, 1)?;
     // the timed render: one core, the fastest of 3 per view
     let rq = score(a, &dir.join("model_fixed.nerf"), 1, coarse, 3)?;
@@ -245,11 +245,11 @@ fn fewer_samples(n: u16) -> impl Iterator<Item = u16> {
 }
 
 /// Rewrites `model` (a run's file) as `out` with `coarse` default samples per ray.
-fn with_coarse(model: &Path, coarse: u16, out: &Path) -> Result<(), String> {
+fn with_coarse(model: &Path, coarse: u16, out: &Path) -> CmdResult {
     let bytes = super::read_model(model)?;
     let mut owned = OwnedModel::from_model(&super::decode(model, &bytes)?);
     owned.samples.coarse = coarse;
-    write_atomic(out, &owned.to_bytes().map_err(|e| format!("{}: {e}", out.display()))?)
+    write_atomic(out, &owned.to_bytes().map_err(CmdError::file(out))?)
 }
 
 /// What a candidate's render costs per ray with `coarse` samples, in
@@ -268,7 +268,7 @@ fn fewest_samples(
     cfg: &TrainConfig,
     first: &Row,
     rows: &mut Vec<Row>,
-) -> Result<(u16, f64), String> {
+) -> CmdResult<(u16, f64)> {
     let dir = a.out.join(name);
     let mut best = (first.coarse, first.us_per_ray);
     for k in fewer_samples(first.coarse) {
@@ -318,11 +318,11 @@ pub fn run(a: Args) -> CmdResult {
     super::refuse_inside(&a.out, "--out", &a.data)?;
     let (downscale, capture) = (a.capture.downscale.unwrap_or(1), a.capture);
     let data = super::load_split(&a.data, Split::Train, downscale, capture)?;
-    data.check_rays().map_err(|e| format!("{}: {e}", a.data.display()))?;
+    data.check_rays().map_err(CmdError::file(&a.data))?;
     let scene = data.scene;
     drop(data);
     super::load_split(&a.data, Split::Val, downscale, capture)
-        .map_err(|e| format!("{e} (nerf fit scores candidates on the validation views)"))?;
+        .map_err(|e| e.noted(" (nerf fit scores candidates on the validation views)"))?;
     // one process per output folder (a train or another fit started into it
     // is refused); an earlier fit's results replaced only with --force
     let _out = super::outdir::OutDir::claim(&a.out, "--out", "fit", super::outdir::Earlier::NeedForce, a.force)?;
@@ -334,7 +334,7 @@ pub fn run(a: Args) -> CmdResult {
     for (name, cfg) in candidates() {
         let (cfg, gave_up) = match a.max_bytes {
             None => (cfg, Vec::new()),
-            Some(max) => match fit_budget(&cfg, scene, a.bits, max).map_err(|e| format!("{name}: {e}"))? {
+            Some(max) => match fit_budget(&cfg, scene, a.bits, max).map_err(CmdError::within(name))? {
                 Ok((c, gave, bytes)) => {
                     let what =
                         if gave.is_empty() { String::new() } else { format!(" after giving up {}", gave.join(", ")) };
@@ -380,19 +380,19 @@ pub fn run(a: Args) -> CmdResult {
     let Some(target) = a.target_psnr else {
         // --max-bytes alone: the most accurate candidate that fits
         let Some(&(name, coarse, psnr, us)) = accurate.iter().max_by(|x, y| x.2.total_cmp(&y.2)) else {
-            return Err(format!("no candidate fits --max-bytes {}", a.max_bytes.unwrap_or(0)));
+            return Err(CmdError::Unreached(format!("no candidate fits --max-bytes {}", a.max_bytes.unwrap_or(0))));
         };
         return keep(&a, name, coarse, &format!("{psnr:.2} dB, {us:.1} µs/ray"), &rows);
     };
     // the lowest measured µs per ray of the fixed-point render
     let Some(&(name, coarse, us, _)) = reached.iter().min_by(|x, y| x.2.total_cmp(&y.2)) else {
         let best = rows.iter().map(|r| r.psnr_fixed).fold(f64::NEG_INFINITY, f64::max);
-        return Err(format!(
+        return Err(CmdError::Unreached(format!(
             "no candidate reached {:.2} dB in {} min (best {best:.2} dB); table in {}",
             target,
             a.minutes,
             a.out.join("fit.md").display()
-        ));
+        )));
     };
     keep(&a, name, coarse, &format!("{us:.1} µs/ray"), &rows)
 }

@@ -4,7 +4,7 @@
 use super::runlog::RunLog;
 use super::{
     create_dir, load_split, lock_run_dir, num_in, progress, refuse_inside, with_threads, write_atomic, CaptureArgs,
-    CmdResult,
+    CmdError, CmdResult,
 };
 use nerf_train::config::{Preset, TrainConfig};
 use nerf_train::dataset::{Dataset, Split};
@@ -89,16 +89,16 @@ fn load_val(a: &Args, downscale: u32) -> Option<Dataset> {
 /// disk always has its model beside it; a run stopped between the two
 /// resumes from the earlier checkpoint and writes the model again).
 fn save(run: &Run<'_>, out: &Path, prune: Prune) -> CmdResult {
-    let bytes = run.model(prune).to_bytes().map_err(|e| format!("exporting the model: {e}"))?;
+    let bytes = run.model(prune).to_bytes().map_err(CmdError::within("exporting the model"))?;
     write_atomic(&out.join("model.nerf"), &bytes)?;
     // the checkpoint is several times the model: a disk that filled for it keeps the model, and says so
-    write_atomic(&out.join("checkpoint.bin"), &run.trainer.to_bytes().map_err(|e| e.to_string())?).map_err(|e| {
-        format!(
-            "{e}; the model of step {} is written ({}), the checkpoint is not: this run can be used but not resumed \
+    write_atomic(&out.join("checkpoint.bin"), &run.trainer.to_bytes()?).map_err(|e| {
+        e.noted(format!(
+            "; the model of step {} is written ({}), the checkpoint is not: this run can be used but not resumed \
              from here",
             run.trainer.step,
             out.join("model.nerf").display()
-        )
+        ))
     })
 }
 
@@ -138,7 +138,7 @@ pub fn run(a: Args) -> CmdResult {
 /// Runs `nerf train` as a new run of configuration `cfg` (in place of
 /// `--preset` and `--config`).
 pub fn run_config(a: Args, cfg: TrainConfig) -> CmdResult {
-    cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
+    cfg.validate().map_err(CmdError::within("invalid configuration"))?;
     let run = NewRun { cfg, fit: Fit::KEEP_SIZES };
     with_threads(a.threads, || train(Args { resume: false, ..a }, Some(run)))?
 }
@@ -162,31 +162,29 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     let ckpt = a.out.join("checkpoint.bin");
     let held = ["checkpoint.bin", "model.nerf", "train.jsonl"].into_iter().find(|f| a.out.join(f).exists());
     if let (Some(f), false, false) = (held, a.resume, a.force) {
-        return Err(match ckpt.is_file() {
-            true => {
-                format!("{}: holds a run ({f}): continue it with --resume, or start over with --force", a.out.display())
-            }
+        let reason = match ckpt.is_file() {
+            true => format!("holds a run ({f}): continue it with --resume, or start over with --force"),
             // a model without its checkpoint (copied, or exported there) cannot be continued
             false => format!(
-                "{}: holds {f} and no checkpoint to resume from: start over with --force (replacing it), or choose \
-                 another --out",
-                a.out.display()
+                "holds {f} and no checkpoint to resume from: start over with --force (replacing it), or choose \
+                 another --out"
             ),
-        });
+        };
+        return Err(CmdError::File { path: a.out.clone(), reason });
     }
     let load = |downscale| load_split(&a.data, Split::Train, downscale, a.capture);
     let (tr, data) = if a.resume && ckpt.is_file() {
         let b = nerf_train::util::userfile::read_user_file(&ckpt, 16 << 30, "checkpoint")?;
-        let mut tr = Trainer::from_bytes(&b).map_err(|e| format!("{}: {e}", ckpt.display()))?;
+        let mut tr = Trainer::from_bytes(&b).map_err(CmdError::file(&ckpt))?;
         let moved_from = check_resume(&a, &tr)?;
         let data = load(tr.downscale)?;
         check_resumed_data(&a, &mut tr, &data, moved_from)?;
         check_resume_config(&a, &tr, &data)?;
         (tr, data)
     } else if a.resume {
-        return Err(format!("{}: no checkpoint to resume from", ckpt.display()));
+        return Err(CmdError::File { path: ckpt, reason: "no checkpoint to resume from".into() });
     } else {
-        let run = new_run.ok_or("a configuration for a new run")?;
+        let run = new_run.ok_or_else(|| CmdError::Usage("a configuration for a new run".into()))?;
         let downscale = a.capture.downscale.unwrap_or(1);
         let data = load(downscale)?;
         let fitted = fit_to_data(&run.cfg, run.fit, &data)?;
@@ -204,15 +202,17 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         _ => unreachable!("clap requires a budget"),
     };
     if budget.progress(&tr) >= 1.0 {
-        return Err(format!(
-            "{}: the checkpoint is at step {} ({:.2} training minutes), already the end of this budget: give a larger \
-             --iters or --minutes",
-            ckpt.display(),
-            tr.step,
-            tr.elapsed / 60.0
-        ));
+        return Err(CmdError::File {
+            path: ckpt,
+            reason: format!(
+                "the checkpoint is at step {} ({:.2} training minutes), already the end of this budget: give a \
+                 larger --iters or --minutes",
+                tr.step,
+                tr.elapsed / 60.0
+            ),
+        });
     }
-    let mut run = Run::new(tr, &data, val.as_ref(), budget).map_err(|e| format!("{}: {e}", a.data.display()))?;
+    let mut run = Run::new(tr, &data, val.as_ref(), budget).map_err(CmdError::file(&a.data))?;
     run.schedule = Schedule {
         checkpoint_secs: a.checkpoint_secs,
         val_secs: a.val_secs,
@@ -234,11 +234,11 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
     progress.bar.finish_and_clear();
     let val_psnr = match outcome? {
         Outcome::Stopped => {
-            return Err(format!(
+            return Err(CmdError::Interrupted(format!(
                 "interrupted at step {}: checkpoint saved to {}; continue with --resume",
                 run.trainer.step,
                 ckpt.display()
-            ))
+            )))
         }
         Outcome::Finished { val_psnr } => val_psnr,
     };
@@ -271,9 +271,9 @@ struct Progress {
 }
 
 impl Observer for Progress {
-    type Error = String;
+    type Error = CmdError;
 
-    fn step(&mut self, run: &Run<'_>, ev: &StepEvent<'_>) -> Result<Flow, String> {
+    fn step(&mut self, run: &Run<'_>, ev: &StepEvent<'_>) -> CmdResult<Flow> {
         let tr = &run.trainer;
         let st = &ev.stats;
         if st.skipped {
@@ -312,7 +312,7 @@ impl Observer for Progress {
         Ok(if super::interrupt::received() { Flow::Stop } else { Flow::Continue })
     }
 
-    fn checkpoint(&mut self, run: &Run<'_>) -> Result<(), String> {
+    fn checkpoint(&mut self, run: &Run<'_>) -> CmdResult {
         save(run, &self.out, self.prune)
     }
 }

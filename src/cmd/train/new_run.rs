@@ -3,6 +3,7 @@
 //! file leaves to the run.
 
 use super::Args;
+use crate::cmd::{CmdError, CmdResult};
 use nerf_train::config::TrainConfig;
 use nerf_train::run::Fit;
 
@@ -15,12 +16,15 @@ pub(super) struct NewRun {
     pub(super) fit: Fit,
 }
 
-pub(super) fn load_config(a: &Args) -> Result<NewRun, String> {
+pub(super) fn load_config(a: &Args) -> CmdResult<NewRun> {
     let base = a.preset.unwrap_or_default().config();
     let (cfg, fit) = match &a.config {
         None => (base, Fit::ALL),
         Some(path) => {
-            let bad = |e: &dyn std::fmt::Display| format!("{}: invalid configuration: {e}", path.display());
+            let bad = |e: &dyn std::fmt::Display| CmdError::File {
+                path: path.clone(),
+                reason: format!("invalid configuration: {e}"),
+            };
             let text =
                 nerf_train::util::userfile::read_user_text(path, nerf_train::util::userfile::MAX_JSON, "--config")?;
             let over = nerf_train::config::json::parse(&text).map_err(|e| bad(&e))?;
@@ -28,6 +32,6 @@ pub(super) fn load_config(a: &Args) -> Result<NewRun, String> {
             (base.overlay(&over).map_err(|e| bad(&e))?, Fit::unless_named(&over))
         }
     };
-    cfg.validate().map_err(|e| format!("invalid configuration: {e}"))?;
+    cfg.validate().map_err(CmdError::within("invalid configuration"))?;
     Ok(NewRun { cfg, fit })
 }

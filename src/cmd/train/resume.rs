@@ -8,25 +8,34 @@ use crate::cmd::shell_quote;
 /// loading flag that says otherwise is refused, naming what differs.
 /// Returns the run's data folder when `--data` names another one with the
 /// same flags (moved, or another capture: [`check_resumed_data`] tells).
-pub(super) fn check_resume(a: &Args, tr: &Trainer) -> Result<Option<String>, String> {
+pub(super) fn check_resume(a: &Args, tr: &Trainer) -> CmdResult<Option<PathBuf>> {
     let data = data_source(a);
     let (path, flags) = split_source(&data);
     let (run_path, run_flags) = split_source(&tr.data);
     if flags != run_flags {
-        return Err(format!(
-            "the loading flags ({}) differ from the run's ({}): resume with the run's, or start over with --force",
-            user_flags(flags),
-            user_flags(run_flags)
-        ));
+        return Err(CmdError::Flag {
+            flag: "the loading flags",
+            reason: format!(
+                "({}) differ from the run's ({}): resume with the run's, or start over with --force",
+                user_flags(flags),
+                user_flags(run_flags)
+            ),
+        });
     }
     if let Some(d) = a.capture.downscale.filter(|&d| d != tr.downscale) {
-        return Err(format!("--downscale {d} differs from the checkpoint's {}: resume without it", tr.downscale));
+        return Err(CmdError::Flag {
+            flag: "--downscale",
+            reason: format!("{d} differs from the checkpoint's {}: resume without it", tr.downscale),
+        });
     }
     // a run resumes with its own seed (its random streams go on where they stopped)
     if a.seed != 0 && a.seed != tr.seed {
-        return Err(format!("--seed {} differs from the checkpoint's {}: resume without it", a.seed, tr.seed));
+        return Err(CmdError::Flag {
+            flag: "--seed",
+            reason: format!("{} differs from the checkpoint's {}: resume without it", a.seed, tr.seed),
+        });
     }
-    Ok((path != run_path).then(|| run_path.to_string()))
+    Ok((path != run_path).then(|| PathBuf::from(run_path)))
 }
 
 /// The capture loaded for `--resume` against the run's: the scene's frame
@@ -37,30 +46,34 @@ pub(super) fn check_resume(a: &Args, tr: &Trainer) -> Result<Option<String>, Str
 /// model records of its capture (photo count, held-out names); one that
 /// does is taken, with a note, and recorded as the run's from here on (a
 /// Blender scene, which records none, is refused).
-pub(super) fn check_resumed_data(a: &Args, tr: &mut Trainer, data: &Dataset, moved_from: Option<String>) -> CmdResult {
-    let run_data = moved_from.clone().unwrap_or_else(|| split_source(&tr.data).0.to_string());
+pub(super) fn check_resumed_data(a: &Args, tr: &mut Trainer, data: &Dataset, moved_from: Option<PathBuf>) -> CmdResult {
+    let run_data = match &moved_from {
+        Some(p) => p.display().to_string(),
+        None => split_source(&tr.data).0.to_string(),
+    };
     let way_on = match &moved_from {
-        Some(p) => format!("resume with --data {}, or start over with --force", shell_quote(Path::new(p))),
+        Some(p) => format!("resume with --data {}, or start over with --force", shell_quote(p)),
         None => "resume with the photos it trained on, or start over with --force".into(),
     };
     let photos = data.views.len();
+    let refused = |reason: String| Err(CmdError::Flag { flag: "--data", reason });
     let learned = [
         ("a colour correction", tr.appearance.as_ref().map(|p| p.photos())),
         ("a pose correction", tr.poses.as_ref().map(|p| p.photos())),
     ];
     for (what, n) in learned {
         if let Some(n) = n.filter(|&n| n != photos) {
-            return Err(format!(
-                "--data {}: {photos} training photos, where the run learned {what} for each of its {n} (in {run_data}): \
+            return refused(format!(
+                "{}: {photos} training photos, where the run learned {what} for each of its {n} (in {run_data}): \
                  {way_on}",
                 a.data.display()
             ));
         }
     }
     if tr.scene != data.scene {
-        return Err(format!(
-            "--data {}: its cameras give another scene frame than the run's capture ({run_data}): photos were \
-             added, removed or re-posed since the run started; {way_on}",
+        return refused(format!(
+            "{}: its cameras give another scene frame than the run's capture ({run_data}): photos were added, \
+             removed or re-posed since the run started; {way_on}",
             a.data.display()
         ));
     }
@@ -74,8 +87,8 @@ pub(super) fn check_resumed_data(a: &Args, tr: &mut Trainer, data: &Dataset, mov
             (r.views, r.held_out_crc, r.holdout) == (d.views, d.held_out_crc, d.holdout)
         };
         if !matches!((&recorded, &data.capture), (Some(r), Some(d)) if same(r, d)) {
-            return Err(format!(
-                "--data {}: the run trained on {run_data}, and {}: {way_on}",
+            return refused(format!(
+                "{}: the run trained on {run_data}, and {}: {way_on}",
                 a.data.display(),
                 match (&recorded, &data.capture) {
                     (Some(_), Some(_)) => "this capture's photos are not those (their number or held-out names differ)",
@@ -130,11 +143,14 @@ pub(super) fn check_resume_config(a: &Args, tr: &Trainer, data: &Dataset) -> Cmd
         let cfg = nerf_train::run::fit_to_data(&run.cfg, run.fit, data)?.cfg;
         if cfg != tr.cfg {
             let differ = cfg.differing_fields(&tr.cfg);
-            return Err(format!(
-                "--preset/--config differ from the checkpoint's configuration in {}: resume without them, or \
-                 start over with --force",
-                differ.join(", ")
-            ));
+            return Err(CmdError::Flag {
+                flag: "--preset/--config",
+                reason: format!(
+                    "differ from the checkpoint's configuration in {}: resume without them, or start over with \
+                     --force",
+                    differ.join(", ")
+                ),
+            });
         }
     }
     Ok(())
