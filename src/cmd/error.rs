@@ -20,7 +20,8 @@ pub enum CmdError {
     /// A model `nerf-infer` cannot decode, encode or render, in its words.
     #[error(transparent)]
     Model(#[from] nerf_infer::Error),
-    /// JSON that cannot be written.
+    /// JSON that cannot be made (a report or a configuration serialised);
+    /// a file that cannot be parsed is a [`CmdError::File`], naming it.
     #[error(transparent)]
     Json(#[from] serde_json::Error),
     /// A file or folder that cannot be read, written, listed or created:

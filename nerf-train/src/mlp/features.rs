@@ -36,7 +36,8 @@ impl Mlp {
         for l in 0..f.levels() {
             let (level, rest) = gt.split_at_mut(f.entries(l) * f.width as usize);
             let n = a.s * a.k;
-            // a non-finite gradient is found by the step's check of the whole
+            // whether the sums are finite is not asked here: a training step scatters through `scatter_table`,
+            // which reports it; this whole-backward path leaves the check to its caller
             self.scatter_level(l, &a.corners[l * n..(l + 1) * n], &a.dgf, level);
             gt = rest;
         }
