@@ -5,7 +5,7 @@
 # of standard deviation DEGREES and SHIFT times the cameras' median
 # distance from their mean; the held-out photos keep their poses), then
 # compared by scripts/capture_ab.sh at STEPS steps: the default, and with
-# loss.pose_refine at its default optimiser.pose_lr (1e-4) and at 6e-4
+# per_photo.pose_refine at its default per_photo.pose_lr (1e-4) and at 6e-4
 # (nerfacto's camera optimiser's). The rows
 # in docs/capture_ab.csv name the capture bird-off-DEGREES-SHIFT.
 #

@@ -33,7 +33,7 @@ fn corrections_take_each_photos_exposure() {
         let cfg = TrainConfig::features().with(|c| {
             c.sampling.proposal_res = 32;
             c.sampling.batch_rays = 256;
-            c.loss.appearance = appearance;
+            c.per_photo.appearance = appearance;
             c.model.view_dependent = false;
         });
         let mut tr = Trainer::new(cfg, data.scene, 1, 0);

@@ -47,7 +47,7 @@ fn pose_gradient_matches_finite_differences() {
         c.sampling.batch_rays = 256;
         c.loss.distortion = 0.0;
         c.loss.density_l1 = 0.0;
-        c.loss.pose_refine = true;
+        c.per_photo.pose_refine = true;
     });
     let mut tr = Trainer::new(cfg, data.scene, 1, 0);
     for k in 0..150 {
@@ -115,9 +115,9 @@ fn cameras_that_are_off_are_corrected_and_the_held_out_views_gain() {
         let cfg = TrainConfig::features().with(|c| {
             c.sampling.proposal_res = 32;
             c.sampling.batch_rays = 512;
-            c.loss.pose_refine = refine;
+            c.per_photo.pose_refine = refine;
             // a short run: nerfacto's rate, where the default suits thousands of steps
-            c.optimiser.pose_lr = 6e-4;
+            c.per_photo.pose_lr = 6e-4;
         });
         let mut tr = Trainer::new(cfg, data.scene, 1, 0);
         for k in 0..steps {

@@ -7,7 +7,7 @@
 //! `SHIFT` times the median distance of the cameras from their mean
 //! position. Held-out photos keep their poses, so that `nerf eval` scores
 //! a run against the true ones. For measuring pose refinement
-//! (`loss.pose_refine`) on a capture whose poses are known to be off.
+//! (`per_photo.pose_refine`) on a capture whose poses are known to be off.
 //!
 //! ```sh
 //! cargo run --release -p nerf-train --example perturb_poses -- ../shared/data/bird /tmp/bird_off 0.5 0.01

@@ -1,61 +1,81 @@
 //! The configuration as JSON: a `--config` file's fields over a preset's,
 //! written nested (by section) or flat (each field by its flat name:
-//! [`FLAT_NAMES`]), or both.
+//! [`flat_names`]), or both.
 
 use super::TrainConfig;
 use crate::error::Error;
 use serde_json::{Map, Value};
 
 /// The sections of [`TrainConfig`], as a `--config` file names them.
-pub const SECTIONS: [&str; 6] = ["model", "features", "sampling", "grid", "optimiser", "loss"];
+pub const SECTIONS: [&str; 7] = ["model", "features", "sampling", "grid", "optimiser", "loss", "per_photo"];
 
-/// Each field's flat name (a `--config` file without sections), its
-/// section and its name there.
-pub const FLAT_NAMES: [(&str, &str, &str); 43] = [
-    ("pos_freqs", "model", "pos_freqs"),
-    ("dir_freqs", "model", "dir_freqs"),
-    ("include_input", "model", "include_input"),
-    ("depth", "model", "depth"),
-    ("width", "model", "width"),
-    ("skips", "model", "skips"),
-    ("view_dependent", "model", "view_dependent"),
-    ("view_width", "model", "view_width"),
-    ("feature_levels", "features", "levels"),
-    ("feature_width", "features", "width"),
-    ("feature_log2_table", "features", "log2_table"),
-    ("feature_min_res", "features", "min_res"),
-    ("feature_max_res", "features", "max_res"),
-    ("footprint", "features", "footprint"),
-    ("footprint_from", "features", "footprint_from"),
-    ("n_coarse", "sampling", "n_coarse"),
-    ("n_fine", "sampling", "n_fine"),
-    ("n_main", "sampling", "n_main"),
-    ("n_main_render", "sampling", "n_main_render"),
-    ("proposal_res", "sampling", "proposal_res"),
-    ("batch_rays", "sampling", "batch_rays"),
-    ("chunk_rays", "sampling", "chunk_rays"),
-    ("random_background", "sampling", "random_background"),
-    ("pixel_jitter", "sampling", "pixel_jitter"),
-    ("grid_res", "grid", "res"),
-    ("grid_warmup", "grid", "warmup"),
-    ("grid_every", "grid", "every"),
-    ("grid_alpha", "grid", "alpha"),
-    ("lr", "optimiser", "lr"),
-    ("lr_final_ratio", "optimiser", "lr_final_ratio"),
-    ("lr_decay_steps", "optimiser", "lr_decay_steps"),
-    ("beta1", "optimiser", "beta1"),
-    ("beta2", "optimiser", "beta2"),
-    ("eps", "optimiser", "eps"),
-    ("proposal_lr", "optimiser", "proposal_lr"),
-    ("pose_lr", "optimiser", "pose_lr"),
-    ("feature_decay", "optimiser", "feature_decay"),
-    ("ema_decay", "optimiser", "ema_decay"),
-    ("distortion", "loss", "distortion"),
-    ("density_l1", "loss", "density_l1"),
-    ("near_gradient", "loss", "near_gradient"),
-    ("appearance", "loss", "appearance"),
-    ("pose_refine", "loss", "pose_refine"),
+/// The prefix of a section's flat names (`feature_levels`, `grid_res`);
+/// the other sections' fields go by their own names.
+const FLAT_PREFIXES: [(&str, &str); 2] = [("features", "feature_"), ("grid", "grid_")];
+
+/// Fields of a prefixed section whose flat name is their own: their names
+/// already say which part they set.
+const UNPREFIXED: [&str; 2] = ["footprint", "footprint_from"];
+
+/// Fields that have moved to another section, as `(from, to)` paths
+/// (`section.field`). A `--config` file that names one nested at its
+/// former place is refused, naming the new one (its flat name is
+/// unchanged); a checkpoint's configuration is read with each moved
+/// ([`moved_fields_placed`]).
+pub const MOVED: [(&str, &str); 3] = [
+    ("loss.appearance", "per_photo.appearance"),
+    ("loss.pose_refine", "per_photo.pose_refine"),
+    ("optimiser.pose_lr", "per_photo.pose_lr"),
 ];
+
+/// One field's names: its flat name (a `--config` file without
+/// sections), its section and its name there.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FlatName {
+    /// The name without a section.
+    pub flat: String,
+    /// Its section, one of [`SECTIONS`].
+    pub section: &'static str,
+    /// Its name in the section.
+    pub field: String,
+}
+
+/// Every field's [`FlatName`], section by section, derived from the
+/// sections' fields: the field's name, with its section's prefix in
+/// `features` and `grid` (but `footprint` and `footprint_from`).
+pub fn flat_names() -> &'static [FlatName] {
+    static NAMES: std::sync::OnceLock<Vec<FlatName>> = std::sync::OnceLock::new();
+    NAMES.get_or_init(|| {
+        let value = serde_json::to_value(TrainConfig::default()).unwrap_or_default();
+        let mut names = Vec::new();
+        for section in SECTIONS {
+            let prefix = FLAT_PREFIXES.iter().find(|(s, _)| *s == section).map_or("", |p| p.1);
+            for field in value.get(section).and_then(Value::as_object).into_iter().flat_map(|s| s.keys()) {
+                let flat = match UNPREFIXED.contains(&field.as_str()) {
+                    true => field.clone(),
+                    false => format!("{prefix}{field}"),
+                };
+                names.push(FlatName { flat, section, field: field.clone() });
+            }
+        }
+        names
+    })
+}
+
+/// `cfg`, a whole configuration as JSON that an earlier build may have
+/// written (a checkpoint's), with each field of [`MOVED`] found at its
+/// former place put in its new one (a value already there is kept).
+pub fn moved_fields_placed(cfg: &mut Value) {
+    for (from, to) in MOVED {
+        let (Some((fs, ff)), Some((ts, tf))) = (from.split_once('.'), to.split_once('.')) else { continue };
+        let Some(v) = cfg.get_mut(fs).and_then(Value::as_object_mut).and_then(|s| s.remove(ff)) else { continue };
+        if let Some(Value::Object(into)) =
+            cfg.as_object_mut().map(|c| c.entry(ts).or_insert_with(|| Value::Object(Map::new())))
+        {
+            into.entry(tf).or_insert(v);
+        }
+    }
+}
 
 impl TrainConfig {
     /// This configuration changed by `edit`: `TrainConfig::fast().with(|c|
@@ -82,6 +102,15 @@ impl TrainConfig {
             };
             // each field against this configuration's section, so that a refusal names it
             for (field, value) in fields {
+                let path = format!("{section}.{field}");
+                if let Some((_, to)) = MOVED.iter().find(|(from, _)| *from == path) {
+                    let (ts, tf) = to.split_once('.').unwrap_or((to, ""));
+                    let flat = flat_names().iter().find(|n| n.section == ts && n.field == tf);
+                    return Err(Error::Config(format!(
+                        "`{path}` is `{to}` (`{{\"{ts}\": {{\"{tf}\": …}}}}`, or by its flat name `{}`)",
+                        flat.map_or(tf, |n| n.flat.as_str())
+                    )));
+                }
                 let mut one = into.clone();
                 one.insert(field.clone(), value);
                 check_section(&section, Value::Object(one.clone()))
@@ -180,6 +209,7 @@ fn check_section(section: &str, value: Value) -> Result<(), serde_json::Error> {
         "grid" => serde_json::from_value::<GridConfig>(value).map(drop),
         "optimiser" => serde_json::from_value::<OptimiserConfig>(value).map(drop),
         "loss" => serde_json::from_value::<LossConfig>(value).map(drop),
+        "per_photo" => serde_json::from_value::<PerPhotoConfig>(value).map(drop),
         other => Err(serde_json::Error::custom(format!("unknown section `{other}`"))),
     }
 }
@@ -189,7 +219,7 @@ pub fn names(over: &Value, section: &str, field: &str) -> bool {
     nested(over).is_ok_and(|m| m.get(section).and_then(|s| s.get(field)).is_some())
 }
 
-/// A `--config` object with its flat names ([`FLAT_NAMES`]) moved into
+/// A `--config` object with its flat names ([`flat_names`]) moved into
 /// their sections. Fails with [`Error::Config`] on a value that is not an
 /// object, a name that is neither a section nor a flat name, or a field
 /// given both ways.
@@ -202,11 +232,11 @@ pub fn nested(over: &Value) -> Result<Map<String, Value>, Error> {
     for (key, value) in over {
         if SECTIONS.contains(&key.as_str()) {
             out.insert(key.clone(), value.clone());
-        } else if let Some(&(_, section, field)) = FLAT_NAMES.iter().find(|(flat, ..)| flat == key) {
-            flat.push((section, field, value));
+        } else if let Some(n) = flat_names().iter().find(|n| n.flat == *key) {
+            flat.push((n.section, n.field.as_str(), value));
         } else {
-            let within = FLAT_NAMES.iter().find(|(_, _, field)| field == key);
-            let hint = within.map_or(String::new(), |(flat, section, field)| {
+            let within = flat_names().iter().find(|n| n.field == *key);
+            let hint = within.map_or(String::new(), |FlatName { flat, section, field }| {
                 format!(" (the field `{field}` of `{section}` is `{{\"{section}\": {{\"{field}\": …}}}}` or `{flat}`)")
             });
             return Err(Error::Config(format!(

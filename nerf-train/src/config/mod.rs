@@ -11,7 +11,9 @@ mod presets;
 mod sections;
 mod validate;
 pub use presets::Preset;
-pub use sections::{FeatureConfig, GridConfig, LossConfig, ModelConfig, OptimiserConfig, SamplingConfig};
+pub use sections::{
+    FeatureConfig, GridConfig, LossConfig, ModelConfig, OptimiserConfig, PerPhotoConfig, SamplingConfig,
+};
 
 /// Most rays per batch (and per chunk) a configuration may ask for.
 pub const MAX_BATCH_RAYS: usize = 1 << 20;
@@ -19,7 +21,7 @@ pub const MAX_BATCH_RAYS: usize = 1 << 20;
 /// Everything that defines a training run except the data, by section.
 /// A `--config` file writes it nested (`{"sampling": {"n_coarse": 64}}`)
 /// or flat (`{"n_coarse": 64}`, each field by its flat name,
-/// [`json::FLAT_NAMES`]): [`Self::overlay`].
+/// [`json::flat_names`]): [`Self::overlay`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TrainConfig {
@@ -35,6 +37,8 @@ pub struct TrainConfig {
     pub optimiser: OptimiserConfig,
     /// The loss.
     pub loss: LossConfig,
+    /// The corrections fitted per training photo.
+    pub per_photo: PerPhotoConfig,
 }
 
 /// The default preset's ([`Preset::default`]): what `nerf train` trains

@@ -48,17 +48,11 @@ impl TrainConfig {
                 beta2: 0.999,
                 eps: 1e-7,
                 proposal_lr: 0.05,
-                pose_lr: 1e-4,
                 feature_decay: 0.0,
                 ema_decay: 0.0,
             },
-            loss: LossConfig {
-                distortion: 0.0,
-                density_l1: 0.0,
-                near_gradient: 0.0,
-                appearance: false,
-                pose_refine: false,
-            },
+            loss: LossConfig { distortion: 0.0, density_l1: 0.0, near_gradient: 0.0 },
+            per_photo: PerPhotoConfig { appearance: false, pose_refine: false, pose_lr: 1e-4 },
         }
     }
 
@@ -184,7 +178,9 @@ impl TrainConfig {
     }
 }
 
-/// A named configuration (`nerf train --preset`).
+/// A named configuration (`nerf train --preset`): the four general ones,
+/// and the smaller and larger shapes `nerf fit` tries besides `grid` and
+/// `features` ([`Preset::FIT`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Preset {
@@ -199,29 +195,88 @@ pub enum Preset {
     Fast,
     /// The paper's network: 8×256, 64 + 128 samples.
     Paper,
+    /// `grid` with a 2×32 network, L = 6 and no view branch (2.4 k
+    /// multiply-accumulates a sample): the smallest `nerf fit` tries.
+    #[cfg_attr(feature = "clap", value(name = "2x32-noview"))]
+    Grid2x32NoView,
+    /// `grid` with a 3×32 network (6.3 k multiply-accumulates a sample).
+    #[cfg_attr(feature = "clap", value(name = "3x32"))]
+    Grid3x32,
+    /// `grid` with a 3×64 network (18 k multiply-accumulates a sample).
+    #[cfg_attr(feature = "clap", value(name = "3x64"))]
+    Grid3x64,
+    /// `features` with 32-wide layers and no pixel footprint (4.7 k
+    /// multiply-accumulates a sample and 8 feature-grid levels).
+    #[cfg_attr(feature = "clap", value(name = "features-2x32"))]
+    Features2x32,
+    /// `grid` with a 6×96 network, L = 10/4 and a 32-wide view branch
+    /// (65 k multiply-accumulates a sample): the largest `nerf fit` tries.
+    #[cfg_attr(feature = "clap", value(name = "6x96"))]
+    Grid6x96,
 }
 
 impl Preset {
     /// Every preset, the default first.
-    pub const ALL: [Preset; 4] = [Preset::Features, Preset::Grid, Preset::Fast, Preset::Paper];
+    pub const ALL: [Preset; 9] = [
+        Preset::Features,
+        Preset::Grid,
+        Preset::Fast,
+        Preset::Paper,
+        Preset::Grid2x32NoView,
+        Preset::Grid3x32,
+        Preset::Grid3x64,
+        Preset::Features2x32,
+        Preset::Grid6x96,
+    ];
+
+    /// The presets `nerf fit` trains, smallest network first: all with an
+    /// occupancy grid, widths multiples of 32 (the int8 kernel's output
+    /// tile on AVX-512).
+    pub const FIT: [Preset; 7] = [
+        Preset::Grid2x32NoView,
+        Preset::Grid3x32,
+        Preset::Features2x32,
+        Preset::Grid3x64,
+        Preset::Grid,
+        Preset::Features,
+        Preset::Grid6x96,
+    ];
 
     /// Its configuration.
     pub fn config(self) -> TrainConfig {
+        let model = |edit: fn(&mut ModelConfig)| TrainConfig::grid().with(|c| edit(&mut c.model));
         match self {
             Preset::Features => TrainConfig::features(),
             Preset::Grid => TrainConfig::grid(),
             Preset::Fast => TrainConfig::fast(),
             Preset::Paper => TrainConfig::paper(),
+            Preset::Grid2x32NoView => model(|m| {
+                (m.depth, m.width, m.pos_freqs, m.view_dependent) = (2, 32, 6, false);
+            }),
+            Preset::Grid3x32 => model(|m| (m.depth, m.width) = (3, 32)),
+            Preset::Grid3x64 => model(|m| m.depth = 3),
+            Preset::Features2x32 => TrainConfig::features().with(|c| {
+                (c.model.width, c.model.view_width, c.features.footprint) = (32, 32, false);
+            }),
+            Preset::Grid6x96 => model(|m| {
+                (m.depth, m.width, m.view_width, m.pos_freqs, m.dir_freqs) = (6, 96, 32, 10, 4);
+            }),
         }
     }
 
-    /// Its name on the command line (`features`, `grid`, `fast`, `paper`).
+    /// Its name on the command line (`features`, `grid`, `fast`, `paper`,
+    /// `2x32-noview`, `3x32`, `3x64`, `features-2x32`, `6x96`).
     pub fn name(self) -> &'static str {
         match self {
             Preset::Features => "features",
             Preset::Grid => "grid",
             Preset::Fast => "fast",
             Preset::Paper => "paper",
+            Preset::Grid2x32NoView => "2x32-noview",
+            Preset::Grid3x32 => "3x32",
+            Preset::Grid3x64 => "3x64",
+            Preset::Features2x32 => "features-2x32",
+            Preset::Grid6x96 => "6x96",
         }
     }
 }

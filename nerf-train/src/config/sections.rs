@@ -1,6 +1,6 @@
 //! The configuration's sections, one per part of a run: the network, the
-//! feature grid, the rays and samples, the occupancy grid, the optimiser
-//! and the loss. A section read on its own takes the fields it leaves out
+//! feature grid, the rays and samples, the occupancy grid, the optimiser,
+//! the loss and the corrections fitted per photo. A section read on its own takes the fields it leaves out
 //! from the default preset; a `--config` file's sections keep the chosen
 //! preset's ([`TrainConfig::overlay`]).
 
@@ -162,11 +162,6 @@ pub struct OptimiserConfig {
     /// With a proposal grid: the learning rate of its log-densities (Adam,
     /// decaying as `lr` does).
     pub proposal_lr: f32,
-    /// With [`LossConfig::pose_refine`]: the learning rate of the photos'
-    /// pose corrections (Adam, radians and world units, decaying as `lr`
-    /// does; 10⁻⁴ in every preset, where nerfacto's camera optimiser has
-    /// 6·10⁻⁴: on bird and fox 10⁻⁴ measured better, docs/EXPERIMENTS.md).
-    pub pose_lr: f32,
 }
 
 /// What the loss adds to the mean squared colour error, and what it
@@ -196,6 +191,14 @@ pub struct LossConfig {
     /// Runs with one network only (`sampling.n_fine` = 0); forward-facing
     /// scenes, whose rays run in NDC, are left alone.
     pub near_gradient: f32,
+}
+
+/// The corrections fitted per training photo beside the model, each off
+/// in every preset: a colour correction for photos that differ in
+/// exposure or white balance, a pose correction for poses a little off.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PerPhotoConfig {
     /// Fit a colour correction per training photo beside the model
     /// ([`crate::per_photo::appearance`]: `A·c + b` on each pixel's composited colour)
     /// for photos that differ in exposure or white balance; the model and
@@ -209,6 +212,12 @@ pub struct LossConfig {
     /// their poses); runs with one network only (`sampling.n_fine` = 0).
     /// Off in every preset.
     pub pose_refine: bool,
+    /// With [`Self::pose_refine`]: the learning rate of the photos' pose
+    /// corrections (Adam, radians and world units, decaying as
+    /// `optimiser.lr` does; 10⁻⁴ in every preset, where nerfacto's camera
+    /// optimiser has 6·10⁻⁴: on bird and fox 10⁻⁴ measured better,
+    /// docs/EXPERIMENTS.md).
+    pub pose_lr: f32,
 }
 
 /// Each section's `Default`: the default preset's section.
@@ -229,5 +238,6 @@ default_preset_section!(
     SamplingConfig => sampling,
     GridConfig => grid,
     OptimiserConfig => optimiser,
-    LossConfig => loss
+    LossConfig => loss,
+    PerPhotoConfig => per_photo
 );

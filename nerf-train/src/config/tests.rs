@@ -167,9 +167,12 @@ fn every_field_has_one_flat_name_that_reads_back_to_it() {
     let base = TrainConfig::features();
     let value = serde_json::to_value(&base).unwrap();
     let fields: usize = json::SECTIONS.iter().map(|s| value[s].as_object().unwrap().len()).sum();
-    assert_eq!(fields, json::FLAT_NAMES.len());
+    assert_eq!(fields, json::flat_names().len());
     let mut seen = std::collections::HashSet::new();
-    for (flat, section, field) in json::FLAT_NAMES {
+    let mut flats = std::collections::HashSet::new();
+    for json::FlatName { flat, section, field } in json::flat_names() {
+        let (section, field) = (*section, field.as_str());
+        assert!(flats.insert(flat), "{flat} names two fields");
         assert!(seen.insert((section, field)), "{flat}: {section}.{field} has two flat names");
         // a value other than the base's, of the field's type
         let other = match &value[section][field] {
@@ -195,4 +198,47 @@ fn a_key_written_twice_is_refused_by_name() {
     let v = super::json::parse(r#"{"a": [1, -2, 0.5, "x", null, true, {"b": {}}]}"#).unwrap();
     assert_eq!(v, serde_json::json!({"a": [1, -2, 0.5, "x", null, true, {"b": {}}]}));
     assert!(super::json::parse(r#"{"a": 1} trailing"#).is_err());
+}
+
+#[test]
+fn a_moved_field_is_refused_at_its_former_place_naming_the_new_one_and_read_there_from_a_checkpoint() {
+    let base = TrainConfig::features();
+    for (from, to) in json::MOVED {
+        let (fs, ff) = from.split_once('.').unwrap();
+        let e = base.overlay(&serde_json::json!({ fs: { ff: true } })).unwrap_err().to_string();
+        assert!(e.contains(&format!("`{from}` is `{to}`")), "{e}");
+    }
+    // the flat names still set the moved fields
+    let c = base.overlay(&serde_json::json!({"appearance": true, "pose_refine": true, "pose_lr": 6e-4})).unwrap();
+    assert!(c.per_photo.appearance && c.per_photo.pose_refine && c.per_photo.pose_lr == 6e-4);
+    // a configuration written with the fields at their former places reads with them moved
+    let mut old = serde_json::to_value(&base).unwrap();
+    let per_photo = old.as_object_mut().unwrap().remove("per_photo").unwrap();
+    old["loss"]["appearance"] = serde_json::json!(true);
+    old["loss"]["pose_refine"] = per_photo["pose_refine"].clone();
+    old["optimiser"]["pose_lr"] = serde_json::json!(6e-4);
+    json::moved_fields_placed(&mut old);
+    let read: TrainConfig = serde_json::from_value(old).unwrap();
+    assert_eq!(
+        read,
+        base.with(|c| {
+            c.per_photo.appearance = true;
+            c.per_photo.pose_lr = 6e-4;
+        })
+    );
+}
+
+#[test]
+fn every_preset_validates_under_its_own_name_and_fit_tries_every_shape_once() {
+    let mut names = std::collections::HashSet::new();
+    for p in Preset::ALL {
+        p.config().validate().unwrap_or_else(|e| panic!("{}: {e}", p.name()));
+        assert!(names.insert(p.name()), "{} named twice", p.name());
+    }
+    let mut shapes = std::collections::HashSet::new();
+    for p in Preset::FIT {
+        let c = p.config();
+        assert!(c.grid.res > 0 && c.model.width % 32 == 0, "{}: no occupancy grid or a width off the tile", p.name());
+        assert!(shapes.insert(format!("{:?}{:?}", c.model, c.features)), "{} repeats a shape", p.name());
+    }
 }

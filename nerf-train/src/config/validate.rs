@@ -138,13 +138,13 @@ impl TrainConfig {
         if self.loss.near_gradient > 0.0 && self.sampling.n_fine > 0 {
             return Err(Error::Config("loss.near_gradient needs one network (sampling.n_fine = 0)".into()));
         }
-        if self.loss.pose_refine && self.sampling.n_fine > 0 {
-            return Err(Error::Config("loss.pose_refine needs one network (sampling.n_fine = 0)".into()));
+        if self.per_photo.pose_refine && self.sampling.n_fine > 0 {
+            return Err(Error::Config("per_photo.pose_refine needs one network (sampling.n_fine = 0)".into()));
         }
-        if !(self.optimiser.pose_lr.is_finite() && self.optimiser.pose_lr >= 0.0) {
+        if !(self.per_photo.pose_lr.is_finite() && self.per_photo.pose_lr >= 0.0) {
             return Err(Error::Config(format!(
-                "optimiser.pose_lr must be finite and not negative, not {}",
-                self.optimiser.pose_lr
+                "per_photo.pose_lr must be finite and not negative, not {}",
+                self.per_photo.pose_lr
             )));
         }
         Ok(())

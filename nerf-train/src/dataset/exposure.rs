@@ -3,7 +3,7 @@
 //! training photo that sees it, against its median over those photos. A
 //! photo's gain is the median of those ratios over its points; a capture
 //! whose gains spread widely (auto exposure, changing light) is one for
-//! the per-photo colour correction (`loss.appearance`).
+//! the per-photo colour correction (`per_photo.appearance`).
 
 use super::fit::Pose;
 use glam::DVec3;
@@ -89,7 +89,7 @@ pub fn note(path: &std::path::Path, gains: &[Option<f64>]) -> Option<String> {
         format!(
             "{}: the photos differ in exposure: at the same sparse points their brightness spans ×{lo:.2} to \
              ×{hi:.2} of the points' median (10th to 90th percentile of {} photos); a --config file holding \
-             {{\"loss\": {{\"appearance\": true}}}} fits a colour correction per photo: train with and without it \
+             {{\"per_photo\": {{\"appearance\": true}}}} fits a colour correction per photo: train with and without it \
              and compare the two with nerf eval",
             path.display(),
             g.len()

@@ -5,7 +5,7 @@
 //! geometry. The exported model renders the field's own colour, which
 //! [`Appearance::recentre`] keeps at the photos' mean appearance (the
 //! mean correction is the identity), and held-out photos are scored with it
-//! ([`LossConfig::appearance`](crate::config::LossConfig::appearance)).
+//! ([`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance)).
 
 use crate::optim::adam::Adam;
 use serde::{Deserialize, Serialize};

@@ -1,6 +1,6 @@
 //! Camera pose refinement: a small rotation and translation per training
 //! photo, fitted beside the model at
-//! [`OptimiserConfig::pose_lr`](crate::config::OptimiserConfig::pose_lr), for captures whose poses (COLMAP's, a
+//! [`PerPhotoConfig::pose_lr`](crate::config::PerPhotoConfig::pose_lr), for captures whose poses (COLMAP's, a
 //! phone's tracking) are a little off. Photo `k`'s camera is turned by the
 //! rotation vector `ω` (radians, about its own centre) and moved by `δ`
 //! (world units): a ray `(o, d)` of the photo becomes `(o + δ, R(ω)·d)`.
@@ -16,7 +16,7 @@
 //! points about the ray with the view direction; and the turn's own
 //! curvature (the gradient of `ω` is exact at `ω = 0`, [`ray_back`]).
 //! The held-out photos keep the poses they were loaded with
-//! ([`LossConfig::pose_refine`](crate::config::LossConfig::pose_refine)).
+//! ([`PerPhotoConfig::pose_refine`](crate::config::PerPhotoConfig::pose_refine)).
 
 use crate::optim::adam::Adam;
 use glam::Vec3;

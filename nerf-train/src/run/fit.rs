@@ -144,8 +144,10 @@ fn notes(base: &TrainConfig, cfg: &TrainConfig, data: &Dataset, kind: &str) -> V
             cfg.sampling.n_coarse, base.sampling.n_coarse
         ));
     }
-    if cfg.loss.pose_refine && data.scene.ndc.is_some() {
-        notes.push("forward-facing scene: loss.pose_refine leaves the photos' poses as loaded (rays in NDC)".into());
+    if cfg.per_photo.pose_refine && data.scene.ndc.is_some() {
+        notes.push(
+            "forward-facing scene: per_photo.pose_refine leaves the photos' poses as loaded (rays in NDC)".into(),
+        );
     }
     notes
 }

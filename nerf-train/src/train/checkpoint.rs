@@ -13,13 +13,13 @@
 //! Version 18, the whole state in postcard, is still read, through its
 //! own layout.
 
+use super::checkpoint_v18::V18;
 use super::*;
 use crate::error::Error;
-use crate::sampling::occupancy::OccupancyGrid;
 use nerf_infer::format::{frame, unframe};
 use nerf_infer::Error as FormatError;
 use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use serde_json::Value;
 
 /// The first bytes of a checkpoint file (`nerf_infer::format::CHECKPOINT_MAGIC`).
@@ -39,103 +39,6 @@ pub const CHECKPOINT_VERSION_MIN: u16 = 18;
 /// [`Trainer`] or [`TrainConfig`] gets a line here when such a value
 /// exists; without one, checkpoints that lack it are refused, naming it.
 pub const ABSENT_MEANS: &[(&str, &str)] = &[];
-
-/// The scene as a checkpoint holds it: [`Scene`] in the model format's
-/// encoding, then its unbounded space, which that encoding leaves to a
-/// model's own field (`#[serde(with = "scene_in_full")]` on a version 18
-/// checkpoint's scene).
-pub(super) mod scene_in_full {
-    use nerf_infer::format::{Scene, Unbounded};
-    use serde::{Deserialize, Deserializer};
-    #[cfg(test)]
-    use serde::{Serialize, Serializer};
-
-    /// Writes `scene` and `scene.unbounded` (as a version 18 checkpoint did).
-    #[cfg(test)]
-    pub fn serialize<S: Serializer>(scene: &Scene, s: S) -> Result<S::Ok, S::Error> {
-        (scene, scene.unbounded).serialize(s)
-    }
-
-    /// Reads what [`serialize`] writes.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Scene, D::Error> {
-        let (mut scene, unbounded): (Scene, Option<Unbounded>) = Deserialize::deserialize(d)?;
-        scene.unbounded = unbounded;
-        Ok(scene)
-    }
-}
-
-/// A version 18 checkpoint's payload: the state's fields in this order,
-/// in postcard (the types as this build defines them).
-#[derive(Deserialize)]
-#[cfg_attr(test, derive(Serialize))]
-pub(super) struct V18 {
-    cfg: TrainConfig,
-    #[serde(with = "scene_in_full")]
-    scene: Scene,
-    downscale: u32,
-    params: Vec<f32>,
-    adam: Adam,
-    step: u64,
-    elapsed: f64,
-    seed: u64,
-    skipped: u64,
-    grid: Option<OccupancyGrid>,
-    data: String,
-    pixel: f32,
-    ema: Vec<f32>,
-    proposal: Option<ProposalGrid>,
-    appearance: Option<Appearance>,
-    poses: Option<Poses>,
-}
-
-impl From<V18> for Trainer {
-    fn from(v: V18) -> Self {
-        Trainer {
-            cfg: v.cfg,
-            scene: v.scene,
-            downscale: v.downscale,
-            params: v.params,
-            adam: v.adam,
-            step: v.step,
-            elapsed: v.elapsed,
-            seed: v.seed,
-            skipped: v.skipped,
-            sampler: Sampler { occupancy: v.grid, proposal: v.proposal },
-            data: v.data,
-            pixel: v.pixel,
-            ema: v.ema,
-            appearance: v.appearance,
-            poses: v.poses,
-            pool: GradPool::default(),
-        }
-    }
-}
-
-/// A run as a version 18 checkpoint held it, for the tests that write one.
-#[cfg(test)]
-impl From<&Trainer> for V18 {
-    fn from(t: &Trainer) -> Self {
-        let t = t.clone();
-        V18 {
-            cfg: t.cfg,
-            scene: t.scene,
-            downscale: t.downscale,
-            params: t.params,
-            adam: t.adam,
-            step: t.step,
-            elapsed: t.elapsed,
-            seed: t.seed,
-            skipped: t.skipped,
-            grid: t.sampler.occupancy,
-            data: t.data,
-            pixel: t.pixel,
-            ema: t.ema,
-            proposal: t.sampler.proposal,
-            appearance: t.appearance,
-            poses: t.poses,
-        }
-    }
-}
 
 /// How many of a run's `params` parameters are a feature grid's table: the
 /// last ones (a run with a feature grid has one network), none without one.
@@ -219,11 +122,11 @@ impl Trainer {
         };
         let appearance_ok = match &t.appearance {
             None => true,
-            Some(a) => t.cfg.loss.appearance && a.is_consistent(),
+            Some(a) => t.cfg.per_photo.appearance && a.is_consistent(),
         };
         let poses_ok = match &t.poses {
             None => true,
-            Some(p) => t.cfg.loss.pose_refine && p.is_consistent(),
+            Some(p) => t.cfg.per_photo.pose_refine && p.is_consistent(),
         };
         let nets = if t.cfg.sampling.n_fine > 0 { 2 } else { 1 };
         let sizes_ok = proposal_ok
@@ -330,6 +233,7 @@ impl Trainer {
         let cfg: String = r.take("cfg")?;
         let bad_cfg = |e: serde_json::Error| Error::Checkpoint(format!("its cfg cannot be decoded: {e}"));
         let mut cfg: Value = serde_json::from_str(&cfg).map_err(bad_cfg)?;
+        crate::config::json::moved_fields_placed(&mut cfg);
         let like = serde_json::to_value(TrainConfig::default()).map_err(bad_cfg)?;
         complete(&mut cfg, &like, "cfg", absent)?;
         let (mut scene, unbounded): (Scene, Option<nerf_infer::format::Unbounded>) = r.take("scene")?;

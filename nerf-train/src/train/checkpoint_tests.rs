@@ -2,6 +2,7 @@
 //! version 18 still reads, and a field missing or unknown is named.
 
 use super::checkpoint::{ABSENT_MEANS, CHECKPOINT_VERSION, CHECKPOINT_VERSION_MIN};
+use super::checkpoint_v18::V18;
 use super::*;
 use nerf_infer::format::{frame, unframe, CHECKPOINT_MAGIC};
 
@@ -52,7 +53,9 @@ fn a_checkpoint_reads_back_as_the_state_it_was_written_from() {
 
 #[test]
 fn a_version_18_checkpoint_the_whole_state_in_postcard_still_reads() {
-    let t = trainer();
+    let mut t = trainer();
+    // a per-photo setting, which version 18 laid out in `optimiser`
+    t.cfg.per_photo.pose_lr = 3e-4;
     let v18 = frame(&CHECKPOINT_MAGIC, CHECKPOINT_VERSION_MIN, &postcard::to_stdvec(&V18::from(&t)).unwrap()).unwrap();
     assert_eq!(Trainer::from_bytes(&v18).unwrap().to_bytes().unwrap(), t.to_bytes().unwrap());
     let v17 = frame(&CHECKPOINT_MAGIC, 17, &postcard::to_stdvec(&V18::from(&t)).unwrap()).unwrap();
@@ -89,6 +92,20 @@ fn a_field_an_earlier_build_lacks_takes_the_value_that_means_what_it_did() {
     assert_eq!((back.params, back.step), (t.params, t.step));
     // the fields this build reads from checkpoints that lack them: none yet
     assert!(ABSENT_MEANS.is_empty());
+}
+
+#[test]
+fn a_checkpoint_with_a_moved_field_at_its_former_place_reads_it_in_the_new_one() {
+    let mut t = trainer();
+    t.cfg.per_photo.pose_lr = 3e-4;
+    let moved_back = with_cfg(&sections(&t), |v| {
+        let per_photo = v.as_object_mut().unwrap().remove("per_photo").unwrap();
+        v["loss"]["appearance"] = per_photo["appearance"].clone();
+        v["loss"]["pose_refine"] = per_photo["pose_refine"].clone();
+        v["optimiser"]["pose_lr"] = per_photo["pose_lr"].clone();
+    });
+    let back = Trainer::from_bytes(&checkpoint(&moved_back)).unwrap();
+    assert_eq!(back.to_bytes().unwrap(), t.to_bytes().unwrap());
 }
 
 #[test]

@@ -83,7 +83,7 @@ fn loss_gradients(
 impl Trainer {
     /// [`loss_gradients`] of a chunk's pass (the coarse or only pass's
     /// samples in `ws`, or with `fine` the fine pass's), with the run's
-    /// losses beside the colour's and, with [`LossConfig::appearance`](crate::config::LossConfig::appearance),
+    /// losses beside the colour's and, with [`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance),
     /// the photos' colour corrections, their gradient summed into `ws.dapp`.
     pub(super) fn colour_loss(&self, rays: &[Sample], scale: f32, ws: &mut Workspace, fine: bool) -> f64 {
         let c = &self.cfg;

@@ -44,6 +44,7 @@ mod calibrate;
 mod checkpoint;
 #[cfg(test)]
 mod checkpoint_tests;
+mod checkpoint_v18;
 mod loss;
 mod pool;
 mod pose_pass;
@@ -128,7 +129,7 @@ pub struct Trainer {
     /// ([`Trainer::averaged`]); empty otherwise.
     pub ema: Vec<f32>,
     /// Each training photo's colour correction (runs with
-    /// [`LossConfig::appearance`](crate::config::LossConfig::appearance), from their first step).
+    /// [`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance), from their first step).
     pub appearance: Option<Appearance>,
     /// Each training photo's pose correction (runs that
     /// [`Trainer::refines_poses`], from their first step).
@@ -154,7 +155,7 @@ struct Workspace {
     dsig: Vec<f32>,
     drgb: Vec<f32>,
     /// The photos' colour corrections' gradient (runs with
-    /// [`LossConfig::appearance`](crate::config::LossConfig::appearance); as [`Appearance::params`]).
+    /// [`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance); as [`Appearance::params`]).
     dapp: Vec<f32>,
     /// The photos' pose corrections' gradient (runs that
     /// [`Trainer::refines_poses`]; as [`Poses::params`]).
@@ -169,7 +170,7 @@ struct Workspace {
 
 /// The photos' corrections' gradients of a batch, each as its
 /// parameters: colour ([`Appearance::params`], empty without
-/// [`LossConfig::appearance`](crate::config::LossConfig::appearance)) and
+/// [`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance)) and
 /// pose ([`Poses::params`], empty unless the run [`Trainer::refines_poses`]).
 #[derive(Clone, Debug, Default)]
 pub struct PerPhoto {

@@ -8,10 +8,10 @@ use glam::Vec3;
 use nerf_infer::camera::FOOTPRINT_POINTS;
 
 impl Trainer {
-    /// Whether this run fits pose corrections: [`LossConfig::pose_refine`](crate::config::LossConfig::pose_refine)
+    /// Whether this run fits pose corrections: [`PerPhotoConfig::pose_refine`](crate::config::PerPhotoConfig::pose_refine)
     /// in a scene that is not forward-facing (NDC rays keep their poses).
     pub fn refines_poses(&self) -> bool {
-        self.cfg.loss.pose_refine && self.scene.ndc.is_none()
+        self.cfg.per_photo.pose_refine && self.scene.ndc.is_none()
     }
 
     /// [`Trainer::draw_batch`] through the cameras as `poses` corrects them
@@ -32,13 +32,13 @@ impl Trainer {
     }
 
     /// One Adam step of the pose corrections on the step's gradient `grad`
-    /// (as [`Poses::params`]) at [`OptimiserConfig::pose_lr`](crate::config::OptimiserConfig::pose_lr),
+    /// (as [`Poses::params`]) at [`PerPhotoConfig::pose_lr`](crate::config::PerPhotoConfig::pose_lr),
     /// decayed as the network's `lr` (this step's rate) is.
     pub(super) fn step_poses(&mut self, grad: &mut [f32], lr: f32) {
         let c = &self.cfg;
         let Some(p) = self.poses.as_mut().filter(|p| grad.len() == p.params.len()) else { return };
         if grad.iter().all(|g| g.is_finite()) {
-            let lr = c.optimiser.pose_lr * lr / c.optimiser.lr;
+            let lr = c.per_photo.pose_lr * lr / c.optimiser.lr;
             p.update(grad, lr, c.optimiser.beta1, c.optimiser.beta2, c.optimiser.eps);
         }
     }

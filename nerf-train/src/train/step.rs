@@ -43,7 +43,7 @@ impl Trainer {
         let poses = self.poses.as_ref().filter(|_| self.refines_poses());
         let batch = timed(&mut times.draw, || Self::draw_batch_posed(data, n, how, &mut rng, poses));
         let step_key = hash32(self.seed as u32 ^ hash32(self.step as u32));
-        if self.cfg.loss.appearance {
+        if self.cfg.per_photo.appearance {
             let photos = data.views.len();
             let a = self.appearance.get_or_insert_with(|| Appearance::new(photos));
             if a.photos() != photos {

@@ -22,7 +22,7 @@
 use super::{create_dir, eval, fixed_scheme, num_in, train, write_atomic, CaptureArgs, CmdError, CmdResult};
 use nerf_infer::camera::FOOTPRINT_POINTS;
 use nerf_infer::Scheme;
-use nerf_train::config::TrainConfig;
+use nerf_train::config::{Preset, TrainConfig};
 use nerf_train::dataset::Split;
 use nerf_train::export::{quantise, random_model, OwnedModel};
 use std::path::{Path, PathBuf};
@@ -72,49 +72,10 @@ pub struct Args {
     threads: usize,
 }
 
-/// The candidates, cheapest first: (name, configuration). Widths are
-/// multiples of 32, the int8 kernel's output tile on AVX-512.
+/// The candidates, cheapest first ([`cost`]): the presets of
+/// [`Preset::FIT`], by name.
 pub fn candidates() -> Vec<(&'static str, TrainConfig)> {
-    let g = TrainConfig::grid();
-    let mut c = vec![
-        (
-            "2x32-noview",
-            g.clone().with(|c| {
-                c.model.depth = 2;
-                c.model.width = 32;
-                c.model.pos_freqs = 6;
-                c.model.view_dependent = false;
-            }),
-        ),
-        (
-            "3x32",
-            g.clone().with(|c| {
-                c.model.depth = 3;
-                c.model.width = 32;
-            }),
-        ),
-        ("3x64", g.clone().with(|c| c.model.depth = 3)),
-        ("4x64", g.clone()),
-        ("features", TrainConfig::features()),
-        (
-            "features-2x32",
-            TrainConfig::features().with(|c| {
-                c.model.width = 32;
-                c.model.view_width = 32;
-                c.features.footprint = false;
-            }),
-        ),
-        (
-            "6x96",
-            g.with(|c| {
-                c.model.depth = 6;
-                c.model.width = 96;
-                c.model.view_width = 32;
-                c.model.pos_freqs = 10;
-                c.model.dir_freqs = 4;
-            }),
-        ),
-    ];
+    let mut c: Vec<_> = Preset::FIT.iter().map(|p| (p.name(), p.config())).collect();
     c.sort_by_key(|(_, cfg)| cost(cfg));
     c
 }
