@@ -7,8 +7,7 @@
 //! mean correction is the identity), and held-out photos are scored with it
 //! ([`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance)).
 
-use crate::optim::adam::Adam;
-use serde::{Deserialize, Serialize};
+use super::PerPhoto;
 
 /// Values per photo: `A` row by row, then `b`.
 pub const PER_PHOTO: usize = 12;
@@ -32,38 +31,19 @@ pub const PRIOR: f32 = 1e-3;
 /// decay.
 pub const LR_SHARE: f32 = 0.1;
 
-/// Each training photo's correction and their optimiser state.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Appearance {
-    /// [`PER_PHOTO`] values per photo, in the dataset's order of training views.
-    pub params: Vec<f32>,
-    /// Their Adam state.
-    pub adam: Adam,
-}
+/// Each training photo's correction ([`PER_PHOTO`] values: `A` row by
+/// row, then `b`) and their optimiser state.
+pub type Appearance = PerPhoto<PER_PHOTO>;
 
 impl Appearance {
     /// The identity correction for each of `photos` photos.
     pub fn new(photos: usize) -> Self {
-        let params: Vec<f32> = IDENTITY.iter().copied().cycle().take(photos * PER_PHOTO).collect();
-        let adam = Adam::new(params.len(), 0);
-        Self { params, adam }
-    }
-
-    /// Photos held.
-    pub fn photos(&self) -> usize {
-        self.params.len() / PER_PHOTO
-    }
-
-    /// Whether the state is whole: [`PER_PHOTO`] values per photo and the
-    /// optimiser's moments for each.
-    pub fn is_consistent(&self) -> bool {
-        let n = self.params.len();
-        n.is_multiple_of(PER_PHOTO) && self.adam.m.len() == n && self.adam.v.len() == n && self.adam.steps.is_empty()
+        Self::filled(photos, IDENTITY)
     }
 
     /// Photo `photo`'s correction.
     pub fn of(&self, photo: usize) -> &[f32] {
-        &self.params[photo * PER_PHOTO..(photo + 1) * PER_PHOTO]
+        self.row(photo)
     }
 
     /// One Adam step at learning rate `optimiser.lr` on the colour loss's gradient
@@ -72,7 +52,7 @@ impl Appearance {
         for (i, g) in grad.iter_mut().enumerate() {
             *g += 2.0 * PRIOR * (self.params[i] - IDENTITY[i % PER_PHOTO]);
         }
-        self.adam.update(&mut self.params, grad, lr, beta1, beta2, eps, 0.0);
+        self.adam_step(grad, lr, beta1, beta2, eps);
         self.recentre();
     }
 

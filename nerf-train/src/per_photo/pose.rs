@@ -18,45 +18,25 @@
 //! The held-out photos keep the poses they were loaded with
 //! ([`PerPhotoConfig::pose_refine`](crate::config::PerPhotoConfig::pose_refine)).
 
-use crate::optim::adam::Adam;
+use super::PerPhoto;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
 
 /// Values per photo: `ω` (x, y, z, radians), then `δ` (x, y, z, world units).
 pub const PER_PHOTO: usize = 6;
 
-/// Each training photo's pose correction and their optimiser state.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Poses {
-    /// [`PER_PHOTO`] values per photo, in the dataset's order of training views.
-    pub params: Vec<f32>,
-    /// Their Adam state.
-    pub adam: Adam,
-}
+/// Each training photo's pose correction ([`PER_PHOTO`] values: `ω`,
+/// then `δ`) and their optimiser state.
+pub type Poses = PerPhoto<PER_PHOTO>;
 
 impl Poses {
     /// No correction for each of `photos` photos.
     pub fn new(photos: usize) -> Self {
-        let params = vec![0.0; photos * PER_PHOTO];
-        let adam = Adam::new(params.len(), 0);
-        Self { params, adam }
-    }
-
-    /// Photos held.
-    pub fn photos(&self) -> usize {
-        self.params.len() / PER_PHOTO
-    }
-
-    /// Whether the state is whole: [`PER_PHOTO`] values per photo and the
-    /// optimiser's moments for each.
-    pub fn is_consistent(&self) -> bool {
-        let n = self.params.len();
-        n.is_multiple_of(PER_PHOTO) && self.adam.m.len() == n && self.adam.v.len() == n && self.adam.steps.is_empty()
+        Self::filled(photos, [0.0; PER_PHOTO])
     }
 
     /// Photo `photo`'s rotation vector `ω` (radians) and translation `δ` (world units).
     pub fn of(&self, photo: usize) -> (Vec3, Vec3) {
-        let p = &self.params[photo * PER_PHOTO..(photo + 1) * PER_PHOTO];
+        let p = self.row(photo);
         (Vec3::new(p[0], p[1], p[2]), Vec3::new(p[3], p[4], p[5]))
     }
 
@@ -70,7 +50,7 @@ impl Poses {
     /// One Adam step at learning rate `lr` on `grad` (as `params`), then
     /// [`Poses::recentre`].
     pub fn update(&mut self, grad: &mut [f32], lr: f32, beta1: f32, beta2: f32, eps: f32) {
-        self.adam.update(&mut self.params, grad, lr, beta1, beta2, eps, 0.0);
+        self.adam_step(grad, lr, beta1, beta2, eps);
         self.recentre();
     }
 
