@@ -201,7 +201,7 @@ fn feature_grid_models_need_the_feature() {
 /// A narrow feature table makes a version-7 model. Files whose table,
 /// codebook or bits disagree, with codes but no grid, or with codes in
 /// an f32 model are refused with `InvalidEncoding` (a valid one round
-/// trips in the workspace's tests/features.rs).
+/// trips in `nerf-train/tests/features.rs`).
 #[cfg(feature = "alloc")]
 #[test]
 fn narrow_tables_are_version_7_and_checked() {

@@ -16,7 +16,8 @@ use std::path::Path;
 use support::{psnr, render};
 
 fn model(name: &str) -> Vec<u8> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(name);
+    // the workspace's `models/`, beside this crate's folder
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../models").join(name);
     std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
 

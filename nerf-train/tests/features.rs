@@ -256,7 +256,8 @@ fn the_format_keeps_old_versions_and_checks_the_table() {
     // models without a feature grid are written as before, byte for byte
     // (golden8.nerf: an int8 model written before format version 6)
     for name in ["models/scene.nerf", "models/scene_grid.nerf", "nerf-infer/tests/data/golden8.nerf"] {
-        let bytes = std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(name)).unwrap();
+        // the workspace's root, above this crate's folder
+        let bytes = std::fs::read(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(name)).unwrap();
         let m = Model::from_bytes(&bytes).unwrap();
         assert!(version(&bytes) < FORMAT_VERSION_NO_CAPTURE);
         assert_eq!(OwnedModel::from_model(&m).to_bytes().unwrap(), bytes, "{name}");
