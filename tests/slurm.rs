@@ -1,5 +1,5 @@
 //! The shipped Slurm scripts against a real Slurm: a one-node cluster on
-//! localhost (`scripts/slurm_local.sh`, which installs Debian's slurmctld,
+//! localhost (`scripts/check/slurm_local.sh`, which installs Debian's slurmctld,
 //! slurmd, slurm-client and munge when missing and starts the daemons as
 //! root), `examples/bench/slurm/submit.sh` submitting a two-task array over
 //! two tiny built-in scenes and its dependent gather job, the table
@@ -18,7 +18,7 @@ struct Cluster(std::path::PathBuf);
 
 impl Drop for Cluster {
     fn drop(&mut self) {
-        let _ = Command::new("bash").arg(repo().join("scripts/slurm_local.sh")).arg("stop").arg(&self.0).status();
+        let _ = Command::new("bash").arg(repo().join("scripts/check/slurm_local.sh")).arg("stop").arg(&self.0).status();
     }
 }
 
@@ -33,8 +33,11 @@ fn the_shipped_job_array_and_its_gather_job_write_the_table() {
     let (suite, cfg) = support::cli::bench_suite(&d);
 
     let state = d.join("slurm");
-    let started =
-        Command::new("bash").arg(repo().join("scripts/slurm_local.sh")).args(["start", s(&state)]).output().unwrap();
+    let started = Command::new("bash")
+        .arg(repo().join("scripts/check/slurm_local.sh"))
+        .args(["start", s(&state)])
+        .output()
+        .unwrap();
     let _cluster = Cluster(state.clone());
     assert!(started.status.success(), "starting Slurm: {}", String::from_utf8_lossy(&started.stderr));
     let conf = state.join("slurm.conf");

@@ -1,5 +1,5 @@
 //! The sizes of the values an embedding program keeps, on the target it is
-//! built for, in the line format `scripts/stack_table.sh` reads from the
+//! built for, in the line format `scripts/check/stack_table.sh` reads from the
 //! firmware too:
 //!
 //!     cargo run -p nerf-infer --release --example sizes

@@ -12,7 +12,7 @@
 //! plus the stack high-water mark, found by painting the stack; the stack
 //! each library call needs beyond its caller's frame (decoding, making the
 //! renderer, rendering the tile) is found the same way, and
-//! `scripts/stack_table.sh` in the workspace collects it per target.
+//! `scripts/check/stack_table.sh` in the workspace collects it per target.
 
 #![no_std]
 #![no_main]
@@ -327,7 +327,7 @@ fn main() -> ! {
         core::mem::size_of::<ScratchFixed<BLOCK>>(),
         MODELS.iter().map(|m| m.1.len()).sum::<usize>()
     );
-    // for scripts/stack_table.sh: bytes, key=value
+    // for scripts/check/stack_table.sh: bytes, key=value
     hprintln!(
         "stack: decode={} renderer={} render_tile={} high_water={} (beyond the caller's frame; high_water from the top)",
         stack.decode,

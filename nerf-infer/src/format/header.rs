@@ -11,7 +11,7 @@ pub const FRAME_FIELDS_LEN: usize = 10;
 
 /// Checks magic, version, length and checksum; returns the version and the payload.
 pub(super) fn check_header(bytes: &[u8]) -> Result<(u16, &[u8])> {
-    // in two halves: one 8-byte comparison here grows the decode's stack (scripts/stack_table.sh)
+    // in two halves: one 8-byte comparison here grows the decode's stack (scripts/check/stack_table.sh)
     if bytes.len() >= 8 && bytes[0..4] == CHECKPOINT_MAGIC[..4] && bytes[4..8] == CHECKPOINT_MAGIC[4..] {
         return Err(Error::Checkpoint);
     }
@@ -26,7 +26,7 @@ pub(super) fn check_header(bytes: &[u8]) -> Result<(u16, &[u8])> {
 /// [`Error::TrailingBytes`], [`Error::ChecksumMismatch`]. Returns the
 /// version and the payload. Model files use it with [`MAGIC`]; the
 /// trainer's checkpoints with their own magic. Always inlined: out of
-/// line it grows the decode's stack (`scripts/stack_table.sh --check`).
+/// line it grows the decode's stack (`scripts/check/stack_table.sh --check`).
 #[inline(always)]
 pub fn unframe<'a>(bytes: &'a [u8], magic: &[u8], oldest: u16, newest: u16) -> Result<(u16, &'a [u8])> {
     let m = magic.len();

@@ -33,7 +33,7 @@ pub use scratch::Scratch;
 /// (`AnyScratch`, `ScratchF32`, `ScratchFixed`): 8 with the `std` feature,
 /// a host's build (from a crate outside this workspace on an AMD EPYC,
 /// int8 renders lego in 0.52 of the time of blocks of 1, f32 in 0.70:
-/// `scripts/block_sizes.sh`, docs/RESULTS.md "Samples per block"); 1
+/// `scripts/measure/block_sizes.sh`, docs/RESULTS.md "Samples per block"); 1
 /// without, where the scratch must fit a microcontroller's stack or RAM
 /// (`ScratchFixed<1>` 13.3 KiB, `<8>` 43.4 KiB).
 pub const DEFAULT_BLOCK: usize = if cfg!(feature = "std") { 8 } else { 1 };

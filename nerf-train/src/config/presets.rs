@@ -186,7 +186,7 @@ impl TrainConfig {
 pub enum Preset {
     /// An occupancy grid, a learned feature grid and a 2×64 network: the
     /// default, the highest held-out PSNR per minute measured on lego and
-    /// on the real captures (`scripts/captures.sh`; docs/RESULTS.md).
+    /// on the real captures (`scripts/measure/captures.sh`; docs/RESULTS.md).
     #[default]
     Features,
     /// An occupancy grid and one 4×64 network.

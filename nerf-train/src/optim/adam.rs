@@ -176,7 +176,7 @@ struct Hyper {
 
 // The blocks' loops are functions of their own (not inlined into the
 // parallel closures): inlined, the table's loop compiled to slower code
-// for the same arithmetic (`scripts/step_ab.sh`, docs/EXPERIMENTS.md).
+// for the same arithmetic (`scripts/check/step_ab.sh`, docs/EXPERIMENTS.md).
 
 /// One block of dense parameters' updates with bias corrections `bc`;
 /// zeroes the block's gradient.
