@@ -195,8 +195,8 @@ fn run_scene(settings: &Settings, scene: &Scene, dir: &Path, threads: usize, row
         a.force = !resume;
         // about ten validation points per curve; a step budget gets one every
         // 2 minutes of training, as a 20-minute budget does (each point renders
-        // the run's validation views: at 1008×756 one every 30 s tripled a
-        // 25 601-step run's wall time)
+        // the run's validation views, which at 1008×756 take longer than the
+        // training between them would at a shorter interval)
         a.val_secs = settings.minutes.map_or(120.0, |m| (m * 6.0).max(1.0));
         let trained = train::run(a);
         if let Some(e) = stopped() {
