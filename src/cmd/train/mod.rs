@@ -219,6 +219,9 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         val_views: a.val_views,
         log_every: a.log_every,
     };
+    // from before the log exists: an interrupt once it does stops at a step
+    // and checkpoints, never exits with a log and no checkpoint
+    super::interrupt::catch();
     let mut progress = Progress {
         bar: progress(budget.ticks(), "{bar:30} {pos}/{len} ({eta}) {msg}"),
         log: RunLog::open(&a.out.join("train.jsonl"), a.resume.then_some(run.trainer.step))?,
@@ -228,7 +231,6 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         wall: Instant::now(),
         last_val_psnr: None,
     };
-    super::interrupt::catch();
     let start_step = run.trainer.step;
     let outcome = run.train(&mut progress);
     progress.bar.finish_and_clear();
