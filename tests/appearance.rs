@@ -9,6 +9,7 @@ use nerf_train::dataset::synthetic::{write_colmap, ColmapText, SceneSpec};
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::per_photo::appearance::IDENTITY;
 use nerf_train::train::Trainer;
+use std::num::NonZeroU16;
 use support::cli::tmp;
 
 /// Every other training photo's exposure.
@@ -31,7 +32,7 @@ fn corrections_take_each_photos_exposure() {
     let run = |appearance: bool| {
         // a colour without the view direction: only the corrections can tell the photos apart
         let cfg = TrainConfig::features().with(|c| {
-            c.sampling.proposal_res = 32;
+            c.sampling.proposal_res = NonZeroU16::new(32);
             c.sampling.batch_rays = 256;
             c.per_photo.appearance = appearance;
             c.model.view_dependent = false;

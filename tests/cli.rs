@@ -355,22 +355,22 @@ fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
     };
     // the room (unbounded): the proposal grid and the distortion loss, said on the terminal
     let (res, distortion, err) = train("room", "{}", "room", &[]);
-    assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, TrainConfig::PROPOSAL_DISTORTION));
+    assert_eq!((res, distortion), (Some(TrainConfig::PROPOSAL_RES), TrainConfig::PROPOSAL_DISTORTION));
     assert!(err.contains("the distortion loss at 0.001"), "{err}");
     // trained at 32 network samples, rendered at 16 by default, said on the terminal
     let render = |run: &str| {
         let m = std::fs::read(d.join(run).join("model.nerf")).unwrap();
         nerf_infer::format::Model::from_bytes(&m).map(|m| m.samples.fine).unwrap()
     };
-    assert_eq!(render("room"), TrainConfig::PROPOSAL_RENDER_MAIN);
+    assert_eq!(render("room"), TrainConfig::PROPOSAL_RENDER_MAIN.get());
     assert!(err.contains("the model renders at 16 unless told otherwise"), "{err}");
     let (res, _, _) = train("room", r#"{"sampling": {"n_main_render": 24}}"#, "room-render", &[]);
-    assert_eq!((res, render("room-render")), (TrainConfig::PROPOSAL_RES, 24));
+    assert_eq!((res, render("room-render")), (Some(TrainConfig::PROPOSAL_RES), 24));
     let (res, _, _) = train("room", r#"{"sampling": {"n_main_render": 0}}"#, "room-render-all", &[]);
-    assert_eq!((res, render("room-render-all")), (TrainConfig::PROPOSAL_RES, 32));
+    assert_eq!((res, render("room-render-all")), (Some(TrainConfig::PROPOSAL_RES), 32));
     // a chosen training count renders at itself
     let (res, _, _) = train("room", r#"{"sampling": {"n_main": 8}}"#, "room-main", &[]);
-    assert_eq!((res, render("room-main")), (TrainConfig::PROPOSAL_RES, 8));
+    assert_eq!((res, render("room-main")), (Some(TrainConfig::PROPOSAL_RES), 8));
     // out of range: refused by name, not trained without the grid
     let bad = d.join("bad.json");
     std::fs::write(&bad, r#"{"sampling": {"n_main_render": 300}}"#).unwrap();
@@ -384,16 +384,16 @@ fn proposal_grid_captures_get_the_distortion_loss_unless_the_config_names_it() {
     assert!(!d.join("x.nerf").exists());
     // a configuration that names the weight keeps it
     let (res, distortion, err) = train("room", r#"{"distortion": 0}"#, "room-chosen", &[]);
-    assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, 0.0));
+    assert_eq!((res, distortion), (Some(TrainConfig::PROPOSAL_RES), 0.0));
     assert!(!err.contains("distortion loss"), "{err}");
     // a forward-facing capture: both too
     let (res, distortion, err) = train("llff", "{}", "forward", &[]);
-    assert_eq!((res, distortion), (TrainConfig::PROPOSAL_RES, TrainConfig::PROPOSAL_DISTORTION));
+    assert_eq!((res, distortion), (Some(TrainConfig::PROPOSAL_RES), TrainConfig::PROPOSAL_DISTORTION));
     assert!(err.contains("forward-facing") && err.contains("the distortion loss at 0.001"), "{err}");
     // and rendered at the network samples it trains with
     assert_eq!(render("forward"), 32);
     assert!(err.contains("the model renders at 32 unless told otherwise"), "{err}");
     // the same photos as an object scene: neither
     let (res, distortion, _) = train("colmap", "{}", "object", &["--scene", "object"]);
-    assert_eq!((res, distortion), (0, 0.0));
+    assert_eq!((res, distortion), (None, 0.0));
 }

@@ -13,6 +13,7 @@ mod support;
 use nerf_infer::{render_tile, Camera, Model, PixelFixed, RenderOptions, RendererFixed, Scheme, ScratchFixed, Tile};
 use nerf_train::export::{quantise, random_model};
 use std::fmt::Write;
+use std::num::NonZeroU16;
 use support::*;
 
 const POSE: [[f32; 4]; 3] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 3.0]];
@@ -76,10 +77,10 @@ fn bless() {
     // golden8_proposal.nerf: an int8 model whose proposal grid (format version 11) places its samples in
     // a ball about the centre
     let pcfg = cfg.with(|c| {
-        c.sampling.n_fine = 0;
+        c.sampling.n_fine = None;
         c.sampling.n_coarse = 48;
         c.sampling.n_main = 16;
-        c.sampling.proposal_res = 8;
+        c.sampling.proposal_res = NonZeroU16::new(8);
     });
     let mut p = random_model(&pcfg, unit_scene(), 7, 6.0);
     let (grid, codes) = p.proposal.as_mut().unwrap();

@@ -14,6 +14,7 @@ use nerf_train::export::{trainer_model, Prune};
 use nerf_train::per_photo::pose::{Poses, PER_PHOTO};
 use nerf_train::train::{Draw, Trainer};
 use nerf_train::util::rng::Rng;
+use std::num::NonZeroU16;
 use support::cli::tmp;
 
 /// The built-in scene inside its room (an unbounded scene: its samples are
@@ -41,8 +42,8 @@ fn pose_gradient_matches_finite_differences() {
     // stratified samples (no proposal or occupancy grid), so that the
     // samples' t do not move with the camera
     let cfg = TrainConfig::features().with(|c| {
-        c.sampling.proposal_res = 0;
-        c.grid.res = 0;
+        c.sampling.proposal_res = None;
+        c.grid.res = None;
         c.sampling.n_coarse = 48;
         c.sampling.batch_rays = 256;
         c.loss.distortion = 0.0;
@@ -113,7 +114,7 @@ fn cameras_that_are_off_are_corrected_and_the_held_out_views_gain() {
     let steps = 600;
     let run = |refine: bool| {
         let cfg = TrainConfig::features().with(|c| {
-            c.sampling.proposal_res = 32;
+            c.sampling.proposal_res = NonZeroU16::new(32);
             c.sampling.batch_rays = 512;
             c.per_photo.pose_refine = refine;
             // a short run: nerfacto's rate, where the default suits thousands of steps

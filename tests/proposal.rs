@@ -15,16 +15,17 @@ use nerf_train::eval::render_view;
 use nerf_train::export::{quantise, random_model, OwnedModel};
 use nerf_train::train::{Draw, Trainer};
 use nerf_train::util::rng::Rng;
+use std::num::NonZeroU16;
 use support::cli::tmp;
 use support::*;
 
 /// A configuration with a proposal grid of `res` cells per axis.
 fn proposal_config(res: u16) -> TrainConfig {
     small_config().with(|c| {
-        c.sampling.n_fine = 0;
+        c.sampling.n_fine = None;
         c.sampling.n_coarse = 64;
         c.sampling.n_main = 24;
-        c.sampling.proposal_res = res;
+        c.sampling.proposal_res = NonZeroU16::new(res);
     })
 }
 
@@ -80,7 +81,7 @@ fn a_trained_proposal_grid_bounds_the_networks_weights() {
     let data = load(&d, Split::Train, LoadOptions { holdout: 8, ..Default::default() }).unwrap();
     assert!(data.scene.unbounded.is_some(), "the room is unbounded");
     let cfg = TrainConfig::features().with(|c| {
-        c.sampling.proposal_res = 32;
+        c.sampling.proposal_res = NonZeroU16::new(32);
         c.sampling.batch_rays = 512;
     });
     let mut tr = Trainer::new(cfg, data.scene, 1, 0);

@@ -7,6 +7,7 @@ mod support;
 use nerf_infer::format::crc32;
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpListener;
+use std::num::NonZeroU8;
 use std::path::{Path, PathBuf};
 use support::cli::{fails, ok, s, tmp};
 
@@ -17,8 +18,8 @@ use support::cli::{fails, ok, s, tmp};
 fn models(dir: &Path) -> Vec<PathBuf> {
     use nerf_train::export::{quantise, random_model};
     let cfg = support::small_config().with(|c| {
-        c.sampling.n_fine = 0;
-        c.features.levels = 3;
+        c.sampling.n_fine = None;
+        c.features.levels = NonZeroU8::new(3);
         c.features.log2_table = 9;
         c.features.min_res = 2;
         c.features.max_res = 40;

@@ -11,6 +11,7 @@ use nerf_train::dataset::synthetic::{write_blender, write_colmap, ColmapText, Sc
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::train::{Draw, Sample, Trainer};
 use nerf_train::util::rng::Rng;
+use std::num::NonZeroU16;
 use support::small_config;
 
 /// The density at 200 random points of the normalised cube of a fresh
@@ -72,7 +73,7 @@ fn a_field_left_without_density_anywhere_grows_back() {
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = small_config().with(|c| {
         c.sampling.batch_rays = 128;
-        c.sampling.n_fine = 0;
+        c.sampling.n_fine = None;
         c.optimiser.lr = 1e-2;
     });
     let mut tr = Trainer::new(cfg, data.scene, 1, 5);
@@ -97,7 +98,7 @@ fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() 
     let diagonal = 2.2 * 3f32.sqrt();
     // the default (one network) and `fast` (coarse and fine)
     for cfg in [nerf_train::config::TrainConfig::default(), nerf_train::config::TrainConfig::fast()] {
-        let nets = 1 + (cfg.sampling.n_fine > 0) as usize;
+        let nets = 1 + cfg.sampling.n_fine.is_some() as usize;
         for seed in 0..4 {
             let even = initial_densities(&cfg, unbounded, seed);
             let fogs = initial_densities(&cfg, bounded, seed);
@@ -135,11 +136,11 @@ fn gradients_shrink_only_within_the_near_gradient_distance_of_the_camera() {
     write_colmap(&room, SceneSpec { size: 16, train: 6, val: 1, test: 0 }, ColmapText::Binary, true).unwrap();
     let norm = |g: &[f32]| g.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
     // an object scene's stratified samples, and an unbounded scene's placed by a proposal grid
-    let one = small_config().with(|c| c.sampling.n_fine = 0);
-    let proposed = one.clone().with(|c| c.sampling.proposal_res = 16);
+    let one = small_config().with(|c| c.sampling.n_fine = None);
+    let proposed = one.clone().with(|c| c.sampling.proposal_res = NonZeroU16::new(16));
     for (dir, cfg) in [(&object, one), (&room, proposed)] {
         let data = load(dir, Split::Train, LoadOptions::default()).unwrap();
-        assert_eq!(data.scene.unbounded.is_some(), cfg.sampling.proposal_res > 0);
+        assert_eq!(data.scene.unbounded.is_some(), cfg.sampling.proposal_res.is_some());
         let probe = Trainer::draw_batch(&data, 256, Draw::CENTRES, &mut Rng::new(5));
         let (near, far) = (data.scene.near, data.scene.far);
         let off = near_gradient(&cfg, data.scene, &probe, 0.0);

@@ -19,6 +19,7 @@ use nerf_infer::{Error, Model, Pixel, RayRenderer, RenderOptions, RendererF32, R
 use nerf_infer::{ScratchF32, ScratchFixed};
 use nerf_train::config::TrainConfig;
 use nerf_train::export::{quantise, quantise_with, random_model, ActBits, OwnedModel, Quantisation};
+use std::num::NonZeroU8;
 use support::{small_config, unit_scene};
 
 /// What a model's weights are set to after random initialisation.
@@ -202,8 +203,8 @@ fn scenes() -> Vec<(&'static str, Scene)> {
 fn feature_grid_config() -> TrainConfig {
     // a learned feature grid: 3 levels (dense, dense, hashed) beside γ(x)
     small_config().with(|c| {
-        c.sampling.n_fine = 0;
-        c.features.levels = 3;
+        c.sampling.n_fine = None;
+        c.features.levels = NonZeroU8::new(3);
         c.features.log2_table = 9;
         c.features.min_res = 2;
         c.features.max_res = 40;
@@ -216,7 +217,7 @@ fn high_freq_config() -> TrainConfig {
         c.model.pos_freqs = 16;
         c.model.dir_freqs = 16;
         c.model.view_dependent = false;
-        c.sampling.n_fine = 0;
+        c.sampling.n_fine = None;
     })
 }
 
@@ -280,7 +281,7 @@ fn integer_weights_at_the_ends_of_their_type_saturate_or_are_refused() {
 #[test]
 fn huge_density_is_opaque_at_the_first_sample_and_negative_density_is_empty() {
     let scene = unit_scene();
-    let cfg = small_config().with(|c| c.sampling.n_fine = 0);
+    let cfg = small_config().with(|c| c.sampling.n_fine = None);
     let (o, d) = (Vec3::new(0.0, 0.0, 4.0), Vec3::NEG_Z); // enters the bounds at t = 3
     for (bias, opaque) in [(1e6f32, true), (-1e6, false)] {
         let f = f32_model(&cfg, scene, Weights::SigmaBias(bias)).to_bytes().unwrap();

@@ -13,6 +13,7 @@ use nerf_train::eval::score_view;
 use nerf_train::export::{narrow_table, quantise, random_model, trainer_model, OwnedModel, Prune};
 use nerf_train::train::{Draw, Trainer};
 use nerf_train::util::rng::Rng;
+use std::num::{NonZeroU16, NonZeroU8};
 use support::*;
 
 /// A small grid model: 4 levels of 2 values, 2¹⁰ entries (the two coarse
@@ -26,8 +27,8 @@ fn feature_config() -> TrainConfig {
         c.model.pos_freqs = 2;
         c.model.dir_freqs = 2;
         c.sampling.n_coarse = 48;
-        c.sampling.n_fine = 0;
-        c.features.levels = 4;
+        c.sampling.n_fine = None;
+        c.features.levels = NonZeroU8::new(4);
         c.features.width = 2;
         c.features.log2_table = 10;
         c.features.min_res = 4;
@@ -42,7 +43,7 @@ fn a_step_reports_the_time_of_each_of_its_stages_within_its_own_duration() {
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = feature_config().with(|c| {
         c.sampling.batch_rays = 256;
-        c.grid.res = 16;
+        c.grid.res = NonZeroU16::new(16);
         c.grid.warmup = 0;
         c.grid.every = 2;
     });
@@ -135,7 +136,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
     let cfg = feature_config().with(|c| {
         c.sampling.batch_rays = 128;
-        c.grid.res = 16;
+        c.grid.res = NonZeroU16::new(16);
         c.grid.warmup = 0;
         c.grid.every = 4;
         c.optimiser.ema_decay = 0.9;

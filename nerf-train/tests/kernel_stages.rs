@@ -99,7 +99,7 @@ fn one_dense_layer_then_heads_int16() {
         c.model.width = 48;
         c.model.skips = vec![];
         c.model.view_dependent = false;
-        c.sampling.n_fine = 0;
+        c.sampling.n_fine = None;
     });
     compare_mlp(&cfg, Scheme::I16, tol::SIGMA_REL, tol::RGB);
 }

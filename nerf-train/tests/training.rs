@@ -12,6 +12,7 @@ use nerf_train::eval::{score_rendered, score_view, Rendered};
 use nerf_train::export::{trainer_model, Prune};
 use nerf_train::train::{Draw, Trainer};
 use nerf_train::util::rng::Rng;
+use std::num::NonZeroU16;
 use support::small_config;
 
 #[test]
@@ -163,8 +164,8 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
         c.sampling.batch_rays = 256;
         c.optimiser.lr = 1e-2;
         c.sampling.n_coarse = 48;
-        c.sampling.n_fine = 0;
-        c.grid.res = 16;
+        c.sampling.n_fine = None;
+        c.grid.res = NonZeroU16::new(16);
         c.grid.warmup = 40;
         c.grid.every = 8;
     });

@@ -79,7 +79,7 @@ pub fn moved_fields_placed(cfg: &mut Value) {
 
 impl TrainConfig {
     /// This configuration changed by `edit`: `TrainConfig::fast().with(|c|
-    /// c.sampling.n_fine = 0)`.
+    /// c.sampling.n_fine = None)`.
     pub fn with(mut self, edit: impl FnOnce(&mut Self)) -> Self {
         edit(&mut self);
         self

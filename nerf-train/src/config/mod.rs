@@ -5,8 +5,10 @@ use crate::mlp::Mlp;
 use nerf_infer::features::{geometric_resolutions, FeatureGrid, MAX_FEATURES, MAX_LEVELS, MAX_LOG2_TABLE, MAX_RES};
 use nerf_infer::format::{Encoding, Samples, Topology};
 use serde::{Deserialize, Serialize};
+use std::num::NonZeroU16;
 
 pub mod json;
+mod off;
 mod presets;
 mod sections;
 mod validate;
@@ -68,21 +70,17 @@ impl TrainConfig {
             dir_freqs: self.model.dir_freqs,
             include_input: self.model.include_input || self.model.pos_freqs == 0,
             raw_frac_bits: 12,
-            grid_dim: self.features.levels * self.features.width,
+            grid_dim: self.features.levels.map_or(0, |l| l.get()) * self.features.width,
         }
     }
 
     /// The feature grid's shape (empty table), if the config has one.
     pub fn feature_grid(&self) -> Option<FeatureGrid<'static>> {
-        (self.features.levels > 0).then(|| FeatureGrid {
+        self.features.levels.map(|levels| FeatureGrid {
             width: self.features.width,
             log2_table: self.features.log2_table,
             frac_bits: 0,
-            resolutions: geometric_resolutions(
-                self.features.levels as usize,
-                self.features.min_res,
-                self.features.max_res,
-            ),
+            resolutions: geometric_resolutions(levels.get() as usize, self.features.min_res, self.features.max_res),
             table: &[],
             narrow: None,
         })
@@ -105,20 +103,21 @@ impl TrainConfig {
     }
 
     /// Default sample counts recorded in the model: with a proposal grid,
-    /// [`SamplingConfig::n_main_render`] network samples (or `n_main` if 0).
+    /// [`SamplingConfig::n_main_render`] network samples (`n_main` if
+    /// `None`); without one, [`SamplingConfig::n_fine`] (0 if `None`).
     pub fn samples(&self) -> Samples {
         let s = &self.sampling;
         let fine = match (s.proposal_res, s.n_main_render) {
-            (0, _) => s.n_fine,
-            (_, 0) => s.n_main,
-            (_, n) => n,
+            (None, _) => s.n_fine.map_or(0, NonZeroU16::get),
+            (Some(_), None) => s.n_main,
+            (Some(_), Some(n)) => n.get(),
         };
         Samples { coarse: s.n_coarse, fine }
     }
 
     /// The proposal grid's cells per axis that `nerf train` gives unbounded
     /// and forward-facing scenes ([`SamplingConfig::proposal_res`]).
-    pub const PROPOSAL_RES: u16 = 64;
+    pub const PROPOSAL_RES: NonZeroU16 = NonZeroU16::new(64).unwrap();
 
     /// The stratified samples per ray compositing the proposal grid where
     /// `nerf train` turns it on ([`SamplingConfig::n_coarse`], unless the
@@ -144,7 +143,7 @@ impl TrainConfig {
     /// lower than one trained at 32
     /// (docs/RESULTS.md, "The network's samples per ray in training" and
     /// "The network's samples per ray with a proposal grid").
-    pub const PROPOSAL_RENDER_MAIN: u16 = 16;
+    pub const PROPOSAL_RENDER_MAIN: NonZeroU16 = NonZeroU16::new(16).unwrap();
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 //! per ray).
 
 use super::*;
+use std::num::NonZeroU8;
 
 impl TrainConfig {
     /// The paper's model: 8×256, skip at layer 5, L = 10/4, 64 + 128
@@ -20,7 +21,7 @@ impl TrainConfig {
                 view_width: 128,
             },
             features: FeatureConfig {
-                levels: 0,
+                levels: None,
                 width: 2,
                 log2_table: 15,
                 min_res: 16,
@@ -30,16 +31,16 @@ impl TrainConfig {
             },
             sampling: SamplingConfig {
                 n_coarse: 64,
-                n_fine: 128,
+                n_fine: NonZeroU16::new(128),
                 n_main: 32,
-                n_main_render: 0,
-                proposal_res: 0,
+                n_main_render: None,
+                proposal_res: None,
                 batch_rays: 4096,
                 chunk_rays: 32,
                 random_background: 0.0,
                 pixel_jitter: false,
             },
-            grid: GridConfig { res: 0, warmup: 256, every: 16, alpha: 0.01 },
+            grid: GridConfig { res: None, warmup: 256, every: 16, alpha: 0.01 },
             optimiser: OptimiserConfig {
                 lr: 5e-4,
                 lr_final_ratio: 0.1,
@@ -72,7 +73,7 @@ impl TrainConfig {
                 view_width: 32,
                 ..paper.model
             },
-            sampling: SamplingConfig { n_coarse: 48, n_fine: 48, batch_rays: 1024, ..paper.sampling },
+            sampling: SamplingConfig { n_coarse: 48, n_fine: NonZeroU16::new(48), batch_rays: 1024, ..paper.sampling },
             optimiser: OptimiserConfig { lr: 5e-3, lr_decay_steps: 0, ..paper.optimiser },
             ..paper
         }
@@ -84,8 +85,8 @@ impl TrainConfig {
     pub fn grid() -> Self {
         let fast = Self::fast();
         Self {
-            sampling: SamplingConfig { n_coarse: 192, n_fine: 0, ..fast.sampling },
-            grid: GridConfig { res: 64, ..fast.grid },
+            sampling: SamplingConfig { n_coarse: 192, n_fine: None, ..fast.sampling },
+            grid: GridConfig { res: NonZeroU16::new(64), ..fast.grid },
             ..fast
         }
     }
@@ -112,7 +113,7 @@ impl TrainConfig {
         Self {
             model: ModelConfig { depth: 2, width: 64, view_width: 64, pos_freqs: 0, dir_freqs: 4, ..grid.model },
             features: FeatureConfig {
-                levels: 8,
+                levels: NonZeroU8::new(8),
                 width: 2,
                 log2_table: 15,
                 min_res: 16,
@@ -141,7 +142,7 @@ impl TrainConfig {
     pub fn fit_features_to(&mut self, cells: u32) -> bool {
         let cells = cells.min(MAX_RES as u32);
         let max = self.features.max_res as u32;
-        if self.features.levels < 2 || cells <= max {
+        if self.features.levels.is_none_or(|l| l.get() < 2) || cells <= max {
             return false;
         }
         let doublings = cells.div_ceil(max.max(1)).next_power_of_two().trailing_zeros() as u8;
@@ -166,9 +167,9 @@ impl TrainConfig {
     /// (docs/EXPERIMENTS.md).
     pub fn fit_samples_to(&mut self, cells: u32) -> bool {
         let fitted = (cells / Self::FITTED_CELLS_PER_SAMPLE).min(nerf_infer::format::MAX_MARCH as u32) as u16;
-        if self.grid.res == 0
-            || self.sampling.n_fine > 0
-            || self.sampling.proposal_res > 0
+        if self.grid.res.is_none()
+            || self.sampling.n_fine.is_some()
+            || self.sampling.proposal_res.is_some()
             || fitted <= self.sampling.n_coarse
         {
             return false;

@@ -5,8 +5,9 @@
 //! preset's ([`TrainConfig::overlay`]).
 
 use serde::{Deserialize, Serialize};
+use std::num::{NonZeroU16, NonZeroU8};
 
-use super::TrainConfig;
+use super::{off, TrainConfig};
 
 /// The network: the encodings of position and direction, the trunk and
 /// the view branch.
@@ -36,9 +37,11 @@ pub struct ModelConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FeatureConfig {
-    /// Levels of the learned feature grid in front of the trunk (0: none;
-    /// 1..=16). Needs one network (`sampling.n_fine = 0`).
-    pub levels: u8,
+    /// Levels of the learned feature grid in front of the trunk (1..=16;
+    /// `None`, 0 in JSON: no feature grid). Needs one network
+    /// (`sampling.n_fine` `None`, 0 in JSON).
+    #[serde(with = "off")]
+    pub levels: Option<NonZeroU8>,
     /// Values per level (1..=8; `levels × width` ≤ 32).
     pub width: u8,
     /// Table entries per level: `2^log2_table` (1..=22).
@@ -68,8 +71,10 @@ pub struct FeatureConfig {
 pub struct SamplingConfig {
     /// Coarse samples per ray `N_c` (2..=1024; 2..=256 with a fine network).
     pub n_coarse: u16,
-    /// Fine samples per ray `N_f` (0: one network, no hierarchical sampling).
-    pub n_fine: u16,
+    /// Fine samples per ray `N_f` (`None`, 0 in JSON: one network, no
+    /// hierarchical sampling).
+    #[serde(with = "off")]
+    pub n_fine: Option<NonZeroU16>,
     /// Rays per optimisation step.
     pub batch_rays: usize,
     /// Rays per parallel work item (memory vs. scheduling granularity).
@@ -88,26 +93,28 @@ pub struct SamplingConfig {
     /// field fitted to jittered rays scores lower on the held-out views
     /// (docs/EXPERIMENTS.md).
     pub pixel_jitter: bool,
-    /// Cells per axis (`0..=128`; 0: none) of the proposal grid that places
-    /// the network's samples ([`crate::sampling::proposal`]): [`Self::n_coarse`]
-    /// stratified samples composite it, and the network is evaluated at [`Self::n_main`]
-    /// samples drawn from its weights and the last stratified one (minus
-    /// those in empty occupancy cells). `nerf train` turns it on at
+    /// Cells per axis (`1..=128`; `None`, 0 in JSON: none) of the proposal
+    /// grid that places the network's samples ([`crate::sampling::proposal`]):
+    /// [`Self::n_coarse`] stratified samples composite it, and the network
+    /// is evaluated at [`Self::n_main`] samples drawn from its weights and
+    /// the last stratified one (minus those in empty occupancy cells). `nerf train` turns it on at
     /// [`TrainConfig::PROPOSAL_RES`] for unbounded and forward-facing scenes
     /// unless the configuration names it; object scenes keep the
     /// occupancy grid's stratified samples.
-    pub proposal_res: u16,
+    #[serde(with = "off")]
+    pub proposal_res: Option<NonZeroU16>,
     /// With a proposal grid: the network's samples per ray drawn from its
     /// weights (`1..=255`; 32 in every preset), besides the last
     /// stratified one.
     pub n_main: u16,
     /// With a proposal grid: the network's samples per ray the model
     /// renders with unless told otherwise, written to its sample counts
-    /// (`0..=255`; 0: [`Self::n_main`], as in every preset). Fewer than
-    /// `n_main` trades PSNR for time per ray; `nerf train` sets
-    /// [`TrainConfig::PROPOSAL_RENDER_MAIN`] where it turns the proposal grid
-    /// on, unless the configuration names it or `n_main`.
-    pub n_main_render: u16,
+    /// (`1..=255`; `None`, 0 in JSON: [`Self::n_main`], as in every
+    /// preset). Fewer than `n_main` trades PSNR for time per ray; `nerf
+    /// train` sets [`TrainConfig::PROPOSAL_RENDER_MAIN`] where it turns the
+    /// proposal grid on, unless the configuration names it or `n_main`.
+    #[serde(with = "off")]
+    pub n_main_render: Option<NonZeroU16>,
 }
 
 /// The occupancy grid that keeps samples only in occupied cells, and its
@@ -115,10 +122,12 @@ pub struct SamplingConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GridConfig {
-    /// Occupancy grid cells per axis (0: no grid). With a grid the run has
-    /// one network (`sampling.n_fine = 0`) whose `sampling.n_coarse` stratified samples are
-    /// kept only in occupied cells, in training and in the exported model.
-    pub res: u16,
+    /// Occupancy grid cells per axis (`None`, 0 in JSON: no grid). With a
+    /// grid the run has one network (`sampling.n_fine` `None`) whose
+    /// `sampling.n_coarse` stratified samples are kept only in occupied
+    /// cells, in training and in the exported model.
+    #[serde(with = "off")]
+    pub res: Option<NonZeroU16>,
     /// Steps before the first grid update (until then every cell counts as
     /// occupied).
     pub warmup: usize,
@@ -188,7 +197,7 @@ pub struct LossConfig {
     /// 2023): space right in front of a lens covers many pixels of that one
     /// photo and few of any other, so the colour loss would otherwise grow
     /// floaters there that no other view explains. 0: off (every preset).
-    /// Runs with one network only (`sampling.n_fine` = 0); forward-facing
+    /// Runs with one network only (`sampling.n_fine` `None`); forward-facing
     /// scenes, whose rays run in NDC, are left alone.
     pub near_gradient: f32,
 }
@@ -209,7 +218,7 @@ pub struct PerPhotoConfig {
     /// ([`crate::per_photo::pose`]: a turn about the camera's centre and a shift),
     /// for captures whose poses are a little off; the held-out photos keep
     /// their poses. Object and unbounded scenes (forward-facing scenes keep
-    /// their poses); runs with one network only (`sampling.n_fine` = 0).
+    /// their poses); runs with one network only (`sampling.n_fine` `None`).
     /// Off in every preset.
     pub pose_refine: bool,
     /// With [`Self::pose_refine`]: the learning rate of the photos' pose

@@ -1,6 +1,7 @@
 //! Presets refined to the photos, and configurations refused by field.
 
 use super::*;
+use std::num::NonZeroU8;
 
 #[test]
 fn fitted_samples_only_ever_grow_and_only_in_one_pass_marches_over_a_grid() {
@@ -19,7 +20,7 @@ fn fitted_samples_only_ever_grow_and_only_in_one_pass_marches_over_a_grid() {
     assert_eq!(c.sampling.n_coarse as usize, nerf_infer::format::MAX_MARCH);
     assert!(c.validate().is_ok());
     // no occupancy grid, or a fine pass: left alone
-    for c in [TrainConfig::fast(), TrainConfig::features().with(|c| c.grid.res = 0)] {
+    for c in [TrainConfig::fast(), TrainConfig::features().with(|c| c.grid.res = None)] {
         let mut fitted = c.clone();
         assert!(!fitted.fit_samples_to(4096));
         assert_eq!(fitted, c);
@@ -103,7 +104,7 @@ fn fitting_the_feature_grid_only_ever_refines_it() {
     assert!(c.fit_features_to(512));
     assert_eq!((c.features.max_res, c.features.log2_table), (512, 21));
     // a configuration without a feature grid, or with one level (at features.min_res), has nothing to fit
-    for c in [TrainConfig::grid(), TrainConfig::features().with(|c| c.features.levels = 1)] {
+    for c in [TrainConfig::grid(), TrainConfig::features().with(|c| c.features.levels = NonZeroU8::new(1))] {
         let mut fitted = c.clone();
         assert!(!fitted.fit_features_to(4096));
         assert_eq!(fitted, c);
@@ -115,13 +116,13 @@ fn a_one_pass_march_takes_up_to_1024_samples_and_a_two_pass_one_256() {
     use nerf_infer::format::{MAX_COARSE, MAX_MARCH};
     let one = TrainConfig::fast().with(|c| {
         c.sampling.n_coarse = MAX_MARCH as u16;
-        c.sampling.n_fine = 0;
+        c.sampling.n_fine = None;
     });
     assert!(one.validate().is_ok());
     assert!(one.with(|c| c.sampling.n_coarse = MAX_MARCH as u16 + 1).validate().is_err());
     let two = TrainConfig::fast().with(|c| {
         c.sampling.n_coarse = MAX_COARSE as u16;
-        c.sampling.n_fine = 24;
+        c.sampling.n_fine = NonZeroU16::new(24);
     });
     assert!(two.validate().is_ok());
     assert!(two.with(|c| c.sampling.n_coarse = MAX_COARSE as u16 + 1).validate().is_err());
@@ -138,7 +139,7 @@ fn a_config_file_may_name_fields_nested_or_by_their_flat_names() {
         nested,
         base.clone().with(|c| {
             c.sampling.n_coarse = 64;
-            c.grid.res = 32;
+            c.grid.res = NonZeroU16::new(32);
         })
     );
     assert_eq!(flat, nested);
@@ -238,7 +239,121 @@ fn every_preset_validates_under_its_own_name_and_fit_tries_every_shape_once() {
     let mut shapes = std::collections::HashSet::new();
     for p in Preset::FIT {
         let c = p.config();
-        assert!(c.grid.res > 0 && c.model.width % 32 == 0, "{}: no occupancy grid or a width off the tile", p.name());
+        assert!(
+            c.grid.res.is_some() && c.model.width % 32 == 0,
+            "{}: no occupancy grid or a width off the tile",
+            p.name()
+        );
         assert!(shapes.insert(format!("{:?}{:?}", c.model, c.features)), "{} repeats a shape", p.name());
     }
+}
+
+/// The default configuration, then every preset's.
+fn every_preset() -> Vec<TrainConfig> {
+    std::iter::once(TrainConfig::default()).chain(Preset::ALL.map(Preset::config)).collect()
+}
+
+/// The five fields that turn a part off, as `section.field`.
+const MODES: [&str; 5] =
+    ["features.levels", "grid.res", "sampling.n_fine", "sampling.proposal_res", "sampling.n_main_render"];
+
+/// [`MODES`]' values, as the integers JSON and postcard write them (0:
+/// `None`).
+fn modes(c: &TrainConfig) -> [u16; 5] {
+    let int = |n: Option<NonZeroU16>| n.map_or(0, NonZeroU16::get);
+    let s = &c.sampling;
+    [
+        c.features.levels.map_or(0, |n| n.get().into()),
+        int(c.grid.res),
+        int(s.n_fine),
+        int(s.proposal_res),
+        int(s.n_main_render),
+    ]
+}
+
+#[test]
+fn the_modes_are_written_to_json_as_integers_0_when_off_and_read_back() {
+    let configs = every_preset();
+    // the presets have each part both off and on: paper two networks and no grid, features the reverse
+    assert_eq!(modes(&TrainConfig::paper()), [0, 0, 128, 0, 0]);
+    assert_eq!(modes(&TrainConfig::features()), [8, 64, 0, 0, 0]);
+    let on = TrainConfig::features().with(|c| {
+        (c.sampling.proposal_res, c.sampling.n_main_render) = (NonZeroU16::new(128), NonZeroU16::new(255));
+        c.grid.res = NonZeroU16::new(256);
+    });
+    for c in configs.iter().chain([&on]) {
+        let v = serde_json::to_value(c).unwrap();
+        let written = MODES.map(|path| {
+            let (section, field) = path.split_once('.').unwrap();
+            v[section][field].as_u64().unwrap_or_else(|| panic!("{path}: {}", v[section][field])) as u16
+        });
+        assert_eq!(written, modes(c));
+        assert_eq!(&serde_json::from_value::<TrainConfig>(v).unwrap(), c);
+        assert_eq!(&serde_json::from_str::<TrainConfig>(&serde_json::to_string(c).unwrap()).unwrap(), c);
+    }
+}
+
+#[test]
+fn the_modes_postcard_bytes_are_those_of_plain_integers() {
+    fn bytes(v: &impl serde::Serialize) -> Vec<u8> {
+        postcard::to_stdvec(v).unwrap()
+    }
+    let edges = TrainConfig::fast().with(|c| {
+        // multi-byte varints (above 127), the largest values in range
+        (c.sampling.n_fine, c.sampling.proposal_res, c.sampling.n_main_render) =
+            (NonZeroU16::new(256), NonZeroU16::new(128), NonZeroU16::new(255));
+        (c.grid.res, c.features.levels) = (NonZeroU16::new(256), NonZeroU8::new(16));
+    });
+    for c in every_preset().iter().chain([&edges]) {
+        let [levels, res, n_fine, proposal_res, n_main_render] = modes(c);
+        let (f, s, g) = (&c.features, &c.sampling, &c.grid);
+        let plain_features = (levels as u8, f.width, f.log2_table, f.min_res, f.max_res, f.footprint, f.footprint_from);
+        let plain_sampling = (
+            s.n_coarse,
+            n_fine,
+            s.batch_rays,
+            s.chunk_rays,
+            s.random_background,
+            s.pixel_jitter,
+            proposal_res,
+            s.n_main,
+            n_main_render,
+        );
+        let plain_grid = (res, g.warmup, g.every, g.alpha);
+        assert_eq!(bytes(f), bytes(&plain_features), "{f:?}");
+        assert_eq!(bytes(s), bytes(&plain_sampling), "{s:?}");
+        assert_eq!(bytes(g), bytes(&plain_grid), "{g:?}");
+        assert_eq!(&postcard::from_bytes::<FeatureConfig>(&bytes(&plain_features)).unwrap(), f);
+        assert_eq!(&postcard::from_bytes::<SamplingConfig>(&bytes(&plain_sampling)).unwrap(), s);
+        assert_eq!(&postcard::from_bytes::<GridConfig>(&bytes(&plain_grid)).unwrap(), g);
+    }
+}
+
+#[test]
+fn a_config_file_turns_a_part_off_with_0_or_null_and_on_with_a_count() {
+    use serde_json::json;
+    let features = TrainConfig::features();
+    for over in [json!({"grid_res": 0}), json!({"grid": {"res": 0}}), json!({"grid": {"res": null}})] {
+        assert_eq!(features.overlay(&over).unwrap(), features.clone().with(|c| c.grid.res = None), "{over}");
+    }
+    let two = features.overlay(&json!({"n_fine": 64})).unwrap();
+    assert_eq!(two, features.clone().with(|c| c.sampling.n_fine = NonZeroU16::new(64)));
+    assert_eq!(two.differing_fields(&features), ["sampling.n_fine"]);
+    let one = TrainConfig::fast().overlay(&json!({"sampling": {"n_fine": 0}, "feature_levels": 4})).unwrap();
+    assert_eq!((one.sampling.n_fine, one.features.levels), (None, NonZeroU8::new(4)));
+    assert!(one.validate().is_ok());
+    // out of the integer's range, or not an integer: refused by name
+    for (over, says) in [
+        (json!({"grid_res": 65536}), "`grid.res`: invalid value"),
+        (json!({"feature_levels": 256}), "`features.levels`: invalid value"),
+        (json!({"n_main_render": -1}), "`sampling.n_main_render`: invalid value"),
+        (json!({"proposal_res": "64"}), "`sampling.proposal_res`: invalid type"),
+        (json!({"n_fine": 1.5}), "`sampling.n_fine`: invalid type"),
+    ] {
+        let e = features.overlay(&over).unwrap_err().to_string();
+        assert!(e.contains(says), "{over}: {e}");
+    }
+    // above the range validate allows: read, then refused
+    let e = features.overlay(&json!({"n_main_render": 256})).unwrap().validate().unwrap_err().to_string();
+    assert!(e.contains("sampling.n_main_render must be 0..=255"), "{e}");
 }

@@ -20,20 +20,19 @@ impl TrainConfig {
         if self.model.skips.iter().any(|&s| s == 0 || s >= self.model.depth) {
             return Err(Error::Config("model.skips must name trunk layers 1..model.depth".into()));
         }
-        let most = nerf_infer::format::max_coarse(self.sampling.n_fine as usize);
-        if !(2..=most).contains(&(self.sampling.n_coarse as usize))
-            || self.sampling.n_fine as usize > nerf_infer::format::MAX_FINE
-        {
+        let n_fine = self.sampling.n_fine.map_or(0, |n| n.get() as usize);
+        let most = nerf_infer::format::max_coarse(n_fine);
+        if !(2..=most).contains(&(self.sampling.n_coarse as usize)) || n_fine > nerf_infer::format::MAX_FINE {
             return Err(Error::Config(
                 "sampling.n_coarse must be 2..=1024 (2..=256 with sampling.n_fine) and sampling.n_fine at most 256"
                     .into(),
             ));
         }
-        if self.sampling.n_main_render > 255 {
+        if self.sampling.n_main_render.is_some_and(|n| n.get() > 255) {
             return Err(Error::Config("sampling.n_main_render must be 0..=255".into()));
         }
-        if self.sampling.proposal_res > 0 {
-            if self.sampling.proposal_res > nerf_infer::proposal::MAX_PROPOSAL_RES || self.sampling.n_fine > 0 {
+        if let Some(res) = self.sampling.proposal_res {
+            if res.get() > nerf_infer::proposal::MAX_PROPOSAL_RES || self.sampling.n_fine.is_some() {
                 return Err(Error::Config("sampling.proposal_res must be 0..=128, and 0 with sampling.n_fine".into()));
             }
             if !(1..=255).contains(&self.sampling.n_main) || !(3..=256).contains(&self.sampling.n_coarse) {
@@ -53,7 +52,7 @@ impl TrainConfig {
         }
         if self.sampling.batch_rays > MAX_BATCH_RAYS || self.sampling.chunk_rays > MAX_BATCH_RAYS {
             // activations kept for the backward pass: rays × samples × width × depth, f32, forward and gradient
-            let samples = (self.sampling.n_coarse + self.sampling.n_fine) as f64;
+            let samples = (self.sampling.n_coarse as usize + n_fine) as f64;
             let gb =
                 self.sampling.batch_rays as f64 * samples * self.model.width as f64 * self.model.depth as f64 * 8.0
                     / 1e9;
@@ -75,7 +74,7 @@ impl TrainConfig {
         if !(self.loss.density_l1.is_finite() && self.loss.density_l1 >= 0.0) {
             return Err(Error::Config(format!("loss.density_l1 {} must be a finite weight ≥ 0", self.loss.density_l1)));
         }
-        if self.sampling.pixel_jitter && self.features.footprint && self.features.levels > 0 {
+        if self.sampling.pixel_jitter && self.features.footprint && self.features.levels.is_some() {
             return Err(Error::Config(
                 "sampling.pixel_jitter and features.footprint together spread each ray across its pixel twice".into(),
             ));
@@ -107,20 +106,25 @@ impl TrainConfig {
                 self.sampling.random_background
             )));
         }
-        if self.grid.res > nerf_infer::occupancy::MAX_GRID_RES {
-            return Err(Error::Config("grid.res must be at most 256".into()));
+        if let Some(res) = self.grid.res {
+            if res.get() > nerf_infer::occupancy::MAX_GRID_RES {
+                return Err(Error::Config("grid.res must be at most 256".into()));
+            }
+            if self.sampling.n_fine.is_some()
+                || self.grid.every == 0
+                || self.grid.alpha.is_nan()
+                || self.grid.alpha <= 0.0
+            {
+                return Err(Error::Config(
+                    "an occupancy grid needs sampling.n_fine = 0, grid.every > 0 and grid.alpha > 0".into(),
+                ));
+            }
         }
-        if self.grid.res > 0
-            && (self.sampling.n_fine > 0 || self.grid.every == 0 || self.grid.alpha.is_nan() || self.grid.alpha <= 0.0)
-        {
-            return Err(Error::Config(
-                "an occupancy grid needs sampling.n_fine = 0, grid.every > 0 and grid.alpha > 0".into(),
-            ));
-        }
-        if self.features.levels > 0 {
+        if let Some(levels) = self.features.levels {
             let f = self;
-            let dim = f.features.levels as usize * f.features.width as usize;
-            if f.features.levels as usize > MAX_LEVELS || !(1..=8).contains(&f.features.width) || dim > MAX_FEATURES {
+            let levels = levels.get() as usize;
+            let dim = levels * f.features.width as usize;
+            if levels > MAX_LEVELS || !(1..=8).contains(&f.features.width) || dim > MAX_FEATURES {
                 return Err(Error::Config(
                     "features.levels must be 1..=16, features.width 1..=8, their product at most 32".into(),
                 ));
@@ -131,14 +135,14 @@ impl TrainConfig {
             if f.features.min_res == 0 || f.features.max_res < f.features.min_res || f.features.max_res > MAX_RES {
                 return Err(Error::Config("need 1 <= features.min_res <= features.max_res <= 4096".into()));
             }
-            if f.sampling.n_fine > 0 {
+            if f.sampling.n_fine.is_some() {
                 return Err(Error::Config("a feature grid needs one network (sampling.n_fine = 0)".into()));
             }
         }
-        if self.loss.near_gradient > 0.0 && self.sampling.n_fine > 0 {
+        if self.loss.near_gradient > 0.0 && self.sampling.n_fine.is_some() {
             return Err(Error::Config("loss.near_gradient needs one network (sampling.n_fine = 0)".into()));
         }
-        if self.per_photo.pose_refine && self.sampling.n_fine > 0 {
+        if self.per_photo.pose_refine && self.sampling.n_fine.is_some() {
             return Err(Error::Config("per_photo.pose_refine needs one network (sampling.n_fine = 0)".into()));
         }
         if !(self.per_photo.pose_lr.is_finite() && self.per_photo.pose_lr >= 0.0) {

@@ -90,7 +90,7 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
     let mut tr = Trainer::new(cfg.clone(), scene, 1, seed);
     let mlp = tr.mlp();
     let si = sigma_layer(&mlp.topo);
-    let nets = if cfg.sampling.n_fine > 0 { 2 } else { 1 };
+    let nets = if cfg.sampling.n_fine.is_some() { 2 } else { 1 };
     for k in 0..nets {
         let off = k * mlp.n_params;
         // the random density head of every scene (an unbounded scene's

@@ -77,9 +77,14 @@ pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted
     let open = data.scene.unbounded.is_some() || data.scene.ndc.is_some();
     let kind = if data.scene.ndc.is_some() { "forward-facing" } else { "unbounded" };
     // one network over an occupancy grid: the presets whose stratified samples the proposal replaces
-    if fit.proposal && open && cfg.sampling.proposal_res == 0 && cfg.sampling.n_fine == 0 && cfg.grid.res > 0 {
+    if fit.proposal
+        && open
+        && cfg.sampling.proposal_res.is_none()
+        && cfg.sampling.n_fine.is_none()
+        && cfg.grid.res.is_some()
+    {
         // only a configuration the grid can serve (sampling.n_coarse 3..=256, sampling.n_main 1..=255) gets it
-        let mut with = cfg.clone().with(|c| c.sampling.proposal_res = TrainConfig::PROPOSAL_RES);
+        let mut with = cfg.clone().with(|c| c.sampling.proposal_res = Some(TrainConfig::PROPOSAL_RES));
         if fit.samples {
             // the grid composited at fewer stratified samples than the occupancy grid's
             with.sampling.n_coarse = TrainConfig::PROPOSAL_COARSE;
@@ -90,7 +95,7 @@ pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted
         // forward-facing scenes render at the samples they train with (flower at 1008×756: +0.27 dB at
         // 32 against 16, docs/RESULTS.md "The paper's protocol"); unbounded ones at fewer, for speed
         if fit.render && data.scene.ndc.is_none() {
-            with.sampling.n_main_render = TrainConfig::PROPOSAL_RENDER_MAIN;
+            with.sampling.n_main_render = Some(TrainConfig::PROPOSAL_RENDER_MAIN);
         }
         with.validate().map_err(|e| {
             Error::Config(format!(
@@ -129,7 +134,7 @@ fn notes(base: &TrainConfig, cfg: &TrainConfig, data: &Dataset, kind: &str) -> V
              samples{}; set sampling.proposal_res 0 with --config for the occupancy grid's {} stratified samples",
             cfg.sampling.n_main,
             cfg.samples().fine,
-            cfg.sampling.proposal_res,
+            cfg.sampling.proposal_res.map_or(0, |r| r.get()),
             cfg.sampling.n_coarse,
             match cfg.loss.distortion != base.loss.distortion {
                 true => format!(", the distortion loss at {} (set loss.distortion with --config)", cfg.loss.distortion),

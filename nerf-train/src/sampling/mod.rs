@@ -22,11 +22,11 @@ use proposal::{ProposalGrid, RayProposal};
 /// neither (stratified samples, and a fine network's hierarchical ones).
 #[derive(Clone, Debug, Default)]
 pub struct Sampler {
-    /// The occupancy grid (runs with `grid.res > 0`), refreshed from the
+    /// The occupancy grid (runs with `grid.res` set), refreshed from the
     /// network's density every `grid.every` steps.
     pub occupancy: Option<OccupancyGrid>,
     /// The proposal grid placing the network's samples (runs with
-    /// `sampling.proposal_res > 0`), fitted by the interlevel loss.
+    /// `sampling.proposal_res` set), fitted by the interlevel loss.
     pub proposal: Option<ProposalGrid>,
 }
 
@@ -78,8 +78,8 @@ impl Sampler {
     /// (an unbounded scene's network's starting density).
     pub fn new(cfg: &TrainConfig, sigma: f32) -> Self {
         Sampler {
-            occupancy: (cfg.grid.res > 0).then(|| OccupancyGrid::new(cfg.grid.res)),
-            proposal: (cfg.sampling.proposal_res > 0).then(|| ProposalGrid::new(cfg.sampling.proposal_res, sigma)),
+            occupancy: cfg.grid.res.map(|res| OccupancyGrid::new(res.get())),
+            proposal: cfg.sampling.proposal_res.map(|res| ProposalGrid::new(res.get(), sigma)),
         }
     }
 

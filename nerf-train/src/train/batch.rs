@@ -45,7 +45,7 @@ impl Draw {
             random_background: cfg.sampling.random_background,
             jitter: cfg.sampling.pixel_jitter,
             footprint: cfg.features.footprint
-                && cfg.features.levels > 0
+                && cfg.features.levels.is_some()
                 && progress >= cfg.features.footprint_from as f64,
         }
     }

@@ -105,15 +105,18 @@ impl Trainer {
             _ => Self::from_sections(payload, ABSENT_MEANS)?,
         };
         let grid_ok = match &t.sampler.occupancy {
-            None => t.cfg.grid.res == 0,
-            Some(g) => g.res == t.cfg.grid.res && g.view().is_valid() && g.density.len() == (g.res as usize).pow(3),
+            None => t.cfg.grid.res.is_none(),
+            Some(g) => {
+                t.cfg.grid.res.is_some_and(|r| r.get() == g.res)
+                    && g.view().is_valid()
+                    && g.density.len() == (g.res as usize).pow(3)
+            }
         };
         let proposal_ok = match &t.sampler.proposal {
-            None => t.cfg.sampling.proposal_res == 0,
+            None => t.cfg.sampling.proposal_res.is_none(),
             Some(p) => {
                 let n = (p.res as usize).pow(3);
-                p.res > 0
-                    && p.res == t.cfg.sampling.proposal_res
+                t.cfg.sampling.proposal_res.is_some_and(|r| r.get() == p.res)
                     && p.log_sigma.len() == n
                     && p.adam.m.len() == n
                     && p.adam.v.len() == n
@@ -128,7 +131,7 @@ impl Trainer {
             None => true,
             Some(p) => t.cfg.per_photo.pose_refine && p.is_consistent(),
         };
-        let nets = if t.cfg.sampling.n_fine > 0 { 2 } else { 1 };
+        let nets = if t.cfg.sampling.n_fine.is_some() { 2 } else { 1 };
         let sizes_ok = proposal_ok
             && appearance_ok
             && poses_ok

@@ -2,7 +2,7 @@
 //! stratified coarse samples, hierarchical fine samples, loss = coarse MSE
 //! + fine MSE, hand-written backward, Adam with exponential decay.
 //!
-//! With an occupancy grid (`grid.res > 0`) the run has one network: each
+//! With an occupancy grid (`grid.res` set) the run has one network: each
 //! ray's stratified samples are kept only where the grid is occupied (the
 //! others weigh nothing), and the grid is refreshed from the network's
 //! density every `grid.every` steps.
@@ -201,7 +201,7 @@ impl Trainer {
             None => net.init(seed),
         };
         let mut params = init(network_seed(seed, 0));
-        if cfg.sampling.n_fine > 0 {
+        if cfg.sampling.n_fine.is_some() {
             params.extend(init(network_seed(seed, 1)));
         }
         let adam = Adam::new(params.len(), table_values(&net, params.len()));
@@ -244,7 +244,7 @@ impl Trainer {
     /// Fine parameters, if the run has a fine network.
     pub fn fine_params(&self) -> Option<&[f32]> {
         let n = self.mlp().n_params;
-        (self.cfg.sampling.n_fine > 0).then(|| &self.params[n..])
+        self.cfg.sampling.n_fine.is_some().then(|| &self.params[n..])
     }
 
     /// Learning rate at training progress `p ∈ [0, 1]` of the decay horizon.
@@ -272,7 +272,7 @@ impl Trainer {
     /// it ([`Footprint::is_valid`]) and has a feature grid to read across
     /// it (forward-facing scenes' rays stay lines: their models record none).
     pub fn footprint(&self) -> Option<Footprint> {
-        Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.features.levels > 0)
+        Some(Footprint { pixel: self.pixel }).filter(|f| f.is_valid() && self.cfg.features.levels.is_some())
     }
 
     /// Refreshes the occupancy grid from the network's current density.

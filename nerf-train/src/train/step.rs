@@ -53,7 +53,7 @@ impl Trainer {
         let (mut grad, sq_c, sq_f, samples, PerPhoto { appearance: mut photos, mut pose }, finite) =
             self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
-        let mse_f = if self.cfg.sampling.n_fine > 0 { sq_f / n } else { sq_c / n };
+        let mse_f = if self.cfg.sampling.n_fine.is_some() { sq_f / n } else { sq_c / n };
         let loss = (sq_c + sq_f) / n;
         let mut stats = StepStats {
             loss: loss as f32,
@@ -220,7 +220,7 @@ impl Trainer {
     ) -> (f64, f64, usize, Option<GridGrad>) {
         let r = rays.len();
         let nc = self.cfg.sampling.n_coarse as usize;
-        let nf = self.cfg.sampling.n_fine as usize;
+        let nf = self.cfg.sampling.n_fine.map_or(0, |n| n.get() as usize);
         let np = net.n_params;
         let (pc, pf) = self.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np.min(g.len()));

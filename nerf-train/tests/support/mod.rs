@@ -6,6 +6,7 @@ use nerf_infer::format::Scene;
 use nerf_infer::{Camera, Model, RenderOptions};
 use nerf_train::config::TrainConfig;
 use nerf_train::eval::render_view;
+use std::num::NonZeroU16;
 use std::path::{Path, PathBuf};
 
 /// A fresh, empty directory under the system temp dir
@@ -59,7 +60,7 @@ pub fn small_config() -> TrainConfig {
         c.model.pos_freqs = 6;
         c.model.dir_freqs = 2;
         c.sampling.n_coarse = 24;
-        c.sampling.n_fine = 24;
+        c.sampling.n_fine = NonZeroU16::new(24);
     })
 }
 

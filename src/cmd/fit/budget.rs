@@ -2,6 +2,7 @@
 //! the candidate shrunk (grid, table, samples) until it fits.
 
 use super::*;
+use std::num::NonZeroU16;
 
 /// The fixed-point model file's size for configuration `cfg` on `scene`:
 /// a model of that shape with random weights, exported as `nerf fit`
@@ -55,12 +56,12 @@ pub(super) fn fit_budget(
     let mut c = cfg.clone();
     let mut bytes = model_bytes(&c, scene, bits)?;
     for (table_floor, grid_floor) in [(TABLE_FLOOR_LOG2, 32), (8, 16)] {
-        while bytes > max && c.features.levels > 0 && c.features.log2_table > table_floor {
+        while bytes > max && c.features.levels.is_some() && c.features.log2_table > table_floor {
             c.features.log2_table -= 1;
             bytes = model_bytes(&c, scene, bits)?;
         }
-        while bytes > max && c.grid.res > grid_floor {
-            c.grid.res /= 2;
+        while let Some(res) = c.grid.res.filter(|r| bytes > max && r.get() > grid_floor) {
+            c.grid.res = NonZeroU16::new(res.get() / 2);
             bytes = model_bytes(&c, scene, bits)?;
         }
     }
@@ -74,8 +75,10 @@ pub(super) fn fit_budget(
             cfg.features.log2_table, c.features.log2_table
         ));
     }
-    if c.grid.res != cfg.grid.res {
-        gave.push(format!("occupancy grid {0}^3 -> {1}^3", cfg.grid.res, c.grid.res));
+    if let (Some(from), Some(to)) = (cfg.grid.res, c.grid.res) {
+        if from != to {
+            gave.push(format!("occupancy grid {from}^3 -> {to}^3"));
+        }
     }
     Ok(Ok((c, gave, bytes)))
 }

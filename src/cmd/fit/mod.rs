@@ -98,7 +98,7 @@ pub const FEATURE_LEVEL_MACS: usize = 500;
 /// [`FOOTPRINT_POINTS`] of a pixel footprint, else one).
 pub fn cost(cfg: &TrainConfig) -> usize {
     let points = if cfg.features.footprint { FOOTPRINT_POINTS } else { 1 };
-    macs(cfg) + cfg.features.levels as usize * FEATURE_LEVEL_MACS * points
+    macs(cfg) + cfg.features.levels.map_or(0, |l| l.get() as usize) * FEATURE_LEVEL_MACS * points
 }
 
 /// One tried candidate.
@@ -379,6 +379,7 @@ fn keep(a: &Args, name: &str, coarse: u16, why: &str, rows: &[Row]) -> CmdResult
 mod tests {
     use super::*;
     use nerf_infer::format::Scene;
+    use std::num::NonZeroU16;
 
     fn lego_scene() -> Scene {
         Scene::blender(1.5, 2.0, 6.0)
@@ -389,14 +390,17 @@ mod tests {
         let f = TrainConfig::features();
         // 64 KiB: a 2^10 table (32 KiB) and a 32^3 grid (4 KiB) fit, a 64^3 grid (32 KiB) beside it does not
         let (c, gave, bytes) = fit_budget(&f, lego_scene(), Scheme::I8, 65_536).unwrap().unwrap();
-        assert_eq!((c.features.log2_table, c.grid.res), (TABLE_FLOOR_LOG2, 32), "{gave:?}");
+        assert_eq!((c.features.log2_table, c.grid.res), (TABLE_FLOOR_LOG2, NonZeroU16::new(32)), "{gave:?}");
         assert!(bytes <= 65_536);
         assert_eq!(gave, ["feature table 2^15 -> 2^10 entries per level", "occupancy grid 64^3 -> 32^3"]);
         // a roomy budget gives up nothing; a tight one goes below the floor; the layers alone exceed 4 000 B
         let (c, gave, _) = fit_budget(&f, lego_scene(), Scheme::I8, 1 << 20).unwrap().unwrap();
-        assert_eq!((c.features.log2_table, c.grid.res, gave.len()), (15, 64, 0));
+        assert_eq!((c.features.log2_table, c.grid.res, gave.len()), (15, NonZeroU16::new(64), 0));
         let (c, _, bytes) = fit_budget(&f, lego_scene(), Scheme::I8, 40_000).unwrap().unwrap();
-        assert!(c.features.log2_table < TABLE_FLOOR_LOG2 && c.grid.res == 32 && bytes <= 40_000, "{c:?}");
+        assert!(
+            c.features.log2_table < TABLE_FLOOR_LOG2 && c.grid.res == NonZeroU16::new(32) && bytes <= 40_000,
+            "{c:?}"
+        );
         assert!(fit_budget(&f, lego_scene(), Scheme::I8, 4_000).unwrap().is_err());
     }
 }
