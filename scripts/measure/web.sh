@@ -4,10 +4,12 @@
 # Chromium and prints the page's JSON (CRC-32 of the first orbit frame at
 # 64x64, µs per ray of that frame without early termination, and the
 # milliseconds of one 100x100 frame as the viewer draws it, early
-# termination at 1e-3: over its workers, one per core, and on one thread),
-# then the CRC-32 of `nerf render --orbit 1 --size 64`. Appends a row to
-# docs/web.csv: date, commit, CPU, cores, Chromium's version, LABEL, whether
-# the two CRCs agree, µs per ray, workers and the two frame times.
+# termination at 1e-3: over its workers, one per core, and on one thread;
+# and frames per second of ten 200x200 frames drawn whole as the view
+# orbits, `&orbit=10`), then the CRC-32 of `nerf render --orbit 1 --size
+# 64`. Appends a row to docs/web.csv: date, commit, CPU, cores, Chromium's
+# version, LABEL, whether the two CRCs agree, µs per ray, workers, the two
+# frame times and the orbit's frames per second.
 #
 #   scripts/measure/web.sh [MODEL] [LABEL]      (default: models/scene_int8.nerf)
 #   scripts/measure/web.sh --lego DATA_ROOT     the default trained 10 minutes on lego
@@ -36,7 +38,7 @@ trap 'kill $server 2>/dev/null; rm -rf "$work"' EXIT
 "$bin" web "$model" --out "$work/page" 2>/dev/null
 sleep 1
 page=$(timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 \
-  --user-data-dir="$work/profile" "http://127.0.0.1:$port/index.html?check=1" 2>&1 \
+  --user-data-dir="$work/profile" "http://127.0.0.1:$port/index.html?check=1&orbit=10" 2>&1 \
   | grep -m1 -o 'nerf-check {[^}]*}' | sed 's/^nerf-check //' || true)   # grep ends Chromium's pipe
 echo "$page"
 [ -n "$page" ] || { echo "the page reported nothing" >&2; exit 1; }
@@ -71,7 +73,7 @@ PY
 )
 echo "$host"
 out=docs/web.csv
-[ -f "$out" ] || echo "date,commit,cpu,cores,browser,model,crc_matches_host,us_per_ray,workers,frame_ms_100,frame_ms_100_one_thread" > "$out"
+[ -f "$out" ] || echo "date,commit,cpu,cores,browser,model,crc_matches_host,us_per_ray,workers,frame_ms_100,frame_ms_100_one_thread,orbit_fps_200" > "$out"
 browser=$(chromium --version 2>/dev/null | grep -o '[0-9][0-9.]*' | head -1)
 python3 - "$stamp" "$browser" "$label" "$page" "$host" >> "$out" <<'PY'
 import csv, json, sys
@@ -80,6 +82,6 @@ p, h = json.loads(page), json.loads(host)
 same = "yes" if p["crc32"] == h["host_crc32"] else "no"
 csv.writer(sys.stdout, lineterminator="\n").writerow(stamp.split(",") + [
     f"Chromium {browser}", label, same, f"{p['us_per_ray']:.1f}", p["workers"], f"{p['frame_ms_100']:.1f}",
-    f"{p['frame_ms_100_one_thread']:.1f}"])
+    f"{p['frame_ms_100_one_thread']:.1f}", f"{p['orbit_fps_200']:.1f}"])
 PY
 tail -1 "$out" >&2
