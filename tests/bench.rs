@@ -131,6 +131,7 @@ fn an_interrupted_task_resumes_and_a_second_process_on_its_index_is_refused() {
     while !log.exists() && start.elapsed().as_secs() < 120 {
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
+    assert!(log.exists(), "the task's training never started");
     let o = run(&args);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{err}");

@@ -45,7 +45,9 @@ pub fn load_scored(scene: &Scene) -> CmdResult<Dataset> {
 }
 
 /// Scores the model in `path` on `data`; writes its render of the first
-/// view beside the photo into `first` (PNG) if given.
+/// view beside the photo into `first` (PNG) if given. An interrupt
+/// ([`crate::cmd::interrupt::received`]) stops it after the view being
+/// rendered.
 pub fn score(path: &Path, data: &Dataset, threads: usize, first: Option<&Path>) -> CmdResult<Scores> {
     let bytes = read_model(path)?;
     let model = decode(path, &bytes)?;
@@ -61,6 +63,11 @@ pub fn score(path: &Path, data: &Dataset, threads: usize, first: Option<&Path>) 
                 side_by_side(f, r.width, r.height, &r.rgb, &v.rgb)?;
             }
             pb.inc(1);
+            if crate::cmd::interrupt::received() {
+                return Err(CmdError::Interrupted(
+                    "interrupted while scoring: the same nerf bench command (or its --task) resumes it".into(),
+                ));
+            }
         }
         Ok(())
     })??;

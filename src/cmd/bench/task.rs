@@ -113,9 +113,9 @@ pub fn run(settings: &Settings, index: usize, out: &Path, threads: usize) -> Cmd
             reason: format!("cannot lock: {e} (the output folder's file system must support POSIX locks, as NFS does)"),
         },
     })?;
-    // from here an interrupt is counted, not an exit: whatever stage it
-    // lands in (loading, training, export, scoring), the task stops there
-    // and writes its row saying so
+    // from here an interrupt is counted, not an exit: the task stops at the
+    // next step of training or view of scoring (loading and export run to
+    // their end) and writes its row saying so
     crate::cmd::interrupt::catch();
     if done(out, scene) {
         eprintln!("task {index} (scene {}): done before, kept ({})", scene.name, dir.join(RESULT).display());
