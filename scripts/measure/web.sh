@@ -37,9 +37,18 @@ server=$!
 trap 'kill $server 2>/dev/null; rm -rf "$work"' EXIT
 "$bin" web "$model" --out "$work/page" 2>/dev/null
 sleep 1
-page=$(timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 \
-  --user-data-dir="$work/profile" "http://127.0.0.1:$port/index.html?check=1&orbit=10" 2>&1 \
-  | grep -m1 -o 'nerf-check {[^}]*}' | sed 's/^nerf-check //' || true)   # grep ends Chromium's pipe
+# Chromium keeps running after the page reports: its log is read until the
+# line appears (or 300 s pass), then it is stopped
+timeout 300 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 \
+  --user-data-dir="$work/profile" "http://127.0.0.1:$port/index.html?check=1&orbit=10" >"$work/chromium.log" 2>&1 &
+chrome=$!
+page=""
+while [ -z "$page" ] && kill -0 "$chrome" 2>/dev/null; do
+  sleep 0.5
+  page=$(grep -m1 -o 'nerf-check {[^}]*}' "$work/chromium.log" | sed 's/^nerf-check //' || true)
+done
+kill "$chrome" 2>/dev/null || true
+wait "$chrome" 2>/dev/null || true
 echo "$page"
 [ -n "$page" ] || { echo "the page reported nothing" >&2; exit 1; }
 "$bin" render "$model" --orbit 1 --size 64 --out "$work/host" >/dev/null 2>&1

@@ -1,10 +1,12 @@
 //! `nerf web`: a static page that renders a model in the browser with the
 //! `nerf-infer` renderer compiled to WebAssembly (`nerf-web`): orbit with
 //! mouse or touch, zoom with the wheel, µs per ray and frames per second
-//! shown. Opened with `?check=1` it renders the first view of the model's
-//! orbit at 64×64 and writes `{"crc32": C, "us_per_ray": U}` into the
-//! element `#result`, C being the CRC-32 of the frame's RGB bytes, which
-//! `nerf render MODEL --orbit 1 --size 64` writes as PNG.
+//! shown; a moving view is drawn small and scaled up, a resting one at the
+//! chosen size. Opened with `?check=1` it renders the first view of the
+//! model's orbit at 64×64 and writes a JSON object into the element
+//! `#result` (docs/CLI.md lists its fields): `crc32` is the CRC-32 of the
+//! frame's RGB bytes, which `nerf render MODEL --orbit 1 --size 64` writes
+//! as PNG.
 
 use super::{create_dir, decode, read_model, write_atomic, CmdError, CmdResult};
 use nerf_infer::Orbit;
