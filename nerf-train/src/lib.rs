@@ -6,8 +6,10 @@
 //! - [`config`], what a run trains ([`config::TrainConfig`], the presets);
 //! - [`sampling`], where a ray's samples go (the occupancy grid, the
 //!   proposal grid);
-//! - [`mlp`], the field, the feature grid and the network, forward and
-//!   backward;
+//! - [`field`], what a run fits: the networks' parameters, their Adam
+//!   state and their average, as one part;
+//! - [`mlp`], the networks' shape: the feature grid and the layers,
+//!   forward and backward;
 //! - [`composite`], the volume-rendering quadrature, forward and backward;
 //! - [`loss`], the terms beside the colour error (distortion, density,
 //!   interlevel);
@@ -32,6 +34,7 @@ pub mod dataset;
 pub mod error;
 pub mod eval;
 pub mod export;
+pub mod field;
 pub mod loss;
 pub mod mesh;
 pub mod metrics;

@@ -80,8 +80,8 @@ fn a_field_left_without_density_anywhere_grows_back() {
     // as a few large first steps can leave it: σ < 0 at every point (the
     // density head's weights at zero, its bias below zero)
     let (w, b) = tr.mlp().density_head();
-    tr.params[w].fill(0.0);
-    tr.params[b] = -0.5;
+    tr.field.params[w].fill(0.0);
+    tr.field.params[b] = -0.5;
     assert!(densities(&tr, 7).concat().iter().all(|&s| s == 0.0));
     let (first, last) = support::loss_before_and_after(&mut tr, &data, 80);
     let sigma = densities(&tr, 7).concat();

@@ -87,10 +87,10 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
     let mut tr = Trainer::new(cfg, data.scene, 1, 1);
     support::train_until_the_loss_halves(&mut tr, &data);
     let mlp = tr.mlp();
-    let table = &tr.params[mlp.table..];
+    let table = &tr.field.params[mlp.table..];
     assert!(table.iter().any(|v| v.abs() > 1e-2), "the table did not move from its ±1e-4 start");
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
-    assert_eq!(back.params, tr.params);
+    assert_eq!(back.field.params, tr.field.params);
 
     let calib = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(3));
     let bytes = trainer_model(&tr, &calib, Prune::Off).to_bytes().unwrap();
@@ -143,18 +143,18 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     });
     let mut tr = Trainer::new(cfg.clone(), data.scene, 1, 2);
     tr.train_step(&data, 0.0);
-    assert_eq!(tr.ema, tr.params, "the average starts at the first step's parameters");
+    assert_eq!(tr.field.ema, tr.field.params, "the average starts at the first step's parameters");
     for n in 1..40u64 {
-        let before = tr.ema.clone();
+        let before = tr.field.ema.clone();
         tr.train_step(&data, n as f64 / 40.0);
         // the decay grows with the steps to its configured value
         let b = 0.9f32.min((1 + n) as f32 / (10 + n) as f32);
-        let want: Vec<f32> = before.iter().zip(&tr.params).map(|(&a, &p)| a + (1.0 - b) * (p - a)).collect();
-        assert_eq!(tr.ema, want, "step {n}");
+        let want: Vec<f32> = before.iter().zip(&tr.field.params).map(|(&a, &p)| a + (1.0 - b) * (p - a)).collect();
+        assert_eq!(tr.field.ema, want, "step {n}");
     }
-    assert_ne!(tr.ema, tr.params);
+    assert_ne!(tr.field.ema, tr.field.params);
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
-    assert_eq!(back.ema, tr.ema, "checkpoints keep the average");
+    assert_eq!(back.field.ema, tr.field.ema, "checkpoints keep the average");
 
     // the model holds the average, the run goes on with its own parameters
     let calib = Trainer::draw_batch(&data, 256, Draw::CENTRES, &mut Rng::new(3));
@@ -162,10 +162,10 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     let m = Model::from_bytes(&bytes).unwrap();
     let table = m.features.as_ref().unwrap().table;
     let t0 = tr.mlp().table;
-    let read: Vec<f32> = (0..tr.params.len() - t0).map(|k| nerf_infer::format::read_f32(table, k)).collect();
-    assert_eq!(read, tr.ema[t0..], "the model's table is the average's");
+    let read: Vec<f32> = (0..tr.field.params.len() - t0).map(|k| nerf_infer::format::read_f32(table, k)).collect();
+    assert_eq!(read, tr.field.ema[t0..], "the model's table is the average's");
     let averaged = tr.averaged();
-    assert_eq!(averaged.params, tr.ema);
+    assert_eq!(averaged.field.params, tr.field.ema);
     assert_eq!(averaged.step, tr.step);
     // its occupancy grid refreshed once more, from the average's density
     let (run, avg) = (tr.sampler.occupancy.as_ref().unwrap(), averaged.sampler.occupancy.as_ref().unwrap());
@@ -176,14 +176,14 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     for _ in 0..3 {
         young.train_step(&data, 0.0);
     }
-    assert_eq!(young.averaged().params, young.ema);
+    assert_eq!(young.averaged().field.params, young.field.ema);
     assert_eq!(young.averaged().sampler.occupancy, young.sampler.occupancy);
     assert_eq!(young.sampler.occupancy.as_ref().unwrap().updates, 0);
 
     // without an average the model is the run's last step
     let mut plain = Trainer::new(cfg.with(|c| c.optimiser.ema_decay = 0.0), data.scene, 1, 2);
     plain.train_step(&data, 0.0);
-    assert!(plain.ema.is_empty() && std::ptr::eq(&*plain.averaged(), &plain));
+    assert!(plain.field.ema.is_empty() && std::ptr::eq(&*plain.averaged(), &plain));
 }
 
 #[test]
@@ -201,26 +201,26 @@ fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
     });
     let mut tr = Trainer::new(cfg, data.scene, 1, 4);
     let table = tr.mlp().table;
-    assert_eq!(tr.adam.steps.len(), tr.params.len() - table);
+    assert_eq!(tr.field.adam.steps.len(), tr.field.params.len() - table);
     let (mut moved, mut kept) = (0, 0);
     for _ in 0..30 {
-        let (before, steps) = (tr.params.clone(), tr.adam.steps.clone());
+        let (before, steps) = (tr.field.params.clone(), tr.field.adam.steps.clone());
         tr.train_step(&data, 0.0);
-        for (i, (&now, &then)) in tr.adam.steps.iter().zip(&steps).enumerate() {
+        for (i, (&now, &then)) in tr.field.adam.steps.iter().zip(&steps).enumerate() {
             assert!(now - then <= 1, "value {i} counted twice in a step");
             if now > then {
                 moved += 1;
             } else {
-                assert_eq!(tr.params[table + i], before[table + i], "value {i} moved without a gradient");
+                assert_eq!(tr.field.params[table + i], before[table + i], "value {i} moved without a gradient");
                 kept += (then > 0) as usize;
             }
         }
     }
     println!("{moved} value updates, {kept} times a value updated before kept it");
     assert!(moved > 1000 && kept > 1000, "{moved} updates, {kept} kept");
-    assert!(tr.adam.steps.contains(&0), "some values never had a gradient");
+    assert!(tr.field.adam.steps.contains(&0), "some values never had a gradient");
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
-    assert_eq!(back.adam.steps, tr.adam.steps);
+    assert_eq!(back.field.adam.steps, tr.field.adam.steps);
 }
 
 #[test]

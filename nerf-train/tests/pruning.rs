@@ -35,9 +35,9 @@ fn trainer_with_dead_neurons() -> Trainer {
             let s = mlp.slots[layer];
             for c in 0..dead {
                 for j in 0..s.din {
-                    tr.params[base + s.w + j * s.dout + c] = 0.0;
+                    tr.field.params[base + s.w + j * s.dout + c] = 0.0;
                 }
-                tr.params[base + s.b + c] = -1.0;
+                tr.field.params[base + s.b + c] = -1.0;
             }
         }
     }

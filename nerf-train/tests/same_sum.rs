@@ -15,7 +15,7 @@ fn trained(data: &Dataset, steps: u64, threads: usize) -> Vec<u32> {
         let (mut run, _) =
             Run::fitted(&Preset::default().config(), Fit::ALL, data, 1, 5, Budget::Steps(steps)).unwrap();
         run.train(&mut ()).unwrap();
-        run.trainer.params.iter().map(|p| p.to_bits()).collect()
+        run.trainer.field.params.iter().map(|p| p.to_bits()).collect()
     })
 }
 

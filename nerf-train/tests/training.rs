@@ -43,7 +43,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
     support::train_until_the_loss_halves(&mut tr, &data);
     // checkpoints round-trip exactly
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
-    assert_eq!(back.params, tr.params);
+    assert_eq!(back.field.params, tr.field.params);
     assert_eq!(back.step, tr.step);
     assert_eq!(back.scene, tr.scene);
     // the exported model renders a validation view far better than a constant
@@ -94,13 +94,13 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
     let cfg = small_config().with(|c| c.sampling.batch_rays = 128);
     let mut tr = Trainer::new(cfg, good.scene, 1, 2);
     tr.train_step(&good, 0.0);
-    let (params, adam_before) = (tr.params.clone(), tr.to_bytes().unwrap());
+    let (params, adam_before) = (tr.field.params.clone(), tr.to_bytes().unwrap());
     for _ in 0..3 {
         let st = tr.train_step(&bad, 0.1);
         assert!(st.skipped && !st.loss.is_finite(), "{st:?}");
     }
     assert_eq!(tr.skipped, 3);
-    assert_eq!(tr.params, params, "a skipped step changed the weights");
+    assert_eq!(tr.field.params, params, "a skipped step changed the weights");
     // optimiser state is untouched too: only the step counter moved
     let mut back = Trainer::from_bytes(&adam_before).unwrap();
     back.step = tr.step;
@@ -108,7 +108,7 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
     assert_eq!(back.to_bytes().unwrap(), tr.to_bytes().unwrap());
     let st = tr.train_step(&good, 0.2);
     assert!(!st.skipped && st.loss.is_finite());
-    assert_ne!(tr.params, params);
+    assert_ne!(tr.field.params, params);
 }
 
 #[test]

@@ -68,7 +68,7 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
         features: mlp
             .features
             .as_ref()
-            .map(|f| (f.clone(), f32_bytes(tr.params[mlp.table..mlp.n_params].iter().copied()))),
+            .map(|f| (f.clone(), f32_bytes(tr.field.params[mlp.table..mlp.n_params].iter().copied()))),
         capture: None,
         narrow: None,
         orbit: None,
@@ -96,17 +96,17 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
         // the random density head of every scene (an unbounded scene's
         // trainer starts with an even density, no head to scale)
         let init = mlp.init(crate::train::network_seed(seed, k));
-        tr.params[off..off + mlp.n_params].copy_from_slice(&init);
+        tr.field.params[off..off + mlp.n_params].copy_from_slice(&init);
         for (i, s) in mlp.slots.iter().enumerate() {
             let gain = if i == si { 6f32.sqrt() * sigma_gain } else { 6f32.sqrt() };
-            for v in &mut tr.params[off + s.w..off + s.b] {
+            for v in &mut tr.field.params[off + s.w..off + s.b] {
                 *v *= gain;
             }
         }
     }
     // feature values of the size trained grids reach (init is ±1e-4)
     let mut rng = crate::util::rng::Rng::new(seed ^ crate::util::rng::stream::RANDOM_TABLE);
-    for v in &mut tr.params[mlp.table..mlp.n_params] {
+    for v in &mut tr.field.params[mlp.table..mlp.n_params] {
         *v = rng.f32() - 0.5;
     }
     let rays = crate::path::orbit_rays(&scene, 8, 24);

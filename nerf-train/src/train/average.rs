@@ -10,11 +10,11 @@ impl Trainer {
     /// refreshed once more, from the average's density; otherwise the run
     /// itself.
     pub fn averaged(&self) -> std::borrow::Cow<'_, Trainer> {
-        if self.cfg.optimiser.ema_decay <= 0.0 || self.ema.len() != self.params.len() {
+        let Some(average) = self.field.model_params(&self.cfg.optimiser) else {
             return std::borrow::Cow::Borrowed(self);
-        }
+        };
         let mut t = self.clone();
-        t.params.clone_from(&self.ema);
+        t.field.params.copy_from_slice(average);
         if t.sampler.occupancy.as_ref().is_some_and(|g| g.updates > 0) {
             t.update_grid();
         }

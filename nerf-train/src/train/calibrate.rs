@@ -28,7 +28,7 @@ impl Trainer {
         let net = self.mlp();
         let nc = self.cfg.sampling.n_coarse as usize;
         let nf = self.cfg.sampling.n_fine.map_or(0, |n| n.get() as usize);
-        let (pc, pf) = self.params.split_at(net.n_params);
+        let (pc, pf) = self.field.params.split_at(net.n_params);
         let mut max_c = vec![0.0f32; net.slots.len()];
         let mut max_f = vec![0.0f32; net.slots.len()];
         let mut max_pos = 0.0f32;

@@ -40,16 +40,6 @@ pub const CHECKPOINT_VERSION_MIN: u16 = 18;
 /// exists; without one, checkpoints that lack it are refused, naming it.
 pub const ABSENT_MEANS: &[(&str, &str)] = &[];
 
-/// How many of a run's `params` parameters are a feature grid's table: the
-/// last ones (a run with a feature grid has one network), none without one.
-pub(super) fn table_values(net: &Mlp, params: usize) -> usize {
-    if net.features.is_some() {
-        params - net.table
-    } else {
-        0
-    }
-}
-
 impl Trainer {
     /// Serialises the run for a checkpoint: [`CHECKPOINT_MAGIC`], the
     /// format version (u16 LE), the payload's length (u32 LE) and CRC-32
@@ -61,8 +51,8 @@ impl Trainer {
         w.put("cfg", &cfg)?;
         w.put("scene", &(&self.scene, self.scene.unbounded))?;
         w.put("downscale", &self.downscale)?;
-        w.put("params", &self.params)?;
-        w.put("adam", &self.adam)?;
+        w.put("params", &self.field.params)?;
+        w.put("adam", &self.field.adam)?;
         w.put("step", &self.step)?;
         w.put("elapsed", &self.elapsed)?;
         w.put("seed", &self.seed)?;
@@ -70,7 +60,7 @@ impl Trainer {
         w.put("grid", &self.sampler.occupancy)?;
         w.put("data", &self.data)?;
         w.put("pixel", &self.pixel)?;
-        w.put("ema", &self.ema)?;
+        w.put("ema", &self.field.ema)?;
         w.put("proposal", &self.sampler.proposal)?;
         w.put("appearance", &self.appearance)?;
         w.put("poses", &self.poses)?;
@@ -131,6 +121,7 @@ impl Trainer {
             None => true,
             Some(p) => t.cfg.per_photo.pose_refine && p.is_consistent(),
         };
+        let field = &t.field;
         let nets = if t.cfg.sampling.n_fine.is_some() { 2 } else { 1 };
         let sizes_ok = proposal_ok
             && appearance_ok
@@ -138,11 +129,11 @@ impl Trainer {
             && t.cfg.validate().is_ok()
             && t.pixel.is_finite()
             && t.pixel >= 0.0
-            && t.params.len() == t.mlp().n_params * nets
-            && t.params.len() == t.adam.m.len()
-            && t.params.len() == t.adam.v.len()
-            && t.adam.steps.len() == table_values(&t.mlp(), t.params.len())
-            && (t.ema.is_empty() || (t.cfg.optimiser.ema_decay > 0.0 && t.ema.len() == t.params.len()));
+            && field.params.len() == field.net.n_params * nets
+            && field.params.len() == field.adam.m.len()
+            && field.params.len() == field.adam.v.len()
+            && field.adam.steps.len() == Field::table_values(&field.net, field.params.len())
+            && (field.ema.is_empty() || (t.cfg.optimiser.ema_decay > 0.0 && field.ema.len() == field.params.len()));
         match sizes_ok && grid_ok {
             true => Ok(t),
             false => {
@@ -241,12 +232,12 @@ impl Trainer {
         complete(&mut cfg, &like, "cfg", absent)?;
         let (mut scene, unbounded): (Scene, Option<nerf_infer::format::Unbounded>) = r.take("scene")?;
         scene.unbounded = unbounded;
+        let cfg: TrainConfig = serde_json::from_value(cfg).map_err(bad_cfg)?;
         let t = Trainer {
-            cfg: serde_json::from_value(cfg).map_err(bad_cfg)?,
+            field: Field { net: cfg.mlp(), params: r.take("params")?, adam: r.take("adam")?, ema: r.take("ema")? },
+            cfg,
             scene,
             downscale: r.take("downscale")?,
-            params: r.take("params")?,
-            adam: r.take("adam")?,
             step: r.take("step")?,
             elapsed: r.take("elapsed")?,
             seed: r.take("seed")?,
@@ -254,7 +245,6 @@ impl Trainer {
             sampler: Sampler { occupancy: r.take("grid")?, proposal: r.take("proposal")? },
             data: r.take("data")?,
             pixel: r.take("pixel")?,
-            ema: r.take("ema")?,
             appearance: r.take("appearance")?,
             poses: r.take("poses")?,
             pool: GradPool::default(),

@@ -10,7 +10,7 @@ use nerf_infer::format::{frame, unframe, CHECKPOINT_MAGIC};
 fn trainer() -> Trainer {
     let mut t = Trainer::new(TrainConfig::fast(), Scene::blender(1.5, 2.0, 6.0), 2, 11);
     (t.step, t.elapsed, t.skipped, t.data, t.pixel) = (7, 1.25, 1, "/data/scene format: auto".into(), 0.003);
-    t.adam.m.iter_mut().enumerate().for_each(|(i, m)| *m = i as f32 * 1e-3);
+    t.field.adam.m.iter_mut().enumerate().for_each(|(i, m)| *m = i as f32 * 1e-3);
     t
 }
 
@@ -48,7 +48,7 @@ fn a_checkpoint_reads_back_as_the_state_it_was_written_from() {
     let back = Trainer::from_bytes(&t.to_bytes().unwrap()).unwrap();
     assert_eq!(back.to_bytes().unwrap(), t.to_bytes().unwrap());
     assert_eq!((back.cfg, back.scene, back.step, back.data), (t.cfg.clone(), t.scene, 7, t.data.clone()));
-    assert_eq!((back.params, back.adam.m), (t.params.clone(), t.adam.m.clone()));
+    assert_eq!((back.field.params, back.field.adam.m), (t.field.params.clone(), t.field.adam.m.clone()));
 }
 
 #[test]
@@ -89,7 +89,7 @@ fn a_field_an_earlier_build_lacks_takes_the_value_that_means_what_it_did() {
     let absent = [("cfg.loss.distortion", "0.25"), ("skipped", "0")];
     let back = Trainer::from_sections(&payload, &absent).unwrap();
     assert_eq!((back.cfg.loss.distortion, back.skipped), (0.25, 0));
-    assert_eq!((back.params, back.step), (t.params, t.step));
+    assert_eq!((back.field.params, back.step), (t.field.params, t.step));
     // the fields this build reads from checkpoints that lack them: none yet
     assert!(ABSENT_MEANS.is_empty());
 }

@@ -7,6 +7,7 @@ use super::*;
 use crate::config::{
     FeatureConfig, GridConfig, LossConfig, ModelConfig, OptimiserConfig, PerPhotoConfig, SamplingConfig,
 };
+use crate::optim::adam::Adam;
 use crate::sampling::occupancy::OccupancyGrid;
 use serde::Deserialize;
 #[cfg(test)]
@@ -124,12 +125,12 @@ pub(super) struct V18 {
 
 impl From<V18> for Trainer {
     fn from(v: V18) -> Self {
+        let cfg: TrainConfig = v.cfg.into();
         Trainer {
-            cfg: v.cfg.into(),
+            field: Field { net: cfg.mlp(), params: v.params, adam: v.adam, ema: v.ema },
+            cfg,
             scene: v.scene,
             downscale: v.downscale,
-            params: v.params,
-            adam: v.adam,
             step: v.step,
             elapsed: v.elapsed,
             seed: v.seed,
@@ -137,7 +138,6 @@ impl From<V18> for Trainer {
             sampler: Sampler { occupancy: v.grid, proposal: v.proposal },
             data: v.data,
             pixel: v.pixel,
-            ema: v.ema,
             appearance: v.appearance,
             poses: v.poses,
             pool: GradPool::default(),
@@ -154,8 +154,8 @@ impl From<&Trainer> for V18 {
             cfg: (&t.cfg).into(),
             scene: t.scene,
             downscale: t.downscale,
-            params: t.params,
-            adam: t.adam,
+            params: t.field.params,
+            adam: t.field.adam,
             step: t.step,
             elapsed: t.elapsed,
             seed: t.seed,
@@ -163,7 +163,7 @@ impl From<&Trainer> for V18 {
             grid: t.sampler.occupancy,
             data: t.data,
             pixel: t.pixel,
-            ema: t.ema,
+            ema: t.field.ema,
             proposal: t.sampler.proposal,
             appearance: t.appearance,
             poses: t.poses,

@@ -14,19 +14,20 @@
 //! Files: this one holds the run's state ([`Trainer`]) and its working
 //! memory; `batch.rs` draws rays (their samples are the
 //! [`Sampler`]'s, `crate::sampling`), `step.rs` takes a step, `loss.rs` is its loss and gradient, `pool.rs`
-//! keeps gradient buffers, `average.rs` the parameters' average,
+//! keeps gradient buffers, `average.rs` the run as its model takes it
+//! (the [`Field`]'s average),
 //! `proposal_pass.rs` trains the proposal grid, `pose_pass.rs` the
 //! cameras' pose corrections, `calibrate.rs` measures
 //! activation ranges for export, `checkpoint.rs` writes and reads the
 //! state.
 
-use crate::composite::{composite, composite_back, push_deltas};
+use crate::composite::{composite, push_deltas};
 use crate::config::TrainConfig;
 use crate::dataset::Dataset;
-use crate::loss::density::optical_depth_back;
-use crate::loss::distortion::{distortion, push_interval};
+pub use crate::field::network_seed;
+use crate::field::Field;
+use crate::loss::distortion::push_interval;
 use crate::mlp::{Acts, GridGrad, Mlp};
-use crate::optim::adam::Adam;
 use crate::per_photo::appearance::{self, Appearance};
 use crate::per_photo::pose::Poses;
 use crate::sampling::proposal::ProposalGrid;
@@ -83,15 +84,6 @@ pub struct StepStats {
 /// reaches the shell. Measured on the built-in room (docs/EXPERIMENTS.md).
 pub const UNBOUNDED_SIGMA_INIT: f32 = 0.1;
 
-/// The initialisation seed of network `k` (0 coarse, 1 fine) of a run seeded `seed`.
-pub fn network_seed(seed: u64, k: usize) -> u64 {
-    if k == 0 {
-        seed
-    } else {
-        seed ^ crate::util::rng::stream::FINE_INIT
-    }
-}
-
 /// A training run's state: everything a checkpoint holds.
 #[derive(Clone, Debug)]
 pub struct Trainer {
@@ -101,10 +93,9 @@ pub struct Trainer {
     pub scene: Scene,
     /// Dataset downscale the run trains at.
     pub downscale: u32,
-    /// Coarse then fine parameters, concatenated.
-    pub params: Vec<f32>,
-    /// Optimiser state.
-    pub adam: Adam,
+    /// The field it fits: the networks, their parameters, Adam's state
+    /// and the parameters' average.
+    pub field: Field,
     /// Steps taken.
     pub step: u64,
     /// Seconds of training so far (across resumes).
@@ -124,10 +115,6 @@ pub struct Trainer {
     /// 0 before (the exported model records it,
     /// `nerf_infer::format::Footprint`).
     pub pixel: f32,
-    /// With [`OptimiserConfig::ema_decay`](crate::config::OptimiserConfig::ema_decay): the moving average of `params`
-    /// (as long as they, from the first step that updates them), which the model takes
-    /// ([`Trainer::averaged`]); empty otherwise.
-    pub ema: Vec<f32>,
     /// Each training photo's colour correction (runs with
     /// [`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance), from their first step).
     pub appearance: Option<Appearance>,
@@ -195,23 +182,13 @@ impl PerPhoto {
 impl Trainer {
     /// A new run with freshly initialised networks.
     pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
-        let net = cfg.mlp();
-        let init = |seed| match scene.unbounded {
-            Some(_) => net.init_uniform_density(seed, UNBOUNDED_SIGMA_INIT),
-            None => net.init(seed),
-        };
-        let mut params = init(network_seed(seed, 0));
-        if cfg.sampling.n_fine.is_some() {
-            params.extend(init(network_seed(seed, 1)));
-        }
-        let adam = Adam::new(params.len(), table_values(&net, params.len()));
+        let field = Field::new(&cfg, seed, scene.unbounded.map(|_| UNBOUNDED_SIGMA_INIT));
         let sampler = Sampler::new(&cfg, UNBOUNDED_SIGMA_INIT);
         Self {
             cfg,
             scene,
             downscale,
-            params,
-            adam,
+            field,
             step: 0,
             elapsed: 0.0,
             seed,
@@ -219,7 +196,6 @@ impl Trainer {
             sampler,
             data: String::new(),
             pixel: 0.0,
-            ema: Vec::new(),
             appearance: None,
             poses: None,
             pool: GradPool::default(),
@@ -233,18 +209,17 @@ impl Trainer {
 
     /// The network shape (both networks share it).
     pub fn mlp(&self) -> Mlp {
-        self.cfg.mlp()
+        self.field.net.clone()
     }
 
     /// Coarse parameters.
     pub fn coarse_params(&self) -> &[f32] {
-        &self.params[..self.mlp().n_params]
+        self.field.coarse()
     }
 
     /// Fine parameters, if the run has a fine network.
     pub fn fine_params(&self) -> Option<&[f32]> {
-        let n = self.mlp().n_params;
-        self.cfg.sampling.n_fine.is_some().then(|| &self.params[n..])
+        self.field.fine()
     }
 
     /// Learning rate at training progress `p ∈ [0, 1]` of the decay horizon.
@@ -280,7 +255,7 @@ impl Trainer {
         let Some(mut grid) = self.sampler.occupancy.take() else { return };
         let net = self.mlp();
         let thr = self.grid_threshold();
-        let params = &self.params[..net.n_params];
+        let params = self.field.coarse();
         let key = hash32(self.seed as u32 ^ crate::util::rng::stream::GRID_UPDATE);
         grid.update(key, thr, self.scene.unbounded.is_some(), |pts| {
             let mut acts = Acts::default();

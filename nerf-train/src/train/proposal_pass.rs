@@ -47,7 +47,7 @@ impl Trainer {
     pub fn proposal_bound(&self, batch: &[Sample]) -> Option<(f32, f32)> {
         self.sampler.proposal.as_ref()?;
         let net = self.mlp();
-        let pc = &self.params[..net.n_params];
+        let pc = self.field.coarse();
         let nm = self.main_samples();
         let mut ws = Workspace::default();
         let (mut unbounded, mut opacity) = (0.0f64, 0.0f64);

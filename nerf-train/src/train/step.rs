@@ -70,27 +70,7 @@ impl Trainer {
         } else {
             let lr = self.learning_rate(progress);
             let c = &self.cfg;
-            let (p, adam) = (&mut self.params, &mut self.adam);
-            // the parameters' moving average folded in Adam's sweep; the first step's is a copy
-            let decay = c.optimiser.ema_decay;
-            // ema ← b·ema + (1 − b)·params, b rising to `decay` over the first steps
-            let b = decay.min((1.0 + self.step as f32) / (10.0 + self.step as f32));
-            let folded = decay > 0.0 && self.ema.len() == p.len();
-            timed(&mut stats.times.adam, || {
-                adam.update_averaged(
-                    p,
-                    &mut grad,
-                    lr,
-                    c.optimiser.beta1,
-                    c.optimiser.beta2,
-                    c.optimiser.eps,
-                    c.optimiser.feature_decay,
-                    folded.then_some((&mut self.ema[..], b)),
-                )
-            });
-            if decay > 0.0 && !folded {
-                self.ema.clone_from(p);
-            }
+            timed(&mut stats.times.adam, || self.field.apply(&mut grad, lr, &c.optimiser, self.step));
             let lr_p = c.optimiser.proposal_lr * lr / c.optimiser.lr;
             timed(&mut stats.times.adam, || self.step_proposal(lr_p));
             if let Some(a) = self.appearance.as_mut().filter(|_| !photos.is_empty()) {
@@ -137,7 +117,7 @@ impl Trainer {
             g.clear();
         }
         let net = self.mlp();
-        let np = self.params.len();
+        let np = self.field.params.len();
         // the parameters each group of chunks accumulates: all but a feature grid's table
         let dense = if net.features.is_some() { net.table } else { np };
         let scale = 2.0 / (3.0 * batch.len() as f32);
@@ -222,7 +202,7 @@ impl Trainer {
         let nc = self.cfg.sampling.n_coarse as usize;
         let nf = self.cfg.sampling.n_fine.map_or(0, |n| n.get() as usize);
         let np = net.n_params;
-        let (pc, pf) = self.params.split_at(np);
+        let (pc, pf) = self.field.params.split_at(np);
         let (gc, gf) = g.split_at_mut(np.min(g.len()));
         timed(&mut t.sample, || {
             self.sampler.place(
