@@ -7,7 +7,7 @@
 //! Poses are camera-to-world in the model's frame (OpenGL axes, as
 //! nerfstudio's), fields of view in degrees.
 
-use crate::error::{number as shown, Error};
+use crate::error::{CameraError, CameraPathError, Error, FileError, PathEntryError};
 use glam::{Mat3, Quat, Vec3};
 use nerf_infer::Camera;
 use std::path::Path;
@@ -24,12 +24,9 @@ pub use orbit::{fit_orbit, orbit_rays};
 /// `cams[0]`'s field of view, with `width` pixels across and the height
 /// that keeps `cams[0]`'s aspect ratio. No cameras, `n` 0 or `width` 0
 /// is an error.
-pub fn smooth_trajectory(cams: &[Camera], n: usize, width: u32) -> Result<Vec<Camera>, Error> {
+pub fn smooth_trajectory(cams: &[Camera], n: usize, width: u32) -> Result<Vec<Camera>, CameraError> {
     if cams.is_empty() || n == 0 || width == 0 {
-        return Err(Error::Camera(format!(
-            "a smoothed trajectory needs cameras ({} given), frames ({n}) and a width ({width})",
-            cams.len()
-        )));
+        return Err(CameraError::EmptyTrajectory { cameras: cams.len(), frames: n, width });
     }
     let m = cams.len();
     let sigma = (m as f32 / 20.0).max(1.0);
@@ -53,7 +50,7 @@ pub fn smooth_trajectory(cams: &[Camera], n: usize, width: u32) -> Result<Vec<Ca
             let r = Mat3::from_quat(q.normalize());
             let c2w = rows(&r, pos / wsum);
             Camera::new(width, height, c0.fx * sx, c0.fy * sy, c0.cx * sx, c0.cy * sy, c2w)
-                .map_err(|e| Error::Camera(format!("trajectory camera {k}: {e}")))
+                .map_err(|source| CameraError::Trajectory { index: k, source })
         })
         .collect()
 }
@@ -99,73 +96,71 @@ pub fn to_camera_path(cams: &[Camera], fps: f32) -> serde_json::Value {
 /// `fov`; `aspect`), interpolated over `fps · seconds` frames as nerfstudio
 /// does ([`keyframes::interpolate`]). Errors name the file and the camera.
 pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
-    let bad = |m: String| Error::File(format!("{}: {m}", path.display()));
+    let bad = |reason: CameraPathError| Error::from(FileError::CameraPath { path: path.to_path_buf(), reason });
     let text = crate::util::userfile::read_user_text(path, crate::util::userfile::MAX_JSON, "camera path")?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(format!("malformed JSON: {e}")))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(CameraPathError::Json(e)))?;
     if let Some(t) = v.get("camera_type").and_then(|t| t.as_str()).filter(|t| *t != "perspective") {
-        return Err(bad(format!("camera_type {t} is not supported (perspective is)")));
+        return Err(bad(CameraPathError::CameraType { found: t.to_string() }));
     }
     if !v.is_object() {
-        return Err(bad("expected a JSON object with a camera_path list or keyframes".into()));
+        return Err(bad(CameraPathError::NotAnObject));
     }
     // a field present with a value of the wrong type is an error, not a default
-    let number = |k: &str| -> Result<Option<f64>, Error> {
-        match v.get(k) {
+    let number = |key: &'static str| -> Result<Option<f64>, Error> {
+        match v.get(key) {
             None | Some(serde_json::Value::Null) => Ok(None),
-            Some(x) => x.as_f64().map(Some).ok_or_else(|| bad(format!("{k} is not a number: {x}"))),
+            Some(x) => x.as_f64().map(Some).ok_or_else(|| bad(CameraPathError::NotANumber { key, value: x.clone() })),
         }
     };
     let default_aspect = match (number("render_width")?, number("render_height")?) {
         (Some(w), Some(h)) if w > 0.0 && h > 0.0 => Some(w / h),
-        (Some(w), Some(h)) => return Err(bad(format!("render_width {w} and render_height {h} must be positive"))),
+        (Some(width), Some(height)) => return Err(bad(CameraPathError::RenderSize { width, height })),
         _ => None,
     };
-    let list = |key: &str| -> Result<Option<&Vec<serde_json::Value>>, Error> {
+    let list = |key: &'static str| -> Result<Option<&Vec<serde_json::Value>>, Error> {
         match v.get(key) {
             None | Some(serde_json::Value::Null) => Ok(None),
             Some(serde_json::Value::Array(l)) => Ok(Some(l)),
-            Some(_) => Err(bad(format!("{key} is not a list"))),
+            Some(_) => Err(bad(CameraPathError::NotAList { key })),
         }
     };
     let (cams, keyed) = match (list("camera_path")?, list("keyframes")?) {
         (Some(l), _) if !l.is_empty() => (l, false),
         (_, Some(l)) if !l.is_empty() => (l, true),
-        (None, None) => return Err(bad("neither a camera_path list nor keyframes".into())),
-        _ => return Err(bad("its camera_path and keyframes lists are empty".into())),
+        (None, None) => return Err(bad(CameraPathError::NoCameras)),
+        _ => return Err(bad(CameraPathError::Empty)),
     };
     if cams.len() > 100_000 {
-        return Err(bad(format!("{} cameras listed (at most 100000 are rendered)", cams.len())));
+        return Err(bad(CameraPathError::TooMany { count: cams.len() }));
     }
     let what = if keyed { "keyframe" } else { "camera" };
     let parsed = cams
         .iter()
         .enumerate()
         .map(|(i, c)| {
-            let bad = |m: String| bad(format!("{what} {i}: {m}"));
+            let bad = |reason: PathEntryError| bad(CameraPathError::Entry { kind: what, index: i, reason });
             let m = matrix(c.get(if keyed { "matrix" } else { "camera_to_world" }))
-                .ok_or_else(|| bad("its matrix is missing or not a list of numbers".into()))?;
+                .ok_or_else(|| bad(PathEntryError::NoMatrix))?;
             if m.len() != 16 && m.len() != 12 {
-                return Err(bad(format!("its matrix has {} numbers (16 or 12)", m.len())));
+                return Err(bad(PathEntryError::MatrixLength { count: m.len() }));
             }
             let m = if keyed && m.len() == 16 { row_major(m) } else { m };
             if m.len() == 16 && [m[12], m[13], m[14], m[15] - 1.0].iter().any(|x| x.abs() > 1e-6) {
-                let row = m[12..].iter().map(|&x| shown(x)).collect::<Vec<_>>().join(" ");
-                return Err(bad(format!("its matrix's bottom row is {row}, not 0 0 0 1 (not a rigid transform)")));
+                return Err(bad(PathEntryError::BottomRow { row: [m[12], m[13], m[14], m[15]] }));
             }
-            let field = |k: &str| match c.get(k) {
+            let field = |key: &'static str| match c.get(key) {
                 None | Some(serde_json::Value::Null) => Ok(None),
-                Some(x) => x.as_f64().map(Some).ok_or_else(|| bad(format!("{k} is not a number: {x}"))),
+                Some(x) => {
+                    x.as_f64().map(Some).ok_or_else(|| bad(PathEntryError::NotANumber { key, value: x.clone() }))
+                }
             };
-            let fov =
-                field("fov")?.ok_or_else(|| bad("fov is missing (the vertical field of view, degrees)".into()))?;
+            let fov = field("fov")?.ok_or_else(|| bad(PathEntryError::NoFov))?;
             if !(1.0..179.0).contains(&fov) {
-                return Err(bad(format!("fov {}° is out of range (1 to 179 degrees, vertical)", shown(fov))));
+                return Err(bad(PathEntryError::Fov { fov }));
             }
-            let aspect = field("aspect")?.or(default_aspect).ok_or_else(|| {
-                bad("aspect is missing (width / height), and the file has no render_width and render_height".into())
-            })?;
+            let aspect = field("aspect")?.or(default_aspect).ok_or_else(|| bad(PathEntryError::NoAspect))?;
             if !(0.01..100.0).contains(&aspect) {
-                return Err(bad(format!("aspect {} is out of range (0.01 to 100, width / height)", shown(aspect))));
+                return Err(bad(PathEntryError::Aspect { aspect }));
             }
             let mut c2w = [[0f32; 4]; 3];
             for (r, row) in c2w.iter_mut().enumerate() {
@@ -173,35 +168,30 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
                     *v = m[r * 4 + k] as f32;
                 }
             }
-            let cam = perspective(width, fov as f32, aspect as f32, c2w)
-                .ok_or_else(|| bad("not finite, or the rotation is not rigid".into()))?;
+            let cam =
+                perspective(width, fov as f32, aspect as f32, c2w).ok_or_else(|| bad(PathEntryError::NotRigid))?;
             Ok((cam, fov as f32, aspect as f32))
         })
         .collect::<Result<Vec<_>, Error>>()?;
     if !keyed {
         return Ok(parsed.into_iter().map(|p| p.0).collect());
     }
-    let fps = number("fps")?.ok_or_else(|| bad("keyframes without fps (frames per second)".into()))?;
-    let seconds = number("seconds")?.ok_or_else(|| bad("keyframes without seconds (the video's length)".into()))?;
+    let fps = number("fps")?.ok_or_else(|| bad(CameraPathError::NoFps))?;
+    let seconds = number("seconds")?.ok_or_else(|| bad(CameraPathError::NoSeconds))?;
     if !(fps > 0.0 && seconds > 0.0) {
-        return Err(bad(format!("fps {} and seconds {} must both be positive", shown(fps), shown(seconds))));
+        return Err(bad(CameraPathError::Timing { fps, seconds }));
     }
     let frames = (fps * seconds).round();
     if !(1.0..=100_000.0).contains(&frames) {
-        return Err(bad(format!(
-            "fps {} × seconds {} gives {} frames (1 to 100000 are rendered)",
-            shown(fps),
-            shown(seconds),
-            shown(frames)
-        )));
+        return Err(bad(CameraPathError::Frames { fps, seconds, frames }));
     }
     let smoothness = number("smoothness_value")?.unwrap_or(0.5);
     if !(-1.0..=1.0).contains(&smoothness) {
-        return Err(bad(format!("smoothness_value {} is out of range (-1 to 1)", shown(smoothness))));
+        return Err(bad(CameraPathError::Smoothness { value: smoothness }));
     }
     let cycle = match v.get("is_cycle") {
         None | Some(serde_json::Value::Null) => false,
-        Some(c) => c.as_bool().ok_or_else(|| bad(format!("is_cycle is not true or false: {c}")))?,
+        Some(c) => c.as_bool().ok_or_else(|| bad(CameraPathError::Cycle { value: c.clone() }))?,
     };
     let timing = keyframes::Timing { frames: frames as usize, smoothness: smoothness as f32, cycle };
     let keys: Vec<Keyframe> =
@@ -213,7 +203,7 @@ pub fn read_camera_path(path: &Path, width: u32) -> Result<Vec<Camera>, Error> {
         .map(|(i, k)| {
             // the spline may overshoot between keyframes of very different fields of view
             perspective(width, k.fov.clamp(1.0, 179.0), aspect, rows(&k.rotation, k.position))
-                .ok_or_else(|| bad(format!("frame {i} between the keyframes is not a rigid camera")))
+                .ok_or_else(|| bad(CameraPathError::NotRigid { frame: i }))
         })
         .collect()
 }

@@ -3,7 +3,7 @@
 //! bundled DejaVu Sans (`assets/`, Bitstream Vera licence), so a plot needs
 //! no system fonts and shows µ and ×.
 
-use crate::error::Error;
+use crate::error::{DrawError, Error, PlotError};
 use image::RgbImage;
 use plotters::prelude::*;
 
@@ -30,7 +30,7 @@ static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 fn register_font() -> Result<(), Error> {
     static ONCE: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     let ok = *ONCE.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok());
-    ok.then_some(()).ok_or_else(|| Error::Plot("the bundled font cannot be read".into()))
+    ok.then_some(()).ok_or(Error::Plot(PlotError::Font))
 }
 
 /// Writes a scatter plot of `points` to `path` (PNG), with the front
@@ -48,7 +48,7 @@ pub fn scatter(path: &std::path::Path, title: &str, xlabel: &str, ylabel: &str, 
     (x0, x1, y0, y1) = ((x0 - dx).max(0.0), x1 + dx, y0 - dy, y1 + dy);
     let (red, blue) = (RGBColor(210, 40, 40), RGBColor(40, 90, 200));
     let mut buf = vec![0u8; (W * H * 3) as usize];
-    let draw = |buf: &mut [u8]| -> Result<(), Box<dyn std::error::Error>> {
+    let draw = |buf: &mut [u8]| -> Result<(), DrawError> {
         let root = BitMapBackend::with_buffer(buf, (W, H)).into_drawing_area();
         root.fill(&WHITE)?;
         let mut chart = ChartBuilder::on(&root)
@@ -87,8 +87,8 @@ pub fn scatter(path: &std::path::Path, title: &str, xlabel: &str, ylabel: &str, 
         root.present()?;
         Ok(())
     };
-    draw(&mut buf).map_err(|e| Error::Plot(format!("{}: cannot draw the plot: {e}", path.display())))?;
-    let img = RgbImage::from_raw(W, H, buf).ok_or_else(|| Error::Plot("plot buffer size".into()))?;
+    draw(&mut buf).map_err(|source| PlotError::Draw { path: path.to_path_buf(), source })?;
+    let img = RgbImage::from_raw(W, H, buf).ok_or(PlotError::Buffer)?;
     crate::util::atomic::write_png(path, &img).map_err(Error::io(path))
 }
 
@@ -114,7 +114,7 @@ pub fn panels(path: &std::path::Path, title: &str, panels: &[Panel]) -> Result<(
     let (w, h) = (pw * cols as u32, ph * rows as u32 + 40);
     let (red, blue) = (RGBColor(210, 40, 40), RGBColor(40, 90, 200));
     let mut buf = vec![0u8; (w * h * 3) as usize];
-    let draw = |buf: &mut [u8]| -> Result<(), Box<dyn std::error::Error>> {
+    let draw = |buf: &mut [u8]| -> Result<(), DrawError> {
         let root = BitMapBackend::with_buffer(buf, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
         let root = root.titled(title, ("sans-serif", 20))?;
@@ -147,8 +147,8 @@ pub fn panels(path: &std::path::Path, title: &str, panels: &[Panel]) -> Result<(
         root.present()?;
         Ok(())
     };
-    draw(&mut buf).map_err(|e| Error::Plot(format!("{}: cannot draw the plot: {e}", path.display())))?;
-    let img = RgbImage::from_raw(w, h, buf).ok_or_else(|| Error::Plot("plot buffer size".into()))?;
+    draw(&mut buf).map_err(|source| PlotError::Draw { path: path.to_path_buf(), source })?;
+    let img = RgbImage::from_raw(w, h, buf).ok_or(PlotError::Buffer)?;
     crate::util::atomic::write_png(path, &img).map_err(Error::io(path))
 }
 

@@ -3,7 +3,7 @@
 //! [`flat_names`]), or both.
 
 use super::TrainConfig;
-use crate::error::Error;
+use crate::error::ConfigError;
 use serde_json::{Map, Value};
 
 /// The sections of [`TrainConfig`], as a `--config` file names them.
@@ -87,38 +87,36 @@ impl TrainConfig {
 
     /// This configuration with the fields of `over` (a JSON object, nested,
     /// flat or both; [`nested`]) in place of its own. Fails with
-    /// [`Error::Config`] naming an unknown section or field, a field named
+    /// [`ConfigError`] naming an unknown section or field, a field named
     /// twice, or a field's value of the wrong type (`section.field: why`);
     /// the result is not validated.
-    pub fn overlay(&self, over: &Value) -> Result<TrainConfig, Error> {
+    pub fn overlay(&self, over: &Value) -> Result<TrainConfig, ConfigError> {
         let over = nested(over)?;
-        let mut merged = serde_json::to_value(self).map_err(|e| Error::Config(e.to_string()))?;
+        let mut merged = serde_json::to_value(self).map_err(ConfigError::Json)?;
         for (section, fields) in over {
             let Value::Object(fields) = fields else {
-                return Err(Error::Config(format!("`{section}` must be an object of fields")));
+                return Err(ConfigError::NotASection { section });
             };
             let Some(Value::Object(into)) = merged.get_mut(section.as_str()) else {
-                return Err(Error::Config(format!("unknown section `{section}`")));
+                return Err(ConfigError::UnknownSection { section });
             };
             // each field against this configuration's section, so that a refusal names it
             for (field, value) in fields {
                 let path = format!("{section}.{field}");
-                if let Some((_, to)) = MOVED.iter().find(|(from, _)| *from == path) {
+                if let Some(&(_, to)) = MOVED.iter().find(|(from, _)| *from == path) {
                     let (ts, tf) = to.split_once('.').unwrap_or((to, ""));
                     let flat = flat_names().iter().find(|n| n.section == ts && n.field == tf);
-                    return Err(Error::Config(format!(
-                        "`{path}` is `{to}` (`{{\"{ts}\": {{\"{tf}\": …}}}}`, or by its flat name `{}`)",
-                        flat.map_or(tf, |n| n.flat.as_str())
-                    )));
+                    let flat = flat.map_or(tf, |n| n.flat.as_str()).to_string();
+                    return Err(ConfigError::Moved { from: path, to, flat });
                 }
                 let mut one = into.clone();
                 one.insert(field.clone(), value);
                 check_section(&section, Value::Object(one.clone()))
-                    .map_err(|e| Error::Config(format!("`{section}.{field}`: {e}")))?;
+                    .map_err(|source| ConfigError::Value { field: path, source })?;
                 *into = one;
             }
         }
-        serde_json::from_value(merged).map_err(|e| Error::Config(e.to_string()))
+        serde_json::from_value(merged).map_err(ConfigError::Json)
     }
 
     /// The fields, as `section.field`, whose values differ between this
@@ -220,12 +218,12 @@ pub fn names(over: &Value, section: &str, field: &str) -> bool {
 }
 
 /// A `--config` object with its flat names ([`flat_names`]) moved into
-/// their sections. Fails with [`Error::Config`] on a value that is not an
+/// their sections. Fails with [`ConfigError`] on a value that is not an
 /// object, a name that is neither a section nor a flat name, or a field
 /// given both ways.
-pub fn nested(over: &Value) -> Result<Map<String, Value>, Error> {
+pub fn nested(over: &Value) -> Result<Map<String, Value>, ConfigError> {
     let Value::Object(over) = over else {
-        return Err(Error::Config("expected a JSON object of configuration sections or fields".into()));
+        return Err(ConfigError::NotAnObject);
     };
     let mut out = Map::new();
     let mut flat = Vec::new();
@@ -235,23 +233,17 @@ pub fn nested(over: &Value) -> Result<Map<String, Value>, Error> {
         } else if let Some(n) = flat_names().iter().find(|n| n.flat == *key) {
             flat.push((n.section, n.field.as_str(), value));
         } else {
-            let within = flat_names().iter().find(|n| n.field == *key);
-            let hint = within.map_or(String::new(), |FlatName { flat, section, field }| {
-                format!(" (the field `{field}` of `{section}` is `{{\"{section}\": {{\"{field}\": …}}}}` or `{flat}`)")
-            });
-            return Err(Error::Config(format!(
-                "unknown field `{key}`: expected a section ({}) or a field's flat name{hint}",
-                SECTIONS.join(", ")
-            )));
+            let within = flat_names().iter().find(|n| n.field == *key).cloned();
+            return Err(ConfigError::UnknownName { name: key.clone(), within });
         }
     }
     for (section, field, value) in flat {
         let into = out.entry(section).or_insert_with(|| Value::Object(Map::new()));
         let Value::Object(into) = into else {
-            return Err(Error::Config(format!("`{section}` must be an object of fields")));
+            return Err(ConfigError::NotASection { section: section.to_string() });
         };
         if into.insert(field.to_string(), value.clone()).is_some() {
-            return Err(Error::Config(format!("`{section}.{field}` is given twice, nested and flat")));
+            return Err(ConfigError::Twice { section, field: field.to_string() });
         }
     }
     Ok(out)

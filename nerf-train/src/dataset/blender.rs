@@ -72,7 +72,7 @@ struct Transforms {
 
 fn read_transforms(path: &Path) -> Result<Transforms, DataError> {
     let bytes = crate::util::userfile::read_checked(path, crate::util::userfile::MAX_JSON)
-        .map_err(|e| DataError::new(path, e))?;
+        .map_err(|e| DataError::new(path, e.to_string()))?;
     let text = String::from_utf8(bytes).map_err(|_| DataError::new(path, "not UTF-8 text"))?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let t: Transforms = serde_json::from_str(text).map_err(|e| DataError::new(path, format!("malformed JSON: {e}")))?;

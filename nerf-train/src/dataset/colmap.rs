@@ -21,21 +21,16 @@ use super::colmap_io::{read_model, CameraModel, ColmapCamera, ColmapImage};
 use super::lens::Lens;
 use super::reconstructions::choose_model;
 use super::types::{DataError, Dataset, LoadOptions, Split};
-use crate::error::Error;
+use crate::error::CameraError;
 use glam::{DMat3, DQuat, DVec3};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 /// Intrinsics and lens of a COLMAP camera, or the reason it is refused.
-pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), Error> {
+pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), CameraError> {
     let p = &c.params;
     if p.len() != c.model.num_params() {
-        return Err(Error::Camera(format!(
-            "{} needs {} parameters, found {}",
-            c.model.name(),
-            c.model.num_params(),
-            p.len()
-        )));
+        return Err(CameraError::ParameterCount { model: c.model, found: p.len() });
     }
     let size = [c.width as f64, c.height as f64];
     let k = |focal: [f64; 2], centre: [f64; 2]| Intrinsics { size, focal, centre };
@@ -60,29 +55,17 @@ pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), Error> {
             k([p[0], p[1]], [p[2], p[3]]),
             Lens::ThinPrismFisheye { k: [p[4], p[5], p[8], p[9]], p: [p[6], p[7]], s: [p[10], p[11]] }.simplified(),
         ),
-        CameraModel::Fov if p[4].abs() >= std::f64::consts::PI => {
-            return Err(Error::Camera(format!("FOV camera's field of view ω = {} is not within (−π, π)", p[4])))
-        }
+        CameraModel::Fov if p[4].abs() >= std::f64::consts::PI => return Err(CameraError::FieldOfView { omega: p[4] }),
         CameraModel::Fov => (k([p[0], p[1]], [p[2], p[3]]), Lens::Fov { omega: p[4] }.simplified()),
-        m => {
-            return Err(Error::Camera(format!(
-                "camera model {} is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, \
-                 FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE, \
-                 THIN_PRISM_FISHEYE, FOV are; undistort the images with colmap image_undistorter)",
-                m.name()
-            )))
-        }
+        model => return Err(CameraError::Unsupported { model }),
     };
     let ok = intr.focal.iter().all(|f| f.is_finite() && *f > 0.0) && intr.centre.iter().all(|c| c.is_finite());
     if !ok || !lens.is_finite() {
-        return Err(Error::Camera("non-finite or non-positive camera parameters".into()));
+        return Err(CameraError::NotFinite);
     }
     // a principal point outside the photo is no lens a photo was taken with (a unit or field mix-up)
     if !(0.0..=size[0]).contains(&intr.centre[0]) || !(0.0..=size[1]).contains(&intr.centre[1]) {
-        return Err(Error::Camera(format!(
-            "principal point ({}, {}) lies outside the {}x{} image",
-            intr.centre[0], intr.centre[1], c.width, c.height
-        )));
+        return Err(CameraError::CentreOutside { centre: intr.centre, width: c.width, height: c.height });
     }
     Ok((intr, lens))
 }

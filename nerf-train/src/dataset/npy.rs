@@ -6,7 +6,8 @@ use std::path::Path;
 /// Reads a 2-D `<f8` or `<f4` array (C or Fortran order); returns (rows,
 /// cols, values) in C order (row after row).
 pub fn read_npy_f64(path: &Path) -> Result<(usize, usize, Vec<f64>), DataError> {
-    let bytes = crate::util::userfile::read_checked(path, 256 << 20).map_err(|e| DataError::new(path, e))?;
+    let bytes =
+        crate::util::userfile::read_checked(path, 256 << 20).map_err(|e| DataError::new(path, e.to_string()))?;
     parse_npy_f64(path, &bytes)
 }
 

@@ -13,7 +13,7 @@ const MAX_PLY: u64 = 512 << 20;
 
 /// The points of the PLY file at `path`.
 pub fn read_ply_points(path: &Path) -> Result<Vec<DVec3>, DataError> {
-    let bytes = crate::util::userfile::read_checked(path, MAX_PLY).map_err(|e| DataError::new(path, e))?;
+    let bytes = crate::util::userfile::read_checked(path, MAX_PLY).map_err(|e| DataError::new(path, e.to_string()))?;
     parse_ply_points(&bytes).map_err(|e| DataError::new(path, format!("malformed PLY: {e}")))
 }
 

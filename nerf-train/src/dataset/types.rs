@@ -3,8 +3,8 @@
 
 use super::fit::SceneKind;
 use super::lens::Lens;
+use crate::error::CameraError;
 pub use crate::error::DataError;
-use crate::error::Error;
 use nerf_infer::camera::Camera;
 use nerf_infer::format::{Capture, Framing, Scene};
 use std::path::{Path, PathBuf};
@@ -232,30 +232,23 @@ impl Dataset {
     /// Fails, saying why and what to try, if fewer than 1 % of the pixels
     /// train and have a ray that meets the scene: training would see almost
     /// nothing.
-    pub fn check_rays(&self) -> Result<(), Error> {
+    pub fn check_rays(&self) -> Result<(), CameraError> {
         let f = self.ray_hit_fraction();
         if f >= 0.01 {
             return Ok(());
         }
         let kept = self.views.iter().map(|v| v.rgb.len() - v.mask.iter().filter(|&&k| !k).count()).sum::<usize>();
         if (kept as f64) < 0.01 * self.pixel_count() as f64 {
-            return Err(Error::Camera(format!(
-                "the photos' masks leave {kept} of the {} pixels to train on (a pixel whose mask is 0 is left \
-                 out): check that the masks are the photos' own and not inverted",
-                self.pixel_count()
-            )));
+            return Err(CameraError::MasksLeave { kept, total: self.pixel_count() });
         }
         let s = &self.scene;
-        Err(Error::Camera(format!(
-            "only {:.2} % of the training rays meet the scene box {:?}..{:?} within near {} .. far {}: \
-             the cameras look away from it or the bounds are wrong; check the poses, the aabb/near/far of the \
-             transforms file, or try --scene unbounded",
-            100.0 * f,
-            s.bounds_min,
-            s.bounds_max,
-            s.near,
-            s.far
-        )))
+        Err(CameraError::RaysMiss {
+            share: f,
+            bounds_min: s.bounds_min,
+            bounds_max: s.bounds_max,
+            near: s.near,
+            far: s.far,
+        })
     }
 }
 

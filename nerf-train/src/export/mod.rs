@@ -24,7 +24,7 @@
 //! format version 8: 8-bit density weights cost the most PSNR of any
 //! layer, docs/EXPERIMENTS.md).
 
-use crate::error::Error;
+use crate::error::{Error, ExportError};
 use crate::mlp::Mlp;
 use crate::train::Trainer;
 use nerf_infer::features::FeatureGrid;

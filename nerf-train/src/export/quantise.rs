@@ -68,8 +68,8 @@ pub(super) fn quantise_network(
     let qmax = match (scheme, act_bits) {
         (Scheme::I16, 16) => 32767.0,
         (Scheme::I8, 16 | 8) => 127.0,
-        (Scheme::F32, _) => return Err(Error::Export("quantise to int16 or int8".into())),
-        _ => return Err(Error::Export(format!("{act_bits}-bit activations need int8 weights"))),
+        (Scheme::F32, _) => return Err(ExportError::NotQuantised.into()),
+        _ => return Err(ExportError::ActivationBits { act_bits }.into()),
     };
     let t = &m.topology;
     let (view, colour) = (t.view_dependent.then(|| sigma_layer(t) + 2), net.layers.len() - 1);
@@ -79,10 +79,7 @@ pub(super) fn quantise_network(
         let (cols, target) = layer_scales(t, &m.encoding, net, i, act_bits, grid_frac);
         debug_assert_eq!(cols.len(), l.in_dim as usize);
         if let Some(bad) = cols.iter().chain(&[target]).find(|v| !v.is_finite() || **v <= 0.0) {
-            return Err(Error::Export(format!(
-                "layer {i}: activation range is not finite or not positive (scale {bad}): the model's calibration \
-                 saw non-finite activations; retrain or export at 32 bits"
-            )));
+            return Err(ExportError::ActivationRange { layer: i, scale: *bad }.into());
         }
         // int8 precision, as in the int8 model: 8-bit steps plus the 16-bit
         // parts (the view layer's direction rows, 16-bit colour and density
@@ -252,7 +249,7 @@ pub fn quantise(m: &Model<'_>, scheme: Scheme) -> Result<OwnedModel, Error> {
 pub fn quantise_with(m: &Model<'_>, q: &Quantisation) -> Result<OwnedModel, Error> {
     let (scheme, act_bits, eight_bit) = (q.scheme, q.act_bits.bits(), &q.eight_bit_layers[..]);
     if m.scheme() != Scheme::F32 {
-        return Err(Error::Export("the model is already quantised; export from the f32 model".into()));
+        return Err(ExportError::AlreadyQuantised.into());
     }
     let mut out = OwnedModel::from_model(m);
     out.features = m.features.as_ref().map(quantise_features);

@@ -9,11 +9,11 @@ use super::*;
 /// more empty space is sampled. Bits shrink by `(old/res)³`.
 pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), Error> {
     let Some((old, bits)) = &m.grid else {
-        return Err(Error::Export("the model has no occupancy grid".into()));
+        return Err(ExportError::NoGrid.into());
     };
     let (old, new) = (*old as usize, res as usize);
     if new == 0 || new > old || old % new != 0 {
-        return Err(Error::Export(format!("--grid-res {res} must divide the model's grid resolution {old}")));
+        return Err(ExportError::GridRes { res, model: old }.into());
     }
     let f = old / new;
     let mut out = vec![0u8; nerf_infer::occupancy::grid_bytes(res)];
@@ -34,12 +34,10 @@ pub fn coarsen_grid(m: &mut OwnedModel, res: u16) -> Result<(), Error> {
 /// int8; an f32 model keeps an f32 table) and `bits` 8 or 4.
 pub fn narrow_table_fits(scheme: nerf_infer::Scheme, bits: u8) -> Result<(), Error> {
     if !matches!(bits, 4 | 8) {
-        return Err(Error::Export(format!("{bits}-bit table indices: 8 or 4 (16 is the i16 table)")));
+        return Err(ExportError::TableBits { bits }.into());
     }
     if !scheme.is_fixed() {
-        return Err(Error::Export(format!(
-            "{bits}-bit table indices need --bits 16 or 8 (an f32 model keeps an f32 table)"
-        )));
+        return Err(ExportError::TableOfF32 { bits }.into());
     }
     Ok(())
 }
@@ -57,10 +55,10 @@ pub fn narrow_table_fits(scheme: nerf_infer::Scheme, bits: u8) -> Result<(), Err
 pub fn narrow_table(m: &mut OwnedModel, bits: u8) -> Result<(), Error> {
     narrow_table_fits(m.coarse.scheme, bits)?;
     let Some((shape, table)) = &mut m.features else {
-        return Err(Error::Export("the model has no feature grid".into()));
+        return Err(ExportError::NoFeatures.into());
     };
     if m.narrow.is_some() {
-        return Err(Error::Export("the feature table is already narrow".into()));
+        return Err(ExportError::AlreadyNarrow.into());
     }
     let weights = value_weights(shape, m.grid.as_ref());
     let w = shape.width as usize;

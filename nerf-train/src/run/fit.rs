@@ -5,7 +5,7 @@
 
 use crate::config::{json, TrainConfig};
 use crate::dataset::Dataset;
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Result};
 
 /// Which of the data-dependent choices a run makes ([`Fit::ALL`]: every
 /// one, as `nerf train` does for a preset). A field a configuration file
@@ -69,7 +69,7 @@ pub struct Fitted {
 
 /// `cfg` with the choices `fit` turns on made for `data`. A configuration
 /// the proposal grid cannot serve (`sampling.n_main` 0 or above 255, say)
-/// is refused ([`Error::Config`], naming the field) rather than trained
+/// is refused ([`ConfigError::ProposalGrid`], naming the field) rather than trained
 /// without the grid.
 pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted> {
     let base = cfg;
@@ -97,12 +97,7 @@ pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted
         if fit.render && data.scene.ndc.is_none() {
             with.sampling.n_main_render = Some(TrainConfig::PROPOSAL_RENDER_MAIN);
         }
-        with.validate().map_err(|e| {
-            Error::Config(format!(
-                "invalid configuration: {e} (the proposal grid this {kind} scene gets; set sampling.proposal_res 0 \
-                 with --config to train it with the occupancy grid instead)"
-            ))
-        })?;
+        with.validate().map_err(|e| ConfigError::ProposalGrid { kind, source: Box::new(e) })?;
         cfg = with;
     }
     if let Some(cells) = data.resolvable_cells() {

@@ -15,7 +15,8 @@
 
 use super::checkpoint_v18::V18;
 use super::*;
-use crate::error::Error;
+use crate::error::{CheckpointError, Error};
+use crate::optim::adam::Adam;
 use nerf_infer::format::{frame, unframe};
 use nerf_infer::Error as FormatError;
 use serde::de::DeserializeOwned;
@@ -47,7 +48,7 @@ impl Trainer {
     /// [`Error::Checkpoint`] for a state of 4 GiB or more.
     pub fn to_bytes(&self) -> Result<Vec<u8>, Error> {
         let mut w = Sections::default();
-        let cfg = serde_json::to_string(&self.cfg).map_err(|e| Error::Checkpoint(format!("cannot encode: {e}")))?;
+        let cfg = serde_json::to_string(&self.cfg).map_err(CheckpointError::EncodeConfig)?;
         w.put("cfg", &cfg)?;
         w.put("scene", &(&self.scene, self.scene.unbounded))?;
         w.put("downscale", &self.downscale)?;
@@ -64,8 +65,8 @@ impl Trainer {
         w.put("proposal", &self.sampler.proposal)?;
         w.put("appearance", &self.appearance)?;
         w.put("poses", &self.poses)?;
-        let payload = postcard::to_stdvec(&w.0).map_err(|e| Error::Checkpoint(format!("cannot encode: {e}")))?;
-        frame(CHECKPOINT_MAGIC, CHECKPOINT_VERSION, &payload).map_err(|e| Error::Checkpoint(e.to_string()))
+        let payload = postcard::to_stdvec(&w.0).map_err(CheckpointError::Encode)?;
+        Ok(frame(CHECKPOINT_MAGIC, CHECKPOINT_VERSION, &payload).map_err(CheckpointError::Frame)?)
     }
 
     /// Restores a run from [`Trainer::to_bytes`]; fails with
@@ -74,26 +75,33 @@ impl Trainer {
     /// version), or a state that is inconsistent (parameters that its
     /// configuration does not lay out).
     pub fn from_bytes(b: &[u8]) -> Result<Self, Error> {
-        let bad = |m: &str| Error::Checkpoint(m.to_string());
         let (version, payload) = match unframe(b, CHECKPOINT_MAGIC, CHECKPOINT_VERSION_MIN, CHECKPOINT_VERSION) {
             Ok(read) => read,
-            Err(FormatError::BadMagic) => return Err(bad("not a checkpoint (no NERFCKPT header)")),
-            Err(FormatError::UnsupportedVersion(v)) => {
-                return Err(Error::Checkpoint(format!(
-                    "checkpoint version {v}, this build reads versions {CHECKPOINT_VERSION_MIN} to \
-                     {CHECKPOINT_VERSION} (written by another build)"
-                )))
+            Err(FormatError::BadMagic) => return Err(CheckpointError::NotACheckpoint.into()),
+            Err(FormatError::UnsupportedVersion(found)) => {
+                let (min, max) = (CHECKPOINT_VERSION_MIN, CHECKPOINT_VERSION);
+                return Err(CheckpointError::Version { found, min, max }.into());
             }
-            Err(_) => return Err(bad("truncated or damaged (its length or checksum does not match)")),
+            Err(e) => return Err(CheckpointError::Damaged(e).into()),
         };
         let t: Self = match version {
             CHECKPOINT_VERSION_MIN => {
-                let v: V18 =
-                    postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
-                v.into()
+                let v: V18 = postcard::from_bytes(payload).map_err(CheckpointError::Decode)?;
+                v.try_into()?
             }
             _ => Self::from_sections(payload, ABSENT_MEANS)?,
         };
+        match t.inconsistent_part() {
+            None => Ok(t),
+            Some(part) => Err(CheckpointError::Inconsistent { part }.into()),
+        }
+    }
+
+    /// The first part of a restored state that does not fit the rest
+    /// (`grid`, `proposal`, `appearance`, `poses`, `cfg`, `pixel`,
+    /// `params`, `adam`, `ema`), or `None` when all fit.
+    fn inconsistent_part(&self) -> Option<&'static str> {
+        let t = self;
         let grid_ok = match &t.sampler.occupancy {
             None => t.cfg.grid.res.is_none(),
             Some(g) => {
@@ -121,26 +129,38 @@ impl Trainer {
             None => true,
             Some(p) => t.cfg.per_photo.pose_refine && p.is_consistent(),
         };
-        let field = &t.field;
-        let nets = if t.cfg.sampling.n_fine.is_some() { 2 } else { 1 };
-        let sizes_ok = proposal_ok
-            && appearance_ok
-            && poses_ok
-            && t.cfg.validate().is_ok()
-            && t.pixel.is_finite()
-            && t.pixel >= 0.0
-            && field.params.len() == field.net.n_params * nets
-            && field.params.len() == field.adam.m.len()
-            && field.params.len() == field.adam.v.len()
-            && field.adam.steps.len() == Field::table_values(&field.net, field.params.len())
-            && (field.ema.is_empty() || (t.cfg.optimiser.ema_decay > 0.0 && field.ema.len() == field.params.len()));
-        match sizes_ok && grid_ok {
-            true => Ok(t),
-            false => {
-                Err(bad("its state is inconsistent (parameters, grids or configuration that do not fit together)"))
-            }
+        let parts = [("grid", grid_ok), ("proposal", proposal_ok), ("appearance", appearance_ok), ("poses", poses_ok)];
+        if let Some(&(part, _)) = parts.iter().find(|p| !p.1) {
+            return Some(part);
         }
+        // the network's layout is read from the configuration: only of a valid one
+        if t.cfg.validate().is_err() {
+            return Some("cfg");
+        }
+        let (field, nets) = (&t.field, if t.cfg.sampling.n_fine.is_some() { 2 } else { 1 });
+        let parts = [
+            ("pixel", t.pixel.is_finite() && t.pixel >= 0.0),
+            ("params", field.params.len() == field.net.n_params * nets),
+            (
+                "adam",
+                field.params.len() == field.adam.m.len()
+                    && field.params.len() == field.adam.v.len()
+                    && field.adam.steps.len() == Field::table_values(&field.net, field.params.len()),
+            ),
+            ("ema", field.ema.is_empty() || (t.cfg.optimiser.ema_decay > 0.0 && field.ema.len() == field.params.len())),
+        ];
+        parts.iter().find(|p| !p.1).map(|p| p.0)
     }
+}
+
+/// A restored run's field: its networks' shape is laid out from its
+/// configuration, which must be a valid one (refused as an inconsistent
+/// `cfg` otherwise); the parameters' sizes are checked against it after.
+pub(super) fn restored_field(cfg: &TrainConfig, params: Vec<f32>, adam: Adam, ema: Vec<f32>) -> Result<Field, Error> {
+    if cfg.validate().is_err() {
+        return Err(CheckpointError::Inconsistent { part: "cfg" }.into());
+    }
+    Ok(Field { net: cfg.mlp(), params, adam, ema })
 }
 
 /// A checkpoint's sections: (name, postcard bytes), in the order written.
@@ -149,7 +169,8 @@ struct Sections(Vec<(String, Vec<u8>)>);
 
 impl Sections {
     fn put<T: Serialize>(&mut self, name: &str, v: &T) -> Result<(), Error> {
-        let bytes = postcard::to_stdvec(v).map_err(|e| Error::Checkpoint(format!("cannot encode its {name}: {e}")))?;
+        let bytes = postcard::to_stdvec(v)
+            .map_err(|source| CheckpointError::EncodeSection { name: name.to_string(), source })?;
         self.0.push((name.to_string(), bytes));
         Ok(())
     }
@@ -163,11 +184,13 @@ struct SectionReader<'a> {
 
 impl SectionReader<'_> {
     fn take<T: DeserializeOwned>(&mut self, name: &str) -> Result<T, Error> {
-        let cannot = |e: &dyn std::fmt::Display| Error::Checkpoint(format!("its {name} cannot be decoded: {e}"));
+        let owned = || name.to_string();
         match self.sections.remove(name) {
-            Some(bytes) => postcard::from_bytes(&bytes).map_err(|e| cannot(&e)),
+            Some(bytes) => postcard::from_bytes(&bytes)
+                .map_err(|source| CheckpointError::DecodeSection { name: owned(), source }.into()),
             None => match self.absent.iter().find(|(n, _)| *n == name) {
-                Some((_, json)) => serde_json::from_str(json).map_err(|e| cannot(&e)),
+                Some((_, json)) => serde_json::from_str(json)
+                    .map_err(|source| CheckpointError::AbsentSection { name: owned(), source }.into()),
                 None => Err(lacks(name)),
             },
         }
@@ -184,15 +207,12 @@ impl SectionReader<'_> {
 
 /// The error for a checkpoint without field `name`.
 fn lacks(name: &str) -> Error {
-    Error::Checkpoint(format!(
-        "it has no {name} (written by an earlier build, before this build's {name} existed, and no value of it \
-         means what that build did): start the run over with --force"
-    ))
+    CheckpointError::Missing { name: name.to_string() }.into()
 }
 
 /// The error for a checkpoint with field `name` this build does not know.
 fn unknown(name: &str) -> Error {
-    Error::Checkpoint(format!("it holds {name}, which this build does not know (written by a newer build)"))
+    CheckpointError::Unknown { name: name.to_string() }.into()
 }
 
 /// `found` (a checkpoint's configuration as JSON) with every field `like`
@@ -209,7 +229,8 @@ fn complete(found: &mut Value, like: &Value, path: &str, absent: &[(&str, &str)]
             Some(f) => complete(f, v, &name, absent)?,
             None => {
                 let (_, json) = absent.iter().find(|(n, _)| *n == name).ok_or_else(|| lacks(&name))?;
-                let value = serde_json::from_str(json).map_err(|e| Error::Checkpoint(format!("{name}: {e}")))?;
+                let value = serde_json::from_str(json)
+                    .map_err(|source| CheckpointError::AbsentField { name: name.clone(), source })?;
                 found.insert(k.clone(), value);
             }
         }
@@ -221,11 +242,10 @@ impl Trainer {
     /// The state of a version 19 checkpoint's payload; absent fields as
     /// `absent` ([`ABSENT_MEANS`]) says.
     pub(super) fn from_sections(payload: &[u8], absent: &[(&str, &str)]) -> Result<Self, Error> {
-        let sections: Vec<(String, Vec<u8>)> =
-            postcard::from_bytes(payload).map_err(|e| Error::Checkpoint(format!("cannot decode: {e}")))?;
+        let sections: Vec<(String, Vec<u8>)> = postcard::from_bytes(payload).map_err(CheckpointError::Decode)?;
         let mut r = SectionReader { sections: sections.into_iter().collect(), absent };
         let cfg: String = r.take("cfg")?;
-        let bad_cfg = |e: serde_json::Error| Error::Checkpoint(format!("its cfg cannot be decoded: {e}"));
+        let bad_cfg = CheckpointError::DecodeConfig;
         let mut cfg: Value = serde_json::from_str(&cfg).map_err(bad_cfg)?;
         crate::config::json::moved_fields_placed(&mut cfg);
         let like = serde_json::to_value(TrainConfig::default()).map_err(bad_cfg)?;
@@ -234,7 +254,7 @@ impl Trainer {
         scene.unbounded = unbounded;
         let cfg: TrainConfig = serde_json::from_value(cfg).map_err(bad_cfg)?;
         let t = Trainer {
-            field: Field { net: cfg.mlp(), params: r.take("params")?, adam: r.take("adam")?, ema: r.take("ema")? },
+            field: restored_field(&cfg, r.take("params")?, r.take("adam")?, r.take("ema")?)?,
             cfg,
             scene,
             downscale: r.take("downscale")?,

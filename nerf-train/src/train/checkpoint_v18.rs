@@ -123,11 +123,15 @@ pub(super) struct V18 {
     poses: Option<Poses>,
 }
 
-impl From<V18> for Trainer {
-    fn from(v: V18) -> Self {
+impl TryFrom<V18> for Trainer {
+    type Error = crate::error::Error;
+
+    /// The run a version 18 checkpoint holds; refused as an inconsistent
+    /// `cfg` where its configuration is not a valid one.
+    fn try_from(v: V18) -> Result<Self, Self::Error> {
         let cfg: TrainConfig = v.cfg.into();
-        Trainer {
-            field: Field { net: cfg.mlp(), params: v.params, adam: v.adam, ema: v.ema },
+        Ok(Trainer {
+            field: super::checkpoint::restored_field(&cfg, v.params, v.adam, v.ema)?,
             cfg,
             scene: v.scene,
             downscale: v.downscale,
@@ -141,7 +145,7 @@ impl From<V18> for Trainer {
             appearance: v.appearance,
             poses: v.poses,
             pool: GradPool::default(),
-        }
+        })
     }
 }
 

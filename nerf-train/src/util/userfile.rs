@@ -2,7 +2,7 @@
 //! device or socket, which could block or never end) of at most a stated
 //! size, read whole; the error names the file and the cause.
 
-use crate::error::Error;
+use crate::error::{Error, FileError, ReadError};
 use std::io::Read;
 use std::path::Path;
 
@@ -14,22 +14,27 @@ pub const MAX_JSON: u64 = 64 << 20;
 /// at most `max` bytes; else an error naming the file, what it was
 /// expected to be (`what`, e.g. "camera path") and why it is refused.
 pub fn read_user_file(path: &Path, max: u64, what: &str) -> Result<Vec<u8>, Error> {
-    read_checked(path, max).map_err(|m| Error::File(format!("{}: {what}: {m}", path.display())))
+    read_checked(path, max).map_err(|reason| unreadable(path, what, reason))
 }
 
-/// [`read_user_file`] whose error is the cause alone (for errors that
-/// name the file themselves).
-pub fn read_checked(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
-    let bad = Error::File;
-    let meta = std::fs::metadata(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+/// The error of a file `path` that cannot be read whole as a `what`.
+fn unreadable(path: &Path, what: &str, reason: ReadError) -> Error {
+    Error::File(FileError::Unreadable { path: path.to_path_buf(), what: what.to_string(), reason })
+}
+
+/// [`read_user_file`] whose error is the cause alone, a [`ReadError`]
+/// (for errors that name the file themselves).
+pub fn read_checked(path: &Path, max: u64) -> Result<Vec<u8>, ReadError> {
+    let cannot = |action| move |source| ReadError::Io { action, source };
+    let meta = std::fs::metadata(path).map_err(cannot("cannot read"))?;
     if meta.is_dir() {
-        return Err(bad("cannot read: is a folder, not a file".into()));
+        return Err(ReadError::Folder);
     }
     if !meta.is_file() {
-        return Err(bad("not a regular file (a FIFO, device or socket); give a file".into()));
+        return Err(ReadError::NotRegular);
     }
     if meta.len() > max {
-        return Err(bad(format!("{} bytes, more than the {max} accepted", meta.len())));
+        return Err(ReadError::TooLarge { size: meta.len(), max });
     }
     let mut opts = std::fs::OpenOptions::new();
     opts.read(true);
@@ -39,14 +44,14 @@ pub fn read_checked(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
         use std::os::unix::fs::OpenOptionsExt;
         opts.custom_flags(libc::O_NONBLOCK);
     }
-    let f = opts.open(path).map_err(|e| bad(format!("cannot open: {e}")))?;
-    if !f.metadata().map_err(|e| bad(format!("cannot read: {e}")))?.is_file() {
-        return Err(bad("not a regular file".into()));
+    let f = opts.open(path).map_err(cannot("cannot open"))?;
+    if !f.metadata().map_err(cannot("cannot read"))?.is_file() {
+        return Err(ReadError::Swapped);
     }
     let mut buf = Vec::with_capacity(meta.len() as usize);
-    f.take(max + 1).read_to_end(&mut buf).map_err(|e| bad(format!("cannot read: {e}")))?;
+    f.take(max + 1).read_to_end(&mut buf).map_err(cannot("cannot read"))?;
     if buf.len() as u64 > max {
-        return Err(bad(format!("more than the {max} bytes accepted")));
+        return Err(ReadError::Grown { max });
     }
     Ok(buf)
 }
@@ -54,8 +59,7 @@ pub fn read_checked(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
 /// [`read_user_file`] as UTF-8 text (a leading byte-order mark dropped).
 pub fn read_user_text(path: &Path, max: u64, what: &str) -> Result<String, Error> {
     let bytes = read_user_file(path, max, what)?;
-    let text =
-        String::from_utf8(bytes).map_err(|_| Error::File(format!("{}: {what}: not UTF-8 text", path.display())))?;
+    let text = String::from_utf8(bytes).map_err(|e| unreadable(path, what, ReadError::NotUtf8(e.utf8_error())))?;
     Ok(text.strip_prefix('\u{feff}').map(str::to_string).unwrap_or(text))
 }
 

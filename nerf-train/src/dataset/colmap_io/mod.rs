@@ -216,7 +216,7 @@ pub fn read_model(model_dir: &Path) -> Result<Reconstruction, ParseError> {
 const MAX_FILE: u64 = 2 << 30;
 
 fn read_file(path: &Path) -> Result<Vec<u8>, ParseError> {
-    crate::util::userfile::read_checked(path, MAX_FILE).map_err(|e| err(path, e))
+    crate::util::userfile::read_checked(path, MAX_FILE).map_err(|e| err(path, e.to_string()))
 }
 
 fn check_camera(path: &Path, c: &ColmapCamera, seen: &mut HashSet<u32>) -> Result<(), ParseError> {

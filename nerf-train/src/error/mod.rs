@@ -1,14 +1,35 @@
 //! The crate's one error type, [`Error`]: its variant says which stage
-//! failed and its message names what is at fault (the file, the field, the
-//! camera) and, where there is one, what to do. A stage's own functions
-//! may return the error that stage wraps ([`DataError`], [`ParseError`],
-//! [`MeshError`], each converting into [`Error`] with `?`); the low-level
+//! failed and holds that stage's typed cause, whose message names what is
+//! at fault (the file, the field, the camera) and, where there is one,
+//! what to do. A stage's own functions may return the error that stage
+//! wraps ([`DataError`], [`ParseError`], [`MeshError`], [`ConfigError`],
+//! [`CameraError`], [`ExportError`], [`FileError`], [`CheckpointError`],
+//! [`PlotError`], each converting into [`Error`] with `?`); the low-level
 //! file writers (`atomic`, the COLMAP and `.npy` writers) return
 //! `std::io::Result`; a caller names the file, in its stage's error or in
-//! [`Error::Io`] ([`Error::io`], as the plot writer does).
+//! [`Error::Io`] ([`Error::io`], as the plot writer does). Where the cause
+//! is another crate's error (an I/O error, serde_json's, postcard's,
+//! plotters', `nerf-infer`'s), the typed error holds it as its source.
 
+use crate::dataset::colmap_io::CameraModel;
 use std::fmt;
 use std::path::{Path, PathBuf};
+
+mod camera;
+mod checkpoint;
+mod config;
+mod export;
+mod file;
+mod plot;
+#[cfg(test)]
+mod tests;
+
+pub use camera::*;
+pub use checkpoint::*;
+pub use config::*;
+pub use export::*;
+pub use file::*;
+pub use plot::*;
 
 /// Everything that can go wrong in `nerf-train`, by stage.
 #[derive(Debug, thiserror::Error)]
@@ -20,21 +41,21 @@ pub enum Error {
     #[error(transparent)]
     Colmap(#[from] ParseError),
     /// A capture's cameras: a camera model or rays training cannot use.
-    #[error("{0}")]
-    Camera(String),
+    #[error(transparent)]
+    Camera(#[from] CameraError),
     /// A training configuration: the field and the range it must be in.
-    #[error("{0}")]
-    Config(String),
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     /// A model that cannot be exported, quantised or narrowed as asked.
-    #[error("{0}")]
-    Export(String),
+    #[error(transparent)]
+    Export(#[from] ExportError),
     /// A file a user names (a camera path, a model, a checkpoint): its
     /// size, type or content.
-    #[error("{0}")]
-    File(String),
+    #[error(transparent)]
+    File(#[from] FileError),
     /// A training checkpoint that cannot be resumed: why.
     #[error("not a valid checkpoint: {0}")]
-    Checkpoint(String),
+    Checkpoint(#[from] CheckpointError),
     /// A mesh that cannot be made.
     #[error(transparent)]
     Mesh(#[from] MeshError),
@@ -42,8 +63,8 @@ pub enum Error {
     #[error("the model: {0}")]
     Model(#[from] nerf_infer::Error),
     /// A plot that cannot be drawn.
-    #[error("{0}")]
-    Plot(String),
+    #[error(transparent)]
+    Plot(#[from] PlotError),
     /// A file that cannot be read or written: its path and the system's
     /// reason.
     #[error("{}: {source}", path.display())]
@@ -137,32 +158,3 @@ impl fmt::Display for MeshError {
 }
 
 impl std::error::Error for MeshError {}
-
-/// `v` as a message shows it: plain up to 10¹⁵, in exponent form for the
-/// huge and the tiny (1e308 is not written out in 309 digits).
-/// An `f32` is written as its own shortest form (1e30, not the nearest f64).
-pub fn number<T: Into<f64> + Copy + fmt::Display + fmt::LowerExp>(v: T) -> String {
-    let x: f64 = v.into();
-    if x != 0.0 && x.is_finite() && !(1e-4..1e15).contains(&x.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn an_io_error_names_its_file_and_keeps_the_systems_reason() {
-        let e = Error::io(Path::new("out/plot.png"))(std::io::Error::from(std::io::ErrorKind::PermissionDenied));
-        let message = e.to_string();
-        assert!(
-            message.starts_with("out/plot.png: ") && message.to_lowercase().contains("permission denied"),
-            "{message}"
-        );
-        let source = std::error::Error::source(&e).and_then(|s| s.downcast_ref::<std::io::Error>());
-        assert_eq!(source.map(|s| s.kind()), Some(std::io::ErrorKind::PermissionDenied));
-    }
-}
