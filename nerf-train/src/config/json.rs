@@ -28,17 +28,7 @@ pub const MOVED: [(&str, &str); 3] = [
     ("optimiser.pose_lr", "per_photo.pose_lr"),
 ];
 
-/// One field's names: its flat name (a `--config` file without
-/// sections), its section and its name there.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct FlatName {
-    /// The name without a section.
-    pub flat: String,
-    /// Its section, one of [`SECTIONS`].
-    pub section: &'static str,
-    /// Its name in the section.
-    pub field: String,
-}
+pub use crate::error::FlatName;
 
 /// Every field's [`FlatName`], section by section, derived from the
 /// sections' fields: the field's name, with its section's prefix in
@@ -234,7 +224,7 @@ pub fn nested(over: &Value) -> Result<Map<String, Value>, ConfigError> {
             flat.push((n.section, n.field.as_str(), value));
         } else {
             let within = flat_names().iter().find(|n| n.field == *key).cloned();
-            return Err(ConfigError::UnknownName { name: key.clone(), within });
+            return Err(ConfigError::UnknownName { name: key.clone(), sections: &SECTIONS, within });
         }
     }
     for (section, field, value) in flat {

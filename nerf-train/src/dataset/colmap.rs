@@ -30,7 +30,7 @@ use std::path::Path;
 pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), CameraError> {
     let p = &c.params;
     if p.len() != c.model.num_params() {
-        return Err(CameraError::ParameterCount { model: c.model, found: p.len() });
+        return Err(CameraError::ParameterCount { model: c.model.name(), needs: c.model.num_params(), found: p.len() });
     }
     let size = [c.width as f64, c.height as f64];
     let k = |focal: [f64; 2], centre: [f64; 2]| Intrinsics { size, focal, centre };
@@ -57,7 +57,7 @@ pub fn camera_lens(c: &ColmapCamera) -> Result<(Intrinsics, Lens), CameraError> 
         ),
         CameraModel::Fov if p[4].abs() >= std::f64::consts::PI => return Err(CameraError::FieldOfView { omega: p[4] }),
         CameraModel::Fov => (k([p[0], p[1]], [p[2], p[3]]), Lens::Fov { omega: p[4] }.simplified()),
-        model => return Err(CameraError::Unsupported { model }),
+        model => return Err(CameraError::Unsupported { model: model.name() }),
     };
     let ok = intr.focal.iter().all(|f| f.is_finite() && *f > 0.0) && intr.centre.iter().all(|c| c.is_finite());
     if !ok || !lens.is_finite() {

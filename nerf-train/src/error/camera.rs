@@ -1,15 +1,15 @@
 //! Why a capture's cameras cannot be used ([`CameraError`]).
 
-use super::*;
-
 /// Why a capture's cameras cannot be trained on or rendered from.
 #[derive(Debug, thiserror::Error)]
 pub enum CameraError {
     /// A COLMAP camera with another number of parameters than its model has.
-    #[error("{} needs {} parameters, found {found}", .model.name(), .model.num_params())]
+    #[error("{model} needs {needs} parameters, found {found}")]
     ParameterCount {
-        /// The camera's model.
-        model: CameraModel,
+        /// The camera's model, as COLMAP names it.
+        model: &'static str,
+        /// How many parameters the model has.
+        needs: usize,
         /// How many parameters the camera has.
         found: usize,
     },
@@ -21,14 +21,13 @@ pub enum CameraError {
     },
     /// A COLMAP camera model that has no lens here.
     #[error(
-        "camera model {} is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, \
+        "camera model {model} is not supported (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, \
          FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE, SIMPLE_FISHEYE, FISHEYE, \
-         THIN_PRISM_FISHEYE, FOV are; undistort the images with colmap image_undistorter)",
-        .model.name()
+         THIN_PRISM_FISHEYE, FOV are; undistort the images with colmap image_undistorter)"
     )]
     Unsupported {
-        /// The camera's model.
-        model: CameraModel,
+        /// The camera's model, as COLMAP names it.
+        model: &'static str,
     },
     /// Focal lengths, principal point or lens not finite, or focal lengths not positive.
     #[error("non-finite or non-positive camera parameters")]

@@ -40,14 +40,16 @@ pub enum ConfigError {
     /// A name that is neither a section nor a field's flat name.
     #[error(
         "unknown field `{name}`: expected a section ({}) or a field's flat name{}",
-        crate::config::json::SECTIONS.join(", "),
+        .sections.join(", "),
         within_hint(.within)
     )]
     UnknownName {
         /// The name as given.
         name: String,
+        /// The configuration's sections.
+        sections: &'static [&'static str],
         /// The field of that name within a section, if there is one.
-        within: Option<crate::config::json::FlatName>,
+        within: Option<FlatName>,
     },
     /// A section given as something other than an object of fields.
     #[error("`{section}` must be an object of fields")]
@@ -107,8 +109,8 @@ impl ConfigError {
 
 /// The hint of [`ConfigError::UnknownName`]: how to name the field of that
 /// name within a section.
-fn within_hint(within: &Option<crate::config::json::FlatName>) -> String {
-    within.as_ref().map_or(String::new(), |crate::config::json::FlatName { flat, section, field }| {
+fn within_hint(within: &Option<FlatName>) -> String {
+    within.as_ref().map_or(String::new(), |FlatName { flat, section, field }| {
         format!(" (the field `{field}` of `{section}` is `{{\"{section}\": {{\"{field}\": …}}}}` or `{flat}`)")
     })
 }
@@ -117,4 +119,16 @@ fn within_hint(within: &Option<crate::config::json::FlatName>) -> String {
 /// without a dot).
 fn section_and_field(path: &str) -> (&str, &str) {
     path.split_once('.').unwrap_or((path, ""))
+}
+
+/// One configuration field's names: its flat name (a `--config` file
+/// without sections), its section and its name there.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FlatName {
+    /// The name without a section.
+    pub flat: String,
+    /// Its section, one of `config::json::SECTIONS`.
+    pub section: &'static str,
+    /// Its name in the section.
+    pub field: String,
 }

@@ -11,7 +11,6 @@
 //! is another crate's error (an I/O error, serde_json's, postcard's,
 //! plotters', `nerf-infer`'s), the typed error holds it as its source.
 
-use crate::dataset::colmap_io::CameraModel;
 use std::fmt;
 use std::path::{Path, PathBuf};
 

@@ -27,6 +27,7 @@ fn typed_causes_read_as_one_line_naming_the_field_or_file() {
         (
             ConfigError::UnknownName {
                 name: "res".into(),
+                sections: &crate::config::json::SECTIONS,
                 within: Some(crate::config::json::FlatName { flat: "grid_res".into(), section: "grid", field: "res".into() }),
             }
             .into(),
