@@ -104,6 +104,37 @@ fn forward_facing_rays_of_every_camera_stay_in_the_box_from_the_nearest_depth_to
     }
 }
 
+/// A forward-facing capture whose photos resolve more cells than the
+/// preset's grid has gets its grid sized to them with 16 levels (the
+/// preset's 8 would be 2.2× apart); a user who names the levels keeps
+/// theirs, and photos the preset's grid already resolves keep 8.
+#[test]
+fn a_forward_facing_grid_sized_to_large_photos_gets_sixteen_levels_unless_the_configuration_names_them() {
+    use nerf_train::config::{Preset, TrainConfig};
+    use nerf_train::run::{fit_to_data, Fit};
+    let d = tmp("llff_levels");
+    write_llff(&d, SceneSpec { size: 32, train: 6, val: 1, test: 1 }).unwrap();
+    let small = load(&d, Split::Train, opts(Format::Llff, 1)).unwrap();
+    let preset = Preset::default().config();
+    let kept = fit_to_data(&preset, Fit::ALL, &small).unwrap().cfg;
+    assert_eq!((kept.features.levels, kept.features.max_res), (preset.features.levels, preset.features.max_res));
+    // the same capture as 1008×756 photos would see it
+    let mut large = small.clone();
+    let n = large.scene.ndc.as_mut().unwrap();
+    (n.width, n.height) = (1008.0, 756.0);
+    let fitted = fit_to_data(&preset, Fit::ALL, &large).unwrap();
+    let f = &fitted.cfg.features;
+    assert_eq!((f.levels, f.max_res, f.log2_table), (Some(TrainConfig::FORWARD_FACING_LEVELS), 4096, 19));
+    assert!(fitted.notes[0].contains("16 levels (was 8"), "{:?}", fitted.notes);
+    let over = serde_json::json!({"features": {"levels": 12}});
+    let named = fit_to_data(
+        &preset.clone().with(|c| c.features.levels = std::num::NonZeroU8::new(12)),
+        Fit::unless_named(&over),
+        &large,
+    );
+    assert_eq!(named.unwrap().cfg.features.levels.map(|l| l.get()), Some(12));
+}
+
 #[test]
 fn ngp_layout_with_intrinsics() {
     let d = tmp("ngp");

@@ -14,6 +14,9 @@ use crate::error::{ConfigError, Result};
 pub struct Fit {
     /// Size the feature grid to the photos ([`TrainConfig::fit_features_to`]).
     pub features: bool,
+    /// Give a forward-facing scene's grid, once sized to the photos,
+    /// [`TrainConfig::FORWARD_FACING_LEVELS`] levels.
+    pub levels: bool,
     /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]),
     /// or to [`TrainConfig::PROPOSAL_COARSE`] where a proposal grid is
     /// turned on.
@@ -32,23 +35,25 @@ pub struct Fit {
 
 impl Fit {
     /// Every choice made for the data.
-    pub const ALL: Fit = Fit { features: true, samples: true, proposal: true, distortion: true, render: true };
+    pub const ALL: Fit =
+        Fit { features: true, levels: true, samples: true, proposal: true, distortion: true, render: true };
 
     /// For a configuration given whole, as [`TrainConfig`] rather than a
-    /// preset: its feature grid and samples kept as they are, the proposal
+    /// preset: its feature grid (levels included) and samples kept as they are, the proposal
     /// grid (with its distortion loss and render samples) still turned on
     /// for open scenes.
-    pub const KEEP_SIZES: Fit = Fit { features: false, samples: false, ..Fit::ALL };
+    pub const KEEP_SIZES: Fit = Fit { features: false, levels: false, samples: false, ..Fit::ALL };
 
     /// Every choice but those whose fields the configuration file `over`
     /// (parsed by [`json::parse`]) names: `features.max_res` or
-    /// `features.log2_table`; `sampling.n_coarse`; `sampling.proposal_res`;
+    /// `features.log2_table`; `features.levels`; `sampling.n_coarse`; `sampling.proposal_res`;
     /// `loss.distortion`; `sampling.n_main_render` or `sampling.n_main` (a
     /// chosen training count renders at itself).
     pub fn unless_named(over: &serde_json::Value) -> Fit {
         let names = |section, field| json::names(over, section, field);
         Fit {
             features: !names("features", "max_res") && !names("features", "log2_table"),
+            levels: !names("features", "levels"),
             samples: !names("sampling", "n_coarse"),
             proposal: !names("sampling", "proposal_res"),
             distortion: !names("loss", "distortion"),
@@ -101,8 +106,9 @@ pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted
         cfg = with;
     }
     if let Some(cells) = data.resolvable_cells() {
-        if fit.features {
-            cfg.fit_features_to(cells);
+        // a forward-facing grid sized to the photos keeps its levels close together
+        if fit.features && cfg.fit_features_to(cells) && fit.levels && data.scene.ndc.is_some() {
+            cfg.features.levels = Some(TrainConfig::FORWARD_FACING_LEVELS);
         }
         if fit.samples {
             cfg.fit_samples_to(cells);
@@ -118,8 +124,19 @@ fn notes(base: &TrainConfig, cfg: &TrainConfig, data: &Dataset, kind: &str) -> V
     if cfg.features.max_res != base.features.max_res {
         notes.push(format!(
             "feature grid sized to the photos: finest level {} cells per axis (was {}), 2^{} table entries per level \
-             (was 2^{}); set features.max_res or features.log2_table with --config to choose",
-            cfg.features.max_res, base.features.max_res, cfg.features.log2_table, base.features.log2_table
+             (was 2^{}){}; set features.max_res or features.log2_table with --config to choose",
+            cfg.features.max_res,
+            base.features.max_res,
+            cfg.features.log2_table,
+            base.features.log2_table,
+            match cfg.features.levels != base.features.levels {
+                true => format!(
+                    ", {} levels (was {}; set features.levels with --config to choose)",
+                    cfg.features.levels.map_or(0, |l| l.get()),
+                    base.features.levels.map_or(0, |l| l.get())
+                ),
+                false => String::new(),
+            }
         ));
     }
     if cfg.sampling.proposal_res != base.sampling.proposal_res {
