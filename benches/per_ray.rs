@@ -54,7 +54,7 @@ fn bench(c: &mut Criterion) {
     let presets =
         [("paper", TrainConfig::paper()), ("fast", TrainConfig::fast()), ("features", TrainConfig::features())];
     for (name, cfg) in presets {
-        let f = random_model(&cfg, scene(), 1, 4.0).to_bytes().unwrap();
+        let f = random_model(&cfg, scene(), 1, 4.0).unwrap().to_bytes().unwrap();
         let mf = Model::from_bytes(&f).unwrap();
         let q16 = quantise(&mf, Scheme::I16).unwrap().to_bytes().unwrap();
         let q8 = quantise(&mf, Scheme::I8).unwrap().to_bytes().unwrap();

@@ -35,7 +35,7 @@ fn steps(c: &mut Criterion) {
     g.sample_size(20);
     for (name, cfg) in [("features", TrainConfig::features()), ("fast", TrainConfig::fast())] {
         g.throughput(Throughput::Elements(cfg.sampling.batch_rays as u64));
-        let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+        let mut tr = Trainer::new(cfg, data.scene, 1, 1).unwrap();
         for i in 0..200 {
             tr.train_step(&data, i as f64 / 1000.0);
         }

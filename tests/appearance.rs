@@ -37,7 +37,7 @@ fn corrections_take_each_photos_exposure() {
             c.per_photo.appearance = appearance;
             c.model.view_dependent = false;
         });
-        let mut tr = Trainer::new(cfg, data.scene, 1, 0);
+        let mut tr = Trainer::new(cfg, data.scene, 1, 0).unwrap();
         let mut last = 0.0;
         for k in 0..steps {
             let loss = tr.train_step(&data, k as f64 / steps as f64).loss;

@@ -36,7 +36,7 @@ fn render_golden(bytes: &[u8]) -> Vec<PixelFixed> {
 #[ignore = "writes the golden files; run on purpose"]
 fn bless() {
     let cfg = small_config();
-    let f32_model = random_model(&cfg, unit_scene(), 7, 6.0).to_bytes().unwrap();
+    let f32_model = random_model(&cfg, unit_scene(), 7, 6.0).unwrap().to_bytes().unwrap();
     // golden_f32.nerf: the f32 model the fixed-point ones are quantised
     // from, for nerf-infer's tests that need a model of each path
     std::fs::write(data_dir().join("golden_f32.nerf"), &f32_model).unwrap();
@@ -82,7 +82,7 @@ fn bless() {
         c.sampling.n_main = 16;
         c.sampling.proposal_res = NonZeroU16::new(8);
     });
-    let mut p = random_model(&pcfg, unit_scene(), 7, 6.0);
+    let mut p = random_model(&pcfg, unit_scene(), 7, 6.0).unwrap();
     let (grid, codes) = p.proposal.as_mut().unwrap();
     let r = grid.res as usize;
     for (i, c) in codes.iter_mut().enumerate() {

@@ -29,7 +29,7 @@ fn put(bytes: &mut [u8], at: usize, v: f32) {
 /// random weights (the colour does not matter here).
 fn octahedron() -> OwnedModel {
     let cfg = small_config();
-    let mut m = random_model(&cfg, unit_scene(), 1, 1.0);
+    let mut m = random_model(&cfg, unit_scene(), 1, 1.0).unwrap();
     let depth = m.topology.depth as usize;
     let topo = m.topology;
     for net in std::iter::once(&mut m.coarse).chain(m.fine.as_mut()) {

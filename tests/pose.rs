@@ -50,7 +50,7 @@ fn pose_gradient_matches_finite_differences() {
         c.loss.density_l1 = 0.0;
         c.per_photo.pose_refine = true;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 0);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 0).unwrap();
     for k in 0..150 {
         tr.train_step(&data, k as f64 / 150.0);
     }
@@ -120,7 +120,7 @@ fn cameras_that_are_off_are_corrected_and_the_held_out_views_gain() {
             // a short run: nerfacto's rate, where the default suits thousands of steps
             c.per_photo.pose_lr = 6e-4;
         });
-        let mut tr = Trainer::new(cfg, data.scene, 1, 0);
+        let mut tr = Trainer::new(cfg, data.scene, 1, 0).unwrap();
         for k in 0..steps {
             tr.train_step(&data, k as f64 / steps as f64);
         }

@@ -33,7 +33,7 @@ fn proposal_config(res: u16) -> TrainConfig {
 /// radius 0.6 about the centre (empty outside): the network's samples go
 /// there.
 fn ball_model(scene: nerf_infer::format::Scene, seed: u64) -> OwnedModel {
-    let mut m = random_model(&proposal_config(16), scene, seed, 8.0);
+    let mut m = random_model(&proposal_config(16), scene, seed, 8.0).unwrap();
     let (p, codes) = m.proposal.as_mut().expect("a proposal grid");
     let r = p.res as usize;
     for (i, c) in codes.iter_mut().enumerate() {
@@ -84,7 +84,7 @@ fn a_trained_proposal_grid_bounds_the_networks_weights() {
         c.sampling.proposal_res = NonZeroU16::new(32);
         c.sampling.batch_rays = 512;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 0);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 0).unwrap();
     let batch = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(9));
     let (before, _) = tr.proposal_bound(&batch).unwrap();
     for k in 0..300 {

@@ -24,7 +24,7 @@ fn models(dir: &Path) -> Vec<PathBuf> {
         c.features.min_res = 2;
         c.features.max_res = 40;
     });
-    let f32_bytes = random_model(&cfg, support::unit_scene(), 7, 4.0).to_bytes().unwrap();
+    let f32_bytes = random_model(&cfg, support::unit_scene(), 7, 4.0).unwrap().to_bytes().unwrap();
     let m = nerf_infer::Model::from_bytes(&f32_bytes).unwrap();
     let int8 = quantise(&m, nerf_infer::Scheme::I8).unwrap().to_bytes().unwrap();
     let features = dir.join("features_int8.nerf");

@@ -18,6 +18,9 @@ pub fn push_deltas(t: &[f32], dir_len: f32, out: &mut Vec<f32>) {
 /// Forward of one ray: writes each sample's weight into `w` and returns the
 /// composited colour. `delta` holds each sample's δ in world units (see
 /// [`push_deltas`]; samples skipped in empty space simply are not there).
+///
+/// # Panics
+/// If `sigma` or `w` holds fewer values than `delta`, or `rgb` fewer than three per value of `delta`.
 pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: [f32; 3], w: &mut [f32]) -> [f32; 3] {
     let n = delta.len();
     let mut trans = 1.0f32;
@@ -44,6 +47,10 @@ pub fn composite(sigma: &[f32], rgb: &[f32], delta: &[f32], bg: [f32; 3], w: &mu
 /// (the slope of `max(σ, 0)`), unless no sample of the ray has density:
 /// then every sample gets the gradient at `σ = 0⁺`, so a field that early
 /// steps left empty everywhere grows back instead of staying dark.
+///
+/// # Panics
+/// If `sigma`, `w` or `dsigma` holds fewer values than `delta`, or `rgb` or `drgb` fewer than three per value of
+/// `delta`.
 #[allow(clippy::too_many_arguments)]
 pub fn composite_back(
     sigma: &[f32],

@@ -40,6 +40,9 @@ impl Field {
     /// density the same everywhere at `uniform_density` (1/world units; an
     /// unbounded scene's, [`Mlp::init_uniform_density`]) or, with `None`,
     /// [`Mlp::init`]'s; Adam's state zeroed, no average yet.
+    ///
+    /// # Panics
+    /// `cfg` must pass [`TrainConfig::validate`].
     pub fn new(cfg: &TrainConfig, seed: u64, uniform_density: Option<f32>) -> Self {
         let net = cfg.mlp();
         let init = |seed| match uniform_density {
@@ -56,9 +59,12 @@ impl Field {
 
     /// How many of `params` parameters are a feature grid's table: the last
     /// ones (a run with a feature grid has one network), none without one.
+    ///
+    /// # Panics
+    /// If `params` is below `net.table` (the layers' parameters) in a network with a feature grid.
     pub fn table_values(net: &Mlp, params: usize) -> usize {
         if net.features.is_some() {
-            params - net.table
+            params.checked_sub(net.table).expect("fewer parameters than the network's layers hold")
         } else {
             0
         }
@@ -81,6 +87,9 @@ impl Field {
     /// average follows in the same sweep, `ema ← b'·ema + (1 − b')·params`
     /// with `b' = min(b, (1 + step)/(10 + step))`; the first step's average
     /// is a copy of the parameters.
+    ///
+    /// # Panics
+    /// If `grad` does not hold as many values as `params`.
     pub fn apply(&mut self, grad: &mut [f32], lr: f32, opt: &OptimiserConfig, step: u64) {
         let decay = opt.ema_decay;
         let b = decay.min((1.0 + step as f32) / (10.0 + step as f32));

@@ -31,6 +31,9 @@ pub fn psnr_kept(a: &[[f32; 3]], b: &[[f32; 3]], keep: &[bool]) -> f64 {
 /// 11×11 Gaussian window (σ = 1.5), `C₁ = 0.01²`, `C₂ = 0.03²`, valid
 /// region only, averaged over channels. Images smaller than the window use
 /// the largest window that fits.
+///
+/// # Panics
+/// If `a` or `b` holds fewer than `width × height` pixels.
 pub fn ssim(a: &[[f32; 3]], b: &[[f32; 3]], width: usize, height: usize) -> f64 {
     ssim_kept(a, b, width, height, &[])
 }
@@ -38,6 +41,9 @@ pub fn ssim(a: &[[f32; 3]], b: &[[f32; 3]], width: usize, height: usize) -> f64 
 /// [`ssim`] averaged over the windows whose centre pixel `keep` marks (all
 /// windows where `keep` is empty; 1 where it marks none of them): the score
 /// of a photo whose mask leaves some pixels out.
+///
+/// # Panics
+/// If `a` or `b` holds fewer than `width × height` pixels, or `keep` is not empty and holds fewer.
 pub fn ssim_kept(a: &[[f32; 3]], b: &[[f32; 3]], width: usize, height: usize, keep: &[bool]) -> f64 {
     let win = 11.min(width).min(height);
     let half = win / 2;

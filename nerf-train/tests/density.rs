@@ -22,7 +22,7 @@ fn initial_densities(
     scene: nerf_infer::format::Scene,
     seed: u64,
 ) -> Vec<Vec<f32>> {
-    densities(&Trainer::new(cfg.clone(), scene, 1, seed), seed)
+    densities(&Trainer::new(cfg.clone(), scene, 1, seed).unwrap(), seed)
 }
 
 /// The density at 200 random points (drawn with `seed`) of the
@@ -52,7 +52,7 @@ fn the_optical_depth_penalty_empties_the_space_the_photos_leave_free() {
             c.optimiser.lr = 1e-2;
             c.loss.density_l1 = density_l1;
         });
-        let mut tr = Trainer::new(cfg, data.scene, 1, 3);
+        let mut tr = Trainer::new(cfg, data.scene, 1, 3).unwrap();
         let (first, last) = support::loss_before_and_after(&mut tr, &data, 80);
         let sigma = densities(&tr, 7).concat();
         let mean = sigma.iter().sum::<f32>() / sigma.len() as f32;
@@ -76,7 +76,7 @@ fn a_field_left_without_density_anywhere_grows_back() {
         c.sampling.n_fine = None;
         c.optimiser.lr = 1e-2;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 5);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 5).unwrap();
     // as a few large first steps can leave it: σ < 0 at every point (the
     // density head's weights at zero, its bias below zero)
     let (w, b) = tr.mlp().density_head();
@@ -125,7 +125,7 @@ fn near_gradient(cfg: &TrainConfig, scene: Scene, probe: &[Sample], d0: f32) -> 
         c.sampling.chunk_rays = probe.len();
         c.loss.near_gradient = d0;
     });
-    Trainer::new(cfg, scene, 1, 3).gradients(probe, 1).0
+    Trainer::new(cfg, scene, 1, 3).unwrap().gradients(probe, 1).0
 }
 
 #[test]

@@ -48,7 +48,7 @@ fn set_f32(bytes: &mut [u8], v: f32) {
 
 /// An f32 model with `weights` applied to both networks.
 fn f32_model(cfg: &TrainConfig, scene: Scene, weights: Weights) -> OwnedModel {
-    let mut m = random_model(cfg, scene, 5, 4.0);
+    let mut m = random_model(cfg, scene, 5, 4.0).unwrap();
     let si = sigma_layer(&m);
     for net in std::iter::once(&mut m.coarse).chain(m.fine.as_mut()) {
         for (i, l) in net.layers.iter_mut().enumerate() {

@@ -47,7 +47,7 @@ fn a_step_reports_the_time_of_each_of_its_stages_within_its_own_duration() {
         c.grid.warmup = 0;
         c.grid.every = 2;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1).unwrap();
     for _ in 0..4 {
         let start = std::time::Instant::now();
         let st = tr.train_step(&data, 0.5);
@@ -84,7 +84,7 @@ fn a_feature_grid_model_trains_and_renders_in_both_numeric_paths() {
         c.optimiser.eps = 1e-15;
         c.optimiser.beta2 = 0.99;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1).unwrap();
     support::train_until_the_loss_halves(&mut tr, &data);
     let mlp = tr.mlp();
     let table = &tr.field.params[mlp.table..];
@@ -141,7 +141,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
         c.grid.every = 4;
         c.optimiser.ema_decay = 0.9;
     });
-    let mut tr = Trainer::new(cfg.clone(), data.scene, 1, 2);
+    let mut tr = Trainer::new(cfg.clone(), data.scene, 1, 2).unwrap();
     tr.train_step(&data, 0.0);
     assert_eq!(tr.field.ema, tr.field.params, "the average starts at the first step's parameters");
     for n in 1..40u64 {
@@ -172,7 +172,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     assert_eq!(avg.updates, run.updates + 1);
 
     // before the run's first refresh its grid stays whole in the average's model too
-    let mut young = Trainer::new(cfg.clone().with(|c| c.grid.warmup = 1000), data.scene, 1, 2);
+    let mut young = Trainer::new(cfg.clone().with(|c| c.grid.warmup = 1000), data.scene, 1, 2).unwrap();
     for _ in 0..3 {
         young.train_step(&data, 0.0);
     }
@@ -181,7 +181,7 @@ fn the_model_takes_the_average_of_the_parameters_over_the_last_steps() {
     assert_eq!(young.sampler.occupancy.as_ref().unwrap().updates, 0);
 
     // without an average the model is the run's last step
-    let mut plain = Trainer::new(cfg.with(|c| c.optimiser.ema_decay = 0.0), data.scene, 1, 2);
+    let mut plain = Trainer::new(cfg.with(|c| c.optimiser.ema_decay = 0.0), data.scene, 1, 2).unwrap();
     plain.train_step(&data, 0.0);
     assert!(plain.field.ema.is_empty() && std::ptr::eq(&*plain.averaged(), &plain));
 }
@@ -199,7 +199,7 @@ fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
         c.optimiser.eps = 1e-15;
         c.optimiser.beta2 = 0.99;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 4);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 4).unwrap();
     let table = tr.mlp().table;
     assert_eq!(tr.field.adam.steps.len(), tr.field.params.len() - table);
     let (mut moved, mut kept) = (0, 0);
@@ -226,7 +226,7 @@ fn a_table_value_moves_only_in_the_steps_that_give_it_a_gradient() {
 #[test]
 fn int16_render_of_a_random_feature_grid_model_is_within_40_db_of_f32() {
     for seed in [1, 2] {
-        let f32_bytes = random_model(&feature_config(), unit_scene(), seed, 8.0).to_bytes().unwrap();
+        let f32_bytes = random_model(&feature_config(), unit_scene(), seed, 8.0).unwrap().to_bytes().unwrap();
         let m32 = Model::from_bytes(&f32_bytes).unwrap();
         let q_bytes = quantise(&m32, Scheme::I16).unwrap().to_bytes().unwrap();
         let m16 = Model::from_bytes(&q_bytes).unwrap();
@@ -263,7 +263,7 @@ fn the_format_keeps_old_versions_and_checks_the_table() {
         assert!(version(&bytes) < FORMAT_VERSION_NO_CAPTURE);
         assert_eq!(OwnedModel::from_model(&m).to_bytes().unwrap(), bytes, "{name}");
     }
-    let owned = random_model(&feature_config(), unit_scene(), 3, 8.0);
+    let owned = random_model(&feature_config(), unit_scene(), 3, 8.0).unwrap();
     let bytes = owned.to_bytes().unwrap();
     assert_eq!(OwnedModel::from_model(&Model::from_bytes(&bytes).unwrap()), owned);
     // a table one entry short, or a grid_dim that disagrees, is refused
@@ -294,7 +294,7 @@ fn table_values(m: &Model<'_>) -> Vec<i16> {
 
 #[test]
 fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
-    let f32_bytes = random_model(&feature_config(), unit_scene(), 4, 8.0).to_bytes().unwrap();
+    let f32_bytes = random_model(&feature_config(), unit_scene(), 4, 8.0).unwrap().to_bytes().unwrap();
     let m32 = Model::from_bytes(&f32_bytes).unwrap();
     let wide = quantise(&m32, Scheme::I8).unwrap();
     let wide_bytes = wide.to_bytes().unwrap();
@@ -349,7 +349,7 @@ fn a_narrow_table_renders_as_the_i16_table_of_its_codebook_values_would() {
 #[test]
 fn a_corrupted_narrow_table_model_is_refused_or_renders_in_range() {
     use nerf_infer::format::{crc32, HEADER_LEN};
-    let f32_bytes = random_model(&feature_config(), unit_scene(), 5, 8.0).to_bytes().unwrap();
+    let f32_bytes = random_model(&feature_config(), unit_scene(), 5, 8.0).unwrap().to_bytes().unwrap();
     let mut owned = quantise(&Model::from_bytes(&f32_bytes).unwrap(), Scheme::I8).unwrap();
     narrow_table(&mut owned, 4).unwrap();
     let blob = owned.to_bytes().unwrap();
@@ -395,7 +395,7 @@ fn a_footprint_model_records_its_pixel_and_renders_alike_in_both_numeric_paths()
         c.optimiser.beta2 = 0.99;
         c.features.footprint = true;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1).unwrap();
     support::train_until_the_loss_halves(&mut tr, &data);
     assert_eq!(tr.pixel, data.pixel_angle());
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();

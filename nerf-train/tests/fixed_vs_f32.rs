@@ -10,7 +10,7 @@ use support::*;
 #[test]
 fn int16_render_of_a_random_model_is_within_40_db_of_f32() {
     for (seed, cfg) in [(1, small_config()), (2, nerf_train::config::TrainConfig::fast())] {
-        let f32_bytes = random_model(&cfg, unit_scene(), seed, 8.0).to_bytes().unwrap();
+        let f32_bytes = random_model(&cfg, unit_scene(), seed, 8.0).unwrap().to_bytes().unwrap();
         let m32 = Model::from_bytes(&f32_bytes).unwrap();
         let q_bytes = quantise(&m32, Scheme::I16).unwrap().to_bytes().unwrap();
         let m16 = Model::from_bytes(&q_bytes).unwrap();
@@ -40,12 +40,12 @@ fn int16_render_of_an_unbounded_random_model_is_within_40_db_of_f32() {
         nerf_infer::format::Scene { near: 0.5, far: 5000.0, white_background: false, unbounded, ..unit_scene() };
     let bounded = nerf_infer::format::Scene { near: 0.5, far: 6.0, white_background: false, ..unit_scene() };
     for seed in [3, 4] {
-        let f32_bytes = random_model(&small_config(), scene, seed, 8.0).to_bytes().unwrap();
+        let f32_bytes = random_model(&small_config(), scene, seed, 8.0).unwrap().to_bytes().unwrap();
         let m32 = Model::from_bytes(&f32_bytes).unwrap();
         assert_eq!(m32.format_version(), 5);
         let q_bytes = quantise(&m32, Scheme::I16).unwrap().to_bytes().unwrap();
         let m16 = Model::from_bytes(&q_bytes).unwrap();
-        let b_bytes = random_model(&small_config(), bounded, seed, 8.0).to_bytes().unwrap();
+        let b_bytes = random_model(&small_config(), bounded, seed, 8.0).unwrap().to_bytes().unwrap();
         let mb = Model::from_bytes(&b_bytes).unwrap();
         for turn in [0.2, 0.7] {
             let cam = Orbit::new(&m32.scene, None).camera(turn, 32, 32).unwrap();

@@ -23,7 +23,7 @@ use support::unit_scene;
 /// largest |density| seen.
 fn differences(cfg: TrainConfig, seed: u64) -> (f32, f32, f32) {
     let scene = unit_scene();
-    let tr = Trainer::new(cfg, scene, 1, seed);
+    let tr = Trainer::new(cfg, scene, 1, seed).unwrap();
     let owned = trainer_model(&tr, &orbit_rays(&scene, 2, 6), Prune::Off);
     let bytes = owned.to_bytes().unwrap();
     let model = Model::from_bytes(&bytes).unwrap();

@@ -23,7 +23,7 @@ mod tol {
 }
 
 fn models(cfg: &TrainConfig, seed: u64) -> (Vec<u8>, Vec<u8>, Vec<u8>) {
-    let f = random_model(cfg, unit_scene(), seed, 6.0).to_bytes().unwrap();
+    let f = random_model(cfg, unit_scene(), seed, 6.0).unwrap().to_bytes().unwrap();
     let (q16, q8) = {
         let m = Model::from_bytes(&f).unwrap();
         (quantise(&m, Scheme::I16).unwrap().to_bytes().unwrap(), quantise(&m, Scheme::I8).unwrap().to_bytes().unwrap())
@@ -42,7 +42,7 @@ fn positions(n: usize, seed: u32) -> Vec<[i32; 3]> {
 }
 
 fn compare_mlp(cfg: &TrainConfig, scheme: Scheme, sigma_tol: f32, rgb_tol: f32) {
-    let f = random_model(cfg, unit_scene(), 11, 6.0).to_bytes().unwrap();
+    let f = random_model(cfg, unit_scene(), 11, 6.0).unwrap().to_bytes().unwrap();
     let q = quantise(&Model::from_bytes(&f).unwrap(), scheme).unwrap().to_bytes().unwrap();
     let (mf, mq) = (Model::from_bytes(&f).unwrap(), Model::from_bytes(&q).unwrap());
     let mut bf = Box::<BlockF32<8>>::default();
@@ -118,7 +118,7 @@ fn whole_mlp_int8_within_its_own_tier() {
 
 #[test]
 fn activation_width_must_fit_the_scheme() {
-    let f = random_model(&small_config(), unit_scene(), 3, 6.0).to_bytes().unwrap();
+    let f = random_model(&small_config(), unit_scene(), 3, 6.0).unwrap().to_bytes().unwrap();
     let mf = Model::from_bytes(&f).unwrap();
     assert!(quantise_with(&mf, &Quantisation::new(Scheme::I16).with_act_bits(ActBits::A8)).is_err());
     // a model claiming 8-bit activations with int16 weights is refused

@@ -26,7 +26,7 @@ fn trainer_with_dead_neurons() -> Trainer {
         c.model.width = 64;
         c.model.view_width = 32;
     });
-    let mut tr = Trainer::new(cfg, unit_scene(), 1, 7);
+    let mut tr = Trainer::new(cfg, unit_scene(), 1, 7).unwrap();
     let mlp = tr.mlp();
     let view = mlp.topo.depth as usize + 2;
     for net in 0..2 {

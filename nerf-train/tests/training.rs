@@ -22,11 +22,25 @@ fn a_checkpoint_keeps_its_scenes_unbounded_space() {
         far: 2500.0,
         ..support::unit_scene()
     };
-    let tr = Trainer::new(small_config(), scene, 1, 1);
+    let tr = Trainer::new(small_config(), scene, 1, 1).unwrap();
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
     // a resumed run marches and contracts its rays as the run it continues
     assert_eq!(back.scene, scene);
     assert_eq!(back.scene.unbounded, scene.unbounded);
+}
+
+#[test]
+fn a_trainer_is_refused_an_invalid_configuration_naming_the_field() {
+    let features = nerf_train::config::TrainConfig::features();
+    for (cfg, says) in [
+        (small_config().with(|c| c.model.depth = 0), "model.depth"),
+        (small_config().with(|c| c.sampling.chunk_rays = 0), "sampling.chunk_rays"),
+        (features.clone().with(|c| c.features.levels = std::num::NonZeroU8::new(17)), "features.levels"),
+        (features.with(|c| c.grid.res = NonZeroU16::new(u16::MAX)), "grid.res"),
+    ] {
+        let e = Trainer::new(cfg, support::unit_scene(), 1, 1).unwrap_err().to_string();
+        assert!(e.contains(says), "{says}: {e}");
+    }
 }
 
 #[test]
@@ -39,7 +53,7 @@ fn loss_falls_and_the_exported_model_renders_the_scene() {
         c.sampling.batch_rays = 256;
         c.optimiser.lr = 1e-2;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1).unwrap();
     support::train_until_the_loss_halves(&mut tr, &data);
     // checkpoints round-trip exactly
     let back = Trainer::from_bytes(&tr.to_bytes().unwrap()).unwrap();
@@ -70,7 +84,7 @@ fn both_networks_learn_from_every_seed() {
     });
     let probe = Trainer::draw_batch(&data, 512, Draw::CENTRES, &mut Rng::new(5));
     for seed in 0..4 {
-        let mut tr = Trainer::new(cfg.clone(), data.scene, 1, seed);
+        let mut tr = Trainer::new(cfg.clone(), data.scene, 1, seed).unwrap();
         let (_, c0, f0, _) = tr.gradients(&probe, 1);
         for i in 0..60 {
             tr.train_step(&data, i as f64 / 60.0);
@@ -92,7 +106,7 @@ fn non_finite_steps_are_skipped_and_never_reach_the_weights() {
         v.rgb.iter_mut().step_by(7).for_each(|p| *p = [f32::NAN, f32::INFINITY, 0.5]);
     }
     let cfg = small_config().with(|c| c.sampling.batch_rays = 128);
-    let mut tr = Trainer::new(cfg, good.scene, 1, 2);
+    let mut tr = Trainer::new(cfg, good.scene, 1, 2).unwrap();
     tr.train_step(&good, 0.0);
     let (params, adam_before) = (tr.field.params.clone(), tr.to_bytes().unwrap());
     for _ in 0..3 {
@@ -122,7 +136,7 @@ fn pixels_a_mask_leaves_out_are_never_drawn_nor_scored() {
         v.mask = (0..v.rgb.len()).map(|i| i % 7 != 0).collect();
     }
     let cfg = small_config().with(|c| c.sampling.batch_rays = 512);
-    let mut tr = Trainer::new(cfg, data.scene, 1, 2);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 2).unwrap();
     for k in 0..4 {
         let st = tr.train_step(&data, 0.1 * k as f64);
         assert!(!st.skipped && st.loss.is_finite(), "{st:?}");
@@ -169,7 +183,7 @@ fn the_occupancy_grid_clears_empty_space_and_the_model_carries_it() {
         c.grid.warmup = 40;
         c.grid.every = 8;
     });
-    let mut tr = Trainer::new(cfg, data.scene, 1, 1);
+    let mut tr = Trainer::new(cfg, data.scene, 1, 1).unwrap();
     let first = tr.train_step(&data, 0.0);
     assert_eq!(first.samples, first.rays * 48, "before warm-up every sample counts");
     let mut last = first;

@@ -87,6 +87,9 @@ impl TrainConfig {
     }
 
     /// The network (and feature grid) this config trains.
+    ///
+    /// # Panics
+    /// `self` must pass [`TrainConfig::validate`].
     pub fn mlp(&self) -> Mlp {
         Mlp::new(self.topology(), self.encoding()).with_features(self.feature_grid())
     }

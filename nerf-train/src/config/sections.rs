@@ -69,7 +69,7 @@ pub struct FeatureConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SamplingConfig {
-    /// Coarse samples per ray `N_c` (2..=1024; 2..=256 with a fine network).
+    /// Coarse samples per ray `N_c` (2..=1024; 3..=256 with a fine network).
     pub n_coarse: u16,
     /// Fine samples per ray `N_f` (`None`, 0 in JSON: one network, no
     /// hierarchical sampling).

@@ -129,6 +129,15 @@ fn a_one_pass_march_takes_up_to_1024_samples_and_a_two_pass_one_256() {
 }
 
 #[test]
+fn a_two_pass_march_takes_at_least_the_3_coarse_samples_a_model_holds() {
+    let two = |n| TrainConfig::fast().with(|c| c.sampling.n_coarse = n);
+    assert!(two(3).validate().is_ok());
+    let e = two(2).validate().unwrap_err().to_string();
+    assert!(e.contains("sampling.n_coarse must be 2..=1024 (3..=256 with sampling.n_fine)"), "{e}");
+    assert!(two(2).with(|c| c.sampling.n_fine = None).validate().is_ok());
+}
+
+#[test]
 fn a_config_file_may_name_fields_nested_or_by_their_flat_names() {
     use serde_json::json;
     let base = TrainConfig::features();
@@ -356,4 +365,29 @@ fn a_config_file_turns_a_part_off_with_0_or_null_and_on_with_a_count() {
     // above the range validate allows: read, then refused
     let e = features.overlay(&json!({"n_main_render": 256})).unwrap().validate().unwrap_err().to_string();
     assert!(e.contains("sampling.n_main_render must be 0..=255"), "{e}");
+}
+
+#[test]
+fn configurations_no_network_or_grid_can_be_built_from_are_refused_naming_the_field() {
+    let (features, two) = (TrainConfig::features(), TrainConfig::fast());
+    let with = |c: &TrainConfig, edit: fn(&mut TrainConfig)| c.clone().with(edit);
+    for (c, says) in [
+        (with(&features, |c| c.features.levels = NonZeroU8::new(17)), "features.levels must be 1..=16"),
+        (with(&features, |c| (c.features.levels, c.features.width) = (NonZeroU8::new(16), 16)), "features.levels"),
+        (with(&features, |c| c.features.log2_table = 64), "features.log2_table must be 1..=22"),
+        (with(&features, |c| c.model.depth = 0), "model.depth must be 1..=20"),
+        (with(&features, |c| c.model.width = 0), "model.width 1..=256"),
+        (with(&features, |c| (c.model.view_dependent, c.model.view_width) = (true, 0)), "model.view_width"),
+        (with(&features, |c| c.sampling.chunk_rays = 0), "sampling.chunk_rays must be positive"),
+        (with(&two, |c| c.grid.res = NonZeroU16::new(64)), "an occupancy grid needs sampling.n_fine = 0"),
+        (with(&features, |c| c.grid.res = NonZeroU16::new(u16::MAX)), "grid.res must be at most 256"),
+        (with(&features, |c| c.sampling.proposal_res = NonZeroU16::new(u16::MAX)), "sampling.proposal_res"),
+        (
+            with(&features, |c| (c.sampling.proposal_res, c.sampling.n_coarse) = (NonZeroU16::new(64), 0)),
+            "sampling.n_coarse must be 2..=1024",
+        ),
+    ] {
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains(says), "{says}: {e}");
+    }
 }

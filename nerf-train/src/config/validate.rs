@@ -21,11 +21,12 @@ impl TrainConfig {
             return Err(ConfigError::invalid("model.skips", "must name trunk layers 1..model.depth"));
         }
         let n_fine = self.sampling.n_fine.map_or(0, |n| n.get() as usize);
-        let most = nerf_infer::format::max_coarse(n_fine);
-        if !(2..=most).contains(&(self.sampling.n_coarse as usize)) || n_fine > nerf_infer::format::MAX_FINE {
+        // a model's fine pass draws from two bins of coarse weights: three samples
+        let (least, most) = (if n_fine > 0 { 3 } else { 2 }, nerf_infer::format::max_coarse(n_fine));
+        if !(least..=most).contains(&(self.sampling.n_coarse as usize)) || n_fine > nerf_infer::format::MAX_FINE {
             return Err(ConfigError::invalid(
                 "sampling.n_coarse",
-                "must be 2..=1024 (2..=256 with sampling.n_fine) and sampling.n_fine at most 256",
+                "must be 2..=1024 (3..=256 with sampling.n_fine) and sampling.n_fine at most 256",
             ));
         }
         if self.sampling.n_main_render.is_some_and(|n| n.get() > 255) {

@@ -124,7 +124,7 @@ fn view_names(all: &[CaptureView]) -> Vec<String> {
 /// training views before the split's); `points` the capture's sparse
 /// points (may be empty); `fixed` a scene given by the capture's own
 /// files, used as is with the poses unchanged. `path` names the capture's
-/// pose file in errors.
+/// pose file in errors. Fails if `opts.downscale` is 0 or `all` is empty.
 pub fn build(
     path: &Path,
     all: &[CaptureView],
@@ -134,6 +134,9 @@ pub fn build(
 ) -> Result<Dataset, DataError> {
     if all.is_empty() {
         return Err(DataError::new(path, "no registered images"));
+    }
+    if opts.downscale == 0 {
+        return Err(DataError::new(path, "downscale must be at least 1"));
     }
     // `From(first)`: the training views before `first`, which alone the frame is fitted on
     let first = match opts.select {
@@ -150,7 +153,7 @@ pub fn build(
     let frame = match fixed {
         Some(s) => Frame::Fixed(s),
         None => {
-            let f = fit_scene(&poses, points, opts.kind);
+            let f = fit_scene(&poses, points, opts.kind).ok_or_else(|| DataError::new(path, "no registered images"))?;
             if f.kind == SceneKind::Forward {
                 Frame::Forward(ForwardFrame::new(&poses, opts.nearest.unwrap_or_else(|| nearest_depth(&poses, points))))
             } else {
@@ -311,5 +314,35 @@ fn nearest_depth(poses: &[Pose], points: &[DVec3]) -> f64 {
     match super::fit::focus_point(poses) {
         Some(f) if (f - mean).length() > 1e-9 => 0.5 * (f - mean).length(),
         _ => 1.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_capture_at_downscale_0_is_refused_naming_the_option() {
+        let view = CaptureView {
+            image: "a.png".into(),
+            pose: (glam::DMat3::IDENTITY, DVec3::ZERO),
+            intrinsics: Intrinsics { size: [8.0; 2], focal: [8.0; 2], centre: [4.0; 2] },
+            lens: Lens::Pinhole,
+            mask: None,
+        };
+        let opts = CaptureOptions {
+            split: Split::Train,
+            select: Selection::Holdout(8),
+            downscale: 0,
+            kind: SceneKind::Auto,
+            lens: true,
+            undistort: false,
+            white_background: false,
+            nearest: None,
+            upright: false,
+            measure_exposure: false,
+        };
+        let e = build(Path::new("transforms.json"), &[view], &[], None, opts).unwrap_err().to_string();
+        assert_eq!(e, "transforms.json: downscale must be at least 1");
     }
 }

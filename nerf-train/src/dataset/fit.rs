@@ -195,9 +195,12 @@ fn near_plane(poses: &[Pose], points: &[DVec3], scale: f64) -> f64 {
     (0.5 * scale * quantile(&mut depths, 0.01)).clamp(MIN_NEAR, MAX_NEAR)
 }
 
-/// Fits the scene to `poses` (at least one) and the capture's sparse
-/// `points` (may be empty), with `kind` forced unless `Auto`.
-pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
+/// Fits the scene to `poses` and the capture's sparse `points` (may be
+/// empty), with `kind` forced unless `Auto`; `None` without poses.
+pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Option<Fitted> {
+    if poses.is_empty() {
+        return None;
+    }
     let forward = view_spread(poses) < 0.1;
     let mean_pos = poses.iter().map(|p| p.1).sum::<DVec3>() / poses.len() as f64;
     let centre = match focus_point(poses) {
@@ -264,7 +267,7 @@ pub fn fit_scene(poses: &[Pose], points: &[DVec3], kind: SceneKind) -> Fitted {
         ndc: None,
         unbounded,
     };
-    Fitted { kind, rotation, centre, scale, scene }
+    Some(Fitted { kind, rotation, centre, scale, scene })
 }
 
 #[cfg(test)]
@@ -289,7 +292,7 @@ mod tests {
     fn ring_capture_is_centred_scaled_and_turned_z_up() {
         let c = DVec3::new(3.0, -2.0, 5.0);
         let poses = ring(12, 4.0, c);
-        let f = fit_scene(&poses, &[], SceneKind::Auto);
+        let f = fit_scene(&poses, &[], SceneKind::Auto).unwrap();
         assert_eq!(f.kind, SceneKind::Unbounded);
         assert!((f.centre - c).length() < 1e-9, "centre {:?}", f.centre);
         let m = f.apply(&poses[0]);
@@ -303,22 +306,27 @@ mod tests {
     fn forward_and_unbounded_are_detected() {
         let poses: Vec<Pose> =
             (0..9).map(|i| (DMat3::IDENTITY, DVec3::new((i % 3) as f64 * 0.1, (i / 3) as f64 * 0.1, 0.0))).collect();
-        assert_eq!(fit_scene(&poses, &[], SceneKind::Auto).kind, SceneKind::Forward);
+        assert_eq!(fit_scene(&poses, &[], SceneKind::Auto).unwrap().kind, SceneKind::Forward);
         let poses = ring(12, 4.0, DVec3::ZERO);
         // points on walls at 3× the camera distance, and a few on the object
         let mut pts: Vec<DVec3> =
             (0..100).map(|i| DVec3::new(12.0 * (i as f64).cos(), 0.0, 12.0 * (i as f64).sin())).collect();
         pts.extend((0..50).map(|i| DVec3::splat(0.01 * i as f64)));
-        let f = fit_scene(&poses, &pts, SceneKind::Auto);
+        let f = fit_scene(&poses, &pts, SceneKind::Auto).unwrap();
         assert_eq!(f.kind, SceneKind::Unbounded);
         // the box holds the cameras (at 1 in fitted units), the walls (at 3) are left to the contraction
         let hi = f.scene.bounds_max[0];
         assert!((1.0..1.5).contains(&hi), "the box holds the cameras, not the walls: {:?}", f.scene.bounds_max);
         // nothing in front of a camera nearer than the object (0.9 away or more): the near plane's cap
         assert_eq!(f.scene.near, MAX_NEAR as f32);
-        assert_eq!(fit_scene(&poses, &pts, SceneKind::Object).kind, SceneKind::Object);
-        let obj = fit_scene(&poses, &pts, SceneKind::Object);
+        assert_eq!(fit_scene(&poses, &pts, SceneKind::Object).unwrap().kind, SceneKind::Object);
+        let obj = fit_scene(&poses, &pts, SceneKind::Object).unwrap();
         assert!(obj.scene.bounds_max[0] < 0.5, "the object box holds the object only: {:?}", obj.scene.bounds_max);
+    }
+
+    #[test]
+    fn a_capture_without_cameras_has_no_scene() {
+        assert!(fit_scene(&[], &[DVec3::ZERO], SceneKind::Auto).is_none());
     }
 
     #[test]
@@ -332,9 +340,9 @@ mod tests {
         pts.extend(
             (0..2000).map(|i| DVec3::new((i % 10) as f64 * 0.05, (i / 10 % 10) as f64 * 0.05, (i / 100) as f64 * 0.02)),
         );
-        let near = fit_scene(&poses, &pts, SceneKind::Auto).scene.near;
+        let near = fit_scene(&poses, &pts, SceneKind::Auto).unwrap().scene.near;
         // the patches are over 1 % of the depths: the 1st percentile is theirs
         assert!((0.045..0.055).contains(&near), "{near}");
-        assert_eq!(fit_scene(&poses, &[], SceneKind::Auto).scene.near, MAX_NEAR as f32);
+        assert_eq!(fit_scene(&poses, &[], SceneKind::Auto).unwrap().scene.near, MAX_NEAR as f32);
     }
 }

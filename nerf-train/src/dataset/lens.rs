@@ -262,6 +262,9 @@ fn bilinear(at: impl Fn(usize, usize) -> [f32; 3], w: usize, h: usize, sx: f64, 
 /// pixel kept): a pixel is kept if the lens imaged it (its ideal point lies
 /// within the photo's pixels' extent; the others repeat the photo's
 /// nearest edge) and every photo pixel it blends (weight above 10⁻⁴) is kept.
+///
+/// # Panics
+/// If `mask` is not empty and holds fewer than `w × h` values.
 pub fn undistort_mask(mask: &[bool], w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<bool> {
     let at = |x: usize, y: usize| [mask[y.min(h - 1) * w + x.min(w - 1)] as u8 as f32; 3];
     let mut out = Vec::with_capacity(w * h);
@@ -281,6 +284,9 @@ pub fn undistort_mask(mask: &[bool], w: usize, h: usize, k: Pixels, lens: Lens) 
 /// the borders, so pixels the lens did not image, [`undistort_mask`], repeat the
 /// nearest edge). COLMAP's `image_undistorter` does the same, cropping
 /// those borders.
+///
+/// # Panics
+/// If `rgb` holds fewer than `w × h` pixels.
 pub fn undistort_image(rgb: &[[f32; 3]], w: usize, h: usize, k: Pixels, lens: Lens) -> Vec<[f32; 3]> {
     let at = |x: usize, y: usize| rgb[y.min(h - 1) * w + x.min(w - 1)];
     let mut out = Vec::with_capacity(w * h);

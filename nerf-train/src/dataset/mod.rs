@@ -83,3 +83,26 @@ pub fn load(dir: &Path, split: Split, opts: LoadOptions) -> Result<Dataset, Data
         Format::Auto => unreachable!("resolved above"),
     }
 }
+
+/// For tests: `n` grey 8×8 photos of the unit scene (bounds ±1, near 2,
+/// far 6) from cameras on a circle of radius 4 around it.
+#[cfg(test)]
+pub(crate) fn grey_views(n: usize) -> Dataset {
+    let views = (0..n)
+        .map(|i| {
+            let a = i as f32 / n as f32 * std::f32::consts::TAU;
+            let c2w = synthetic::look_at(glam::Vec3::new(4.0 * a.cos(), 4.0 * a.sin(), 0.5));
+            View {
+                name: format!("grey{i}"),
+                file: Default::default(),
+                camera: nerf_infer::camera::Camera::new(8, 8, 8.0, 8.0, 4.0, 4.0, c2w).unwrap(),
+                rgb: vec![[0.5; 3]; 64],
+                alpha: Vec::new(),
+                lens: Lens::Pinhole,
+                mask: Vec::new(),
+            }
+        })
+        .collect();
+    let scene = nerf_infer::format::Scene::blender(1.0, 2.0, 6.0);
+    Dataset { scene, views, downscale: 1, notes: Vec::new(), capture: None }
+}

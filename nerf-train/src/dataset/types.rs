@@ -173,7 +173,7 @@ impl Dataset {
         let (mut tried, mut hit) = (0usize, 0usize);
         let mut k = 0usize;
         for v in &self.views {
-            let w = v.camera.width as usize;
+            let w = (v.camera.width as usize).max(1);
             while k < v.rgb.len() {
                 let (o, d) = v.ray((k % w) as u32, (k / w) as u32);
                 tried += 1;
@@ -229,10 +229,26 @@ impl Dataset {
         Some((cells.ceil().min(1e6) as u32).max(1).next_power_of_two())
     }
 
-    /// Fails, saying why and what to try, if fewer than 1 % of the pixels
-    /// train and have a ray that meets the scene: training would see almost
+    /// Fails, saying why and what to try, if a view does not hold one
+    /// colour per pixel of its camera (nor one mask value and opacity per
+    /// pixel, where it has them), or if fewer than 1 % of the pixels train
+    /// and have a ray that meets the scene: training would see almost
     /// nothing.
     pub fn check_rays(&self) -> Result<(), CameraError> {
+        for v in &self.views {
+            let (width, height) = (v.camera.width, v.camera.height);
+            let pixels = width as usize * height as usize;
+            let counts = [
+                ("pixels", v.rgb.len(), false),
+                ("mask values", v.mask.len(), true),
+                ("opacities", v.alpha.len(), true),
+            ];
+            for (what, len, optional) in counts {
+                if len != pixels && !(optional && len == 0) {
+                    return Err(CameraError::PixelCount { view: v.name.clone(), what, len, width, height });
+                }
+            }
+        }
         let f = self.ray_hit_fraction();
         if f >= 0.01 {
             return Ok(());
@@ -312,4 +328,38 @@ pub fn rigid_pose(path: &Path, what: &str, m: &[Vec<f64>]) -> Result<[[f32; 4]; 
         return Err(DataError::new(path, format!("{what}: pose is not a rigid transform (rotation not orthonormal)")));
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::grey_views;
+
+    #[test]
+    fn a_view_not_holding_one_value_per_pixel_of_its_camera_is_refused_naming_it() {
+        assert!(grey_views(2).check_rays().is_ok());
+        let refused = |edit: fn(&mut super::View)| {
+            let mut data = grey_views(2);
+            edit(&mut data.views[1]);
+            data.check_rays().unwrap_err().to_string()
+        };
+        let e = refused(|v| v.camera.width = 0);
+        assert_eq!(
+            e,
+            "view `grey1`: 64 pixels for its 0x8 camera: a view holds one per pixel, row-major (its mask and \
+             opacities may be empty)"
+        );
+        assert!(refused(|v| v.rgb.truncate(60)).contains("60 pixels for its 8x8 camera"));
+        assert!(refused(|v| v.mask = vec![false; 65]).contains("65 mask values"));
+        assert!(refused(|v| v.alpha = vec![1.0; 3]).contains("3 opacities"));
+        // drawing rays skips such a view instead of dividing by its width
+        let mut data = grey_views(2);
+        data.views[1].camera.width = 0;
+        let batch = crate::train::Trainer::draw_batch(
+            &data,
+            64,
+            crate::train::Draw::CENTRES,
+            &mut crate::util::rng::Rng::new(1),
+        );
+        assert!(!batch.is_empty() && batch.iter().all(|s| s.view == 0));
+    }
 }

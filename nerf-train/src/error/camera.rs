@@ -53,6 +53,23 @@ pub enum CameraError {
         /// All the photos' pixels.
         total: usize,
     },
+    /// A view whose pixels, mask or opacities are not one per pixel of its camera.
+    #[error(
+        "view `{view}`: {len} {what} for its {width}x{height} camera: a view holds one per pixel, row-major (its \
+         mask and opacities may be empty)"
+    )]
+    PixelCount {
+        /// The view's name.
+        view: String,
+        /// What is miscounted: `pixels`, `mask values` or `opacities`.
+        what: &'static str,
+        /// How many it holds.
+        len: usize,
+        /// The camera's width, pixels.
+        width: u32,
+        /// The camera's height, pixels.
+        height: u32,
+    },
     /// Fewer than 1 % of the training rays meet the scene box within near..far.
     #[error(
         "only {:.2} % of the training rays meet the scene box {:?}..{:?} within near {} .. far {}: \

@@ -86,8 +86,15 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
 /// head further scaled by `sigma_gain`; activation ranges calibrated on
 /// rays of an orbit around the scene (twice those with a feature grid,
 /// whose random table is noise); feature-grid values uniform in ±0.5.
-pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, sigma_gain: f32) -> OwnedModel {
-    let mut tr = Trainer::new(cfg.clone(), scene, 1, seed);
+/// Fails, naming the field, if `cfg` does not pass
+/// [`TrainConfig::validate`](crate::config::TrainConfig::validate).
+pub fn random_model(
+    cfg: &crate::config::TrainConfig,
+    scene: Scene,
+    seed: u64,
+    sigma_gain: f32,
+) -> crate::error::Result<OwnedModel> {
+    let mut tr = Trainer::new(cfg.clone(), scene, 1, seed)?;
     let mlp = tr.mlp();
     let si = sigma_layer(&mlp.topo);
     let nets = if cfg.sampling.n_fine.is_some() { 2 } else { 1 };
@@ -119,5 +126,5 @@ pub fn random_model(cfg: &crate::config::TrainConfig, scene: Scene, seed: u64, s
             l.act_max *= 2.0;
         }
     }
-    m
+    Ok(m)
 }

@@ -221,7 +221,7 @@ mod tests {
     #[test]
     fn a_coarsened_grid_keeps_every_occupied_point() {
         let cfg = crate::config::TrainConfig::fast().with(|c| c.sampling.n_fine = None);
-        let mut m = super::random_model(&cfg, Scene::blender(1.0, 2.0, 6.0), 3, 6.0);
+        let mut m = super::random_model(&cfg, Scene::blender(1.0, 2.0, 6.0), 3, 6.0).unwrap();
         let bits: Vec<u8> = (0..512u32).map(|i| hash32(i).is_multiple_of(16) as u8).collect();
         m.grid = Some((16, bits));
         let fine = m.clone();

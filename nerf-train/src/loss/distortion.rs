@@ -9,6 +9,9 @@
 /// weight gathers in a short stretch of the ray (a surface) and grows as
 /// it spreads along it (fog, floaters). Writes `scale · ∂L/∂wᵢ` into `dw`
 /// (O(n) with prefix sums) and returns `L`.
+///
+/// # Panics
+/// If `mid`, `width` or `dw` holds fewer values than `w`.
 pub fn distortion(mid: &[f32], width: &[f32], w: &[f32], scale: f32, dw: &mut [f32]) -> f32 {
     let (w_all, wm_all): (f32, f32) = w.iter().zip(mid).fold((0.0, 0.0), |(a, b), (&wi, &mi)| (a + wi, b + wi * mi));
     let (mut w_before, mut wm_before) = (0.0f32, 0.0f32);

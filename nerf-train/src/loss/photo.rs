@@ -51,6 +51,10 @@ pub struct Corrections<'a> {
 /// `scale · 3/2 · μ ·` [`optical_depth`](crate::loss::density::optical_depth) for the density weight μ) with respect to
 /// the raw densities and colours into `dsig` and `drgb`; returns the summed
 /// squared error over rays and channels.
+///
+/// # Panics
+/// If `offs` holds fewer than `rays.len() + 1` offsets, or `acts`, `delta`, `w` (and with the distortion loss the
+/// priors' intervals) fewer samples than its last.
 #[allow(clippy::too_many_arguments)]
 pub fn photo_loss(
     rays: impl ExactSizeIterator<Item = Target>,
@@ -77,11 +81,12 @@ pub fn photo_loss(
         let c = 3 * s.start..3 * s.end;
         let (sig, rgb) = (&acts.sigma[s.clone()], &acts.rgb[c.clone()]);
         let col = composite(sig, rgb, &delta[s.clone()], bg, &mut w[s.clone()]);
-        // the photo's colour correction, if the run fits one
+        // the photo's colour correction, if the run fits one (a photo beyond the corrections' has none)
         let photo = r.view as usize * appearance::PER_PHOTO..(r.view as usize + 1) * appearance::PER_PHOTO;
-        let y = corrections.as_ref().map_or(col, |k| appearance::apply(&k.params[photo.clone()], col));
+        let fitted = corrections.as_mut().filter(|k| photo.end <= k.params.len());
+        let y = fitted.as_ref().map_or(col, |k| appearance::apply(&k.params[photo.clone()], col));
         let dy: [f32; 3] = std::array::from_fn(|k| scale * (y[k] - gt[k]));
-        let dc = match corrections.as_mut() {
+        let dc = match fitted {
             Some(k) => appearance::apply_back(&k.params[photo.clone()], col, dy, &mut k.grad[photo]),
             None => dy,
         };
@@ -99,4 +104,31 @@ pub fn photo_loss(
         }
     }
     sq
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_ray_of_a_photo_beyond_the_corrections_is_scored_uncorrected() {
+        let mut acts = Acts::default();
+        (acts.sigma, acts.rgb) = (vec![1.0, 2.0], vec![0.2, 0.4, 0.6, 0.8, 0.1, 0.3]);
+        let delta = [0.5, crate::composite::LAST_DELTA];
+        // one photo's correction, doubling every colour
+        let params: Vec<f32> = appearance::IDENTITY.iter().map(|v| 2.0 * v).collect();
+        let loss = |view, corrections: Option<Corrections<'_>>| {
+            let target = Target { rgb: [0.5; 3], bg: [1.0; 3], view };
+            let priors = Priors { distortion: 0.0, mid: &[], width: &[], density_l1: 0.0 };
+            let (mut w, mut dw, mut dsig, mut drgb) = (vec![0.0; 2], Vec::new(), Vec::new(), Vec::new());
+            let rays = std::iter::once(target);
+            photo_loss(rays, &[0, 2], 1.0, &acts, &delta, priors, corrections, &mut w, &mut dw, &mut dsig, &mut drgb)
+        };
+        let mut grad = Vec::new();
+        let beyond = loss(3, Some(Corrections { params: &params, grad: &mut grad }));
+        assert_eq!(beyond, loss(3, None));
+        assert!(grad.len() == params.len() && grad.iter().all(|&g| g == 0.0));
+        assert_ne!(loss(0, Some(Corrections { params: &params, grad: &mut grad })), beyond);
+        assert!(grad.iter().any(|&g| g != 0.0));
+    }
 }

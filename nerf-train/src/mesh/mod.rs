@@ -85,9 +85,10 @@ pub fn sample_density(m: &Model<'_>, resolution: usize, progress: &(dyn Fn(u64) 
 
 /// Extracts the surface `σ = threshold` of `density` (from
 /// [`sample_density`] at `resolution`) as a mesh in world units, with
-/// colours from the model if asked.
+/// colours from the model if asked. Fails on a forward-facing model, an
+/// option out of range, or a `density` not of the `(resolution + 1)³` lattice.
 pub fn extract(m: &Model<'_>, density: &[f32], opts: MeshOptions) -> Result<Mesh, MeshError> {
-    check(m, opts)?;
+    check(m, density.len(), opts)?;
     let lattice = Lattice { n: opts.resolution + 1, values: density };
     let layers: Vec<Vec<[Edge; 3]>> =
         (0..opts.resolution).into_par_iter().map(|z| tetra::layer(&lattice, opts.threshold, z)).collect();
@@ -116,7 +117,7 @@ pub fn extract(m: &Model<'_>, density: &[f32], opts: MeshOptions) -> Result<Mesh
     Ok(mesh)
 }
 
-fn check(m: &Model<'_>, opts: MeshOptions) -> Result<(), MeshError> {
+fn check(m: &Model<'_>, values: usize, opts: MeshOptions) -> Result<(), MeshError> {
     if m.scene.ndc.is_some() {
         return Err(MeshError::Ndc);
     }
@@ -125,6 +126,15 @@ fn check(m: &Model<'_>, opts: MeshOptions) -> Result<(), MeshError> {
     }
     if !(opts.threshold.is_finite() && opts.threshold > 0.0) {
         return Err(MeshError::Option(format!("--threshold {} is not a positive density", opts.threshold)));
+    }
+    let n = opts.resolution + 1;
+    if values != n * n * n {
+        return Err(MeshError::Option(format!(
+            "the density holds {values} values, not the {n}³ = {} of the lattice at --resolution {}: sample it \
+             with sample_density at the same resolution",
+            n * n * n,
+            opts.resolution
+        )));
     }
     Ok(())
 }
@@ -252,5 +262,29 @@ impl Mesh {
         }
         let open_edges = directed.values().filter(|&&s| s != 0).count();
         MeshStats { vertices: self.positions.len(), triangles: self.triangles.len(), area, volume, open_edges }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::TrainConfig;
+
+    #[test]
+    fn a_density_not_of_the_lattice_at_the_resolution_is_refused_naming_it() {
+        let cfg = TrainConfig::fast().with(|c| {
+            (c.model.depth, c.model.width, c.model.view_width) = (2, 16, 8);
+            c.model.skips.clear();
+        });
+        let scene = nerf_infer::format::Scene::blender(1.0, 2.0, 6.0);
+        let bytes = crate::export::random_model(&cfg, scene, 1, 1.0).unwrap().to_bytes().unwrap();
+        let m = Model::from_bytes(&bytes).unwrap();
+        let opts = MeshOptions { resolution: 4, threshold: 1.0, colours: false };
+        let e = extract(&m, &[0.0; 100], opts).unwrap_err().to_string();
+        assert!(
+            e.starts_with("the density holds 100 values, not the 5³ = 125 of the lattice at --resolution 4"),
+            "{e}"
+        );
+        assert!(extract(&m, &[0.0; 125], opts).unwrap().triangles.is_empty());
     }
 }

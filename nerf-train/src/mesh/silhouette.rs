@@ -55,6 +55,9 @@ fn edge_fn(a: [f32; 2], b: [f32; 2], p: [f32; 2]) -> f32 {
 
 /// Intersection over union of two masks of the same size (1 when both are
 /// empty).
+///
+/// # Panics
+/// If `a` and `b` differ in length.
 pub fn iou(a: &[bool], b: &[bool]) -> f64 {
     assert_eq!(a.len(), b.len(), "masks of different sizes");
     let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();

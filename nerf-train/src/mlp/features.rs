@@ -113,6 +113,10 @@ impl Mlp {
     /// summed into one set of corners, blended and scattered once (the
     /// others keep the cell with zero weights, which the scatter skips). An
     /// empty `foot`, or a network without a feature grid, is [`Mlp::encode`].
+    ///
+    /// # Panics
+    /// If `foot` is neither empty nor `K` points per sample of `pos` (with a feature grid), or `p` holds fewer than
+    /// [`Mlp::n_params`] values.
     pub fn encode_footprint(&self, p: &[f32], pos: &[[f32; 3]], foot: &[[f32; 3]], a: &mut Acts) {
         let Some(f) = self.features.as_ref().filter(|_| !foot.is_empty()) else {
             return self.encode(p, pos, a);

@@ -20,6 +20,9 @@ impl Mlp {
     /// directions `dirs` (`R`, one per `S/R` consecutive samples). Fills
     /// `acts.sigma` and, if `need_rgb`, `acts.rgb`: [`Mlp::encode`], then
     /// [`Mlp::forward_layers`].
+    ///
+    /// # Panics
+    /// As [`Mlp::forward_layers`].
     pub fn forward(&self, p: &[f32], pos: &[[f32; 3]], dirs: &[[f32; 3]], need_rgb: bool, a: &mut Acts) {
         self.encode(p, pos, a);
         self.forward_layers(p, dirs, need_rgb, a);
@@ -27,6 +30,10 @@ impl Mlp {
 
     /// The rest of [`Mlp::forward`]: the layers on the encoding
     /// [`Mlp::encode`] left in `a`, with the view directions `dirs`.
+    ///
+    /// # Panics
+    /// If `p` holds fewer than [`Mlp::n_params`] values, or a view-dependent network's colour is asked for with
+    /// `dirs` not one per `S/R` samples (an empty `dirs` included).
     pub fn forward_layers(&self, p: &[f32], dirs: &[[f32; 3]], need_rgb: bool, a: &mut Acts) {
         let (s, r) = (a.s, dirs.len());
         let (pd, dd) = (self.enc.pos_dim(), self.enc.dir_dim());

@@ -137,6 +137,9 @@ impl Mlp {
     /// The same network with a learned feature grid of shape `f` (its
     /// `table` is ignored) in front of the trunk; `enc.grid_dim` must be
     /// `f.dim()`.
+    ///
+    /// # Panics
+    /// If `f`'s values per point (`levels × width`) are not `enc.grid_dim`.
     pub fn with_features(mut self, f: Option<FeatureGrid<'static>>) -> Self {
         if let Some(mut f) = f {
             assert_eq!(self.enc.grid_dim as usize, f.dim(), "encoding.grid_dim");

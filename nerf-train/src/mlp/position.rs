@@ -14,6 +14,10 @@ impl Mlp {
     /// without a feature grid. Positions are the network's inputs
     /// (normalised, contracted in an unbounded scene); outside `[−1, 1]`
     /// along an axis, where the grid clamps, that axis's grid gradient is 0.
+    ///
+    /// # Panics
+    /// If `a` is not from a backward pass with [`Acts::keep_input_gradient`] on, or `pos` (`foot` with a footprint) are
+    /// not its feature-grid points.
     pub fn position_gradient(
         &self,
         p: &[f32],

@@ -77,6 +77,9 @@ impl Adam {
     /// Zeroed state for `n` parameters, of which the last `sparse` (a
     /// feature grid's table) are updated only where their gradient is not
     /// zero.
+    ///
+    /// # Panics
+    /// If `sparse` is above `n`.
     pub fn new(n: usize, sparse: usize) -> Self {
         assert!(sparse <= n, "{sparse} of {n} parameters");
         Self { m: vec![0.0; n], v: vec![0.0; n], t: 0, steps: vec![0; sparse], bias: BiasCorrections::default() }
@@ -92,6 +95,9 @@ impl Adam {
     /// table parameter by `1 − lr·λ`, reached by a ray or not. Leaves `g`
     /// zeroed, ready for the next step's sum (a table's gradient is tens of
     /// megabytes, mostly zeros: only the values read as non-zero are written).
+    ///
+    /// # Panics
+    /// If `p` or `g` does not hold the `n` values of [`Adam::new`].
     #[allow(clippy::too_many_arguments)]
     pub fn update(&mut self, p: &mut [f32], g: &mut [f32], lr: f32, b1: f32, b2: f32, eps: f32, table_decay: f32) {
         self.update_averaged(p, g, lr, b1, b2, eps, table_decay, None);
@@ -103,6 +109,9 @@ impl Adam {
     /// the update followed by a separate pass, in one parallel sweep over
     /// the parameters (a feature grid's table makes tens of megabytes);
     /// leaves `g` zeroed.
+    ///
+    /// # Panics
+    /// If `p` or `g` does not hold the `n` values of [`Adam::new`], or `a` as many as `p`.
     #[allow(clippy::too_many_arguments)]
     pub fn update_averaged(
         &mut self,

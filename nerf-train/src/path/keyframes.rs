@@ -45,9 +45,13 @@ fn quat_dot(a: &Point, b: &Point) -> f32 {
     a[3] * b[3] + a[4] * b[4] + a[5] * b[5] + a[6] * b[6]
 }
 
-/// `timing.frames` keyframes along the spline through `keys` (not empty).
+/// `timing.frames` keyframes along the spline through `keys` (none
+/// without keys).
 pub fn interpolate(keys: &[Keyframe], timing: Timing) -> Vec<Keyframe> {
     let n = keys.len();
+    if n == 0 {
+        return Vec::new();
+    }
     // the control points in path order, a closed path wrapped one point each side
     let mut pts: Vec<Point> = if timing.cycle {
         let ix = std::iter::once(n - 1).chain(0..n).chain([0, 1 % n]);
@@ -162,5 +166,12 @@ mod tests {
         // one keyframe: every frame is that camera
         let one = interpolate(&[a], Timing { frames: 3, smoothness: 0.5, cycle: false });
         assert!(one.iter().all(|f| (f.position - a.position).length() < 1e-6 && f.fov == 30.0));
+    }
+
+    #[test]
+    fn a_path_without_keyframes_has_no_frames() {
+        for cycle in [false, true] {
+            assert!(interpolate(&[], Timing { frames: 8, smoothness: 0.0, cycle }).is_empty());
+        }
     }
 }

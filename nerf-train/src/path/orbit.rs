@@ -11,12 +11,13 @@ use nerf_infer::{Camera, Orbit};
 
 /// Rays of `views` cameras on the scene's own orbit ([`Orbit::new`] without a
 /// fitted one), `size`² pixels each, with zero ground truth (for
-/// calibration).
+/// calibration); none at `size` 0.
 pub fn orbit_rays(scene: &Scene, views: usize, size: u32) -> Vec<crate::train::Sample> {
     let o = Orbit::new(scene, None);
     let mut out = Vec::new();
     for k in 0..views {
-        let cam = o.camera(k as f32 / views as f32, size, size).expect("a scene's own orbit has cameras");
+        // a camera the orbit cannot make (of no pixels) has no rays
+        let Ok(cam) = o.camera(k as f32 / views as f32, size, size) else { continue };
         for y in 0..size {
             for x in 0..size {
                 let (o, d) = cam.ray(x, y);
@@ -154,6 +155,12 @@ mod tests {
 
     fn scene(half: f32) -> Scene {
         Scene::blender(half, 0.1, 10.0)
+    }
+
+    #[test]
+    fn an_orbit_of_images_of_no_pixels_has_no_rays() {
+        assert!(orbit_rays(&scene(1.0), 4, 0).is_empty());
+        assert!(!orbit_rays(&scene(1.0), 2, 3).is_empty());
     }
 
     /// A ring of `n` cameras around `centre`, `r` from the axis along `up`

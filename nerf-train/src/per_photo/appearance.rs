@@ -66,10 +66,10 @@ impl Appearance {
 
 /// Moves every row of `params` (rows of `target.len()` values, one per
 /// photo) by the same amount so that their mean is `target` (the mean
-/// taken in f64).
+/// taken in f64); nothing moves with an empty `target`.
 pub fn recentre_rows(params: &mut [f32], target: &[f32]) {
     let per = target.len();
-    let n = params.len() / per;
+    let n = params.len().checked_div(per).unwrap_or(0);
     if n == 0 {
         return;
     }
@@ -108,6 +108,13 @@ mod tests {
 
     fn loss(p: &[f32], c: [f32; 3], gt: [f32; 3]) -> f64 {
         apply(p, c).iter().zip(gt).map(|(&y, g)| ((y - g) as f64).powi(2)).sum()
+    }
+
+    #[test]
+    fn rows_recentred_on_an_empty_target_stay_as_they_are() {
+        let mut p = [0.5, 2.0, -1.0];
+        recentre_rows(&mut p, &[]);
+        assert_eq!(p, [0.5, 2.0, -1.0]);
     }
 
     #[test]

@@ -73,10 +73,12 @@ pub struct Fitted {
 }
 
 /// `cfg` with the choices `fit` turns on made for `data`. A configuration
-/// the proposal grid cannot serve (`sampling.n_main` 0 or above 255, say)
-/// is refused ([`ConfigError::ProposalGrid`], naming the field) rather than trained
+/// that does not pass [`TrainConfig::validate`] is refused (naming the
+/// field), and so is one the proposal grid cannot serve (`sampling.n_main`
+/// 0 or above 255, say: [`ConfigError::ProposalGrid`]) rather than trained
 /// without the grid.
 pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted> {
+    cfg.validate()?;
     let base = cfg;
     let mut cfg = cfg.clone();
     let open = data.scene.unbounded.is_some() || data.scene.ndc.is_some();

@@ -204,6 +204,8 @@ impl<'d> Run<'d> {
 
     /// A new run of `cfg` fitted to `data` as `fit` says ([`fit_to_data`]),
     /// seeded `seed`, at the dataset's `downscale`; with the fit's notes.
+    /// Fails, naming the field, if `cfg` does not pass
+    /// [`TrainConfig::validate`](crate::config::TrainConfig::validate).
     pub fn fitted(
         cfg: &crate::config::TrainConfig,
         fit: Fit,
@@ -213,7 +215,7 @@ impl<'d> Run<'d> {
         budget: Budget,
     ) -> Result<(Self, Vec<String>)> {
         let fitted = fit_to_data(cfg, fit, data)?;
-        let trainer = Trainer::new(fitted.cfg, data.scene, downscale, seed);
+        let trainer = Trainer::new(fitted.cfg, data.scene, downscale, seed)?;
         Ok((Self::new(trainer, data, None, budget)?, fitted.notes))
     }
 
@@ -235,7 +237,8 @@ impl<'d> Run<'d> {
     /// rendered by the kernel's f32 path; `None` without validation views.
     pub fn validate(&self) -> Result<Option<f64>> {
         let Some(val) = self.val.filter(|_| self.schedule.val_views > 0) else { return Ok(None) };
-        let model = trainer_model(&self.trainer, &self.calibration[..256], Prune::Off).to_bytes()?;
+        let model = trainer_model(&self.trainer, &self.calibration[..256.min(self.calibration.len())], Prune::Off)
+            .to_bytes()?;
         let model = Model::from_bytes(&model)?;
         let views = &val.views[..self.schedule.val_views.min(val.views.len())];
         let mut sum = 0.0;
@@ -281,5 +284,40 @@ impl<'d> Run<'d> {
         }
         obs.checkpoint(self)?;
         Ok(Outcome::Finished { val_psnr: self.validate()? })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::TrainConfig;
+    use crate::dataset::grey_views;
+
+    /// Two small networks.
+    fn small() -> TrainConfig {
+        TrainConfig::fast().with(|c| {
+            (c.model.depth, c.model.width, c.model.view_width) = (2, 16, 8);
+            c.model.skips.clear();
+            (c.sampling.n_coarse, c.sampling.n_fine) = (8, std::num::NonZeroU16::new(8));
+        })
+    }
+
+    #[test]
+    fn a_run_validates_with_fewer_calibration_rays_than_the_256_it_renders_with() {
+        let data = grey_views(2);
+        let (mut run, _) = Run::fitted(&small(), Fit::ALL, &data, 1, 1, Budget::Steps(1)).unwrap();
+        (run.val, run.schedule.val_views) = (Some(&data), 1);
+        run.calibration.truncate(16);
+        assert!(run.validate().unwrap().is_some_and(f64::is_finite));
+    }
+
+    #[test]
+    fn a_run_a_fit_and_a_random_model_are_refused_an_invalid_configuration_naming_the_field() {
+        let data = grey_views(2);
+        let bad = small().with(|c| c.model.depth = 0);
+        let says = |e: crate::Error| assert!(e.to_string().starts_with("model.depth must be"), "{e}");
+        says(fit_to_data(&bad, Fit::ALL, &data).unwrap_err());
+        says(Run::fitted(&bad, Fit::ALL, &data, 1, 1, Budget::Steps(1)).err().unwrap());
+        says(crate::export::random_model(&bad, data.scene, 1, 1.0).unwrap_err());
     }
 }

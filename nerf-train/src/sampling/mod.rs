@@ -76,6 +76,9 @@ impl Sampler {
     /// The grids `cfg` asks for, fresh: the occupancy grid all occupied,
     /// the proposal grid at the density `sigma` (1/world units) everywhere
     /// (an unbounded scene's network's starting density).
+    ///
+    /// # Panics
+    /// `cfg` must pass [`TrainConfig::validate`].
     pub fn new(cfg: &TrainConfig, sigma: f32) -> Self {
         Sampler {
             occupancy: cfg.grid.res.map(|res| OccupancyGrid::new(res.get())),

@@ -93,6 +93,9 @@ impl ProposalGrid {
     /// (`out.len() − 1` drawn from the proposal's weights, then the last of
     /// `n_coarse` stratified samples, jittered by `key`), and `prop` with
     /// the proposal's samples for [`ProposalGrid::backward`].
+    ///
+    /// # Panics
+    /// If `out` is empty or `n_coarse` is 0.
     pub fn place(&self, ray: &Ray, key: u32, n_coarse: usize, out: &mut [f32], prop: &mut RayProposal) {
         let n_main = out.len() - 1;
         prop.t.resize(n_coarse, 0.0);

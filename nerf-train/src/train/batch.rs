@@ -71,7 +71,9 @@ impl Trainer {
     /// A share `how.random_background` (in `[0, 1]`) of the pixels of views
     /// with an alpha channel gets a uniformly random background colour,
     /// its ground truth recomposited on it (`rgb + (1 − alpha)·(bg − scene
-    /// background)`); other pixels keep the scene's background.
+    /// background)`); other pixels keep the scene's background. A view that
+    /// does not hold one colour per pixel of its camera (which
+    /// [`Dataset::check_rays`](crate::dataset::Dataset::check_rays) refuses) gives no rays.
     pub fn draw_batch(data: &Dataset, n: usize, how: Draw, rng: &mut Rng) -> Vec<Sample> {
         Self::draw_with(data, n, how, rng, |_, o, d| (o, d))
     }
@@ -85,10 +87,19 @@ impl Trainer {
         rng: &mut Rng,
         camera: impl Fn(usize, glam::Vec3, glam::Vec3) -> (glam::Vec3, glam::Vec3),
     ) -> Vec<Sample> {
+        // the pixels drawn from of each view: all, or none where they are not one per pixel of its camera
+        let drawn = |v: &crate::dataset::View| {
+            let pixels = v.camera.width as usize * v.camera.height as usize;
+            if v.rgb.len() == pixels {
+                pixels
+            } else {
+                0
+            }
+        };
         let mut ends = Vec::with_capacity(data.views.len());
         let mut total = 0usize;
         for v in &data.views {
-            total += v.rgb.len();
+            total += drawn(v);
             ends.push(total);
         }
         let scene_bg = data.scene.background();
@@ -100,7 +111,7 @@ impl Trainer {
             let k = rng.below(total);
             let vi = ends.partition_point(|&e| e <= k);
             let v = &data.views[vi];
-            let px = k - (ends[vi] - v.rgb.len());
+            let px = k - (ends[vi] - drawn(v));
             if !v.kept(px) {
                 continue;
             }

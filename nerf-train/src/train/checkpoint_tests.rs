@@ -8,7 +8,7 @@ use nerf_infer::format::{frame, unframe, CHECKPOINT_MAGIC};
 
 /// A run of the fast preset with some state to keep: steps, time, a seed, data.
 fn trainer() -> Trainer {
-    let mut t = Trainer::new(TrainConfig::fast(), Scene::blender(1.5, 2.0, 6.0), 2, 11);
+    let mut t = Trainer::new(TrainConfig::fast(), Scene::blender(1.5, 2.0, 6.0), 2, 11).unwrap();
     (t.step, t.elapsed, t.skipped, t.data, t.pixel) = (7, 1.25, 1, "/data/scene format: auto".into(), 0.003);
     t.field.adam.m.iter_mut().enumerate().for_each(|(i, m)| *m = i as f32 * 1e-3);
     t

@@ -180,11 +180,13 @@ impl PerPhoto {
 }
 
 impl Trainer {
-    /// A new run with freshly initialised networks.
-    pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> Self {
+    /// A new run with freshly initialised networks; fails, naming the
+    /// field, if `cfg` does not pass [`TrainConfig::validate`].
+    pub fn new(cfg: TrainConfig, scene: Scene, downscale: u32, seed: u64) -> crate::error::Result<Self> {
+        cfg.validate()?;
         let field = Field::new(&cfg, seed, scene.unbounded.map(|_| UNBOUNDED_SIGMA_INIT));
         let sampler = Sampler::new(&cfg, UNBOUNDED_SIGMA_INIT);
-        Self {
+        Ok(Self {
             cfg,
             scene,
             downscale,
@@ -199,7 +201,7 @@ impl Trainer {
             appearance: None,
             poses: None,
             pool: GradPool::default(),
-        }
+        })
     }
 
     /// The network's samples per ray before the occupancy grid's skipping ([`Sampler::main_samples`]).

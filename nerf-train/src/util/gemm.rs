@@ -20,16 +20,31 @@ impl<'a> View<'a> {
     pub fn t(data: &'a [f32], cols: usize) -> Self {
         Self { data, rs: 1, cs: cols }
     }
+    /// Checks that the view holds an `r × c` matrix: every element within
+    /// `data`, each stride at most `isize::MAX` (the kernel's offsets).
+    ///
+    /// # Panics
+    /// If it does not (an element's index that overflows `usize` included).
     fn check(&self, r: usize, c: usize) {
+        assert!(
+            self.rs <= isize::MAX as usize && self.cs <= isize::MAX as usize,
+            "matrix view stride above isize::MAX"
+        );
         if r > 0 && c > 0 {
-            let last = (r - 1) * self.rs + (c - 1) * self.cs;
-            assert!(last < self.data.len(), "matrix view out of bounds");
+            let last =
+                (r - 1).checked_mul(self.rs).zip((c - 1).checked_mul(self.cs)).and_then(|(a, b)| a.checked_add(b));
+            assert!(last.is_some_and(|last| last < self.data.len()), "matrix view out of bounds");
         }
     }
 }
 
 /// `dst[m×n] (+)= a[m×k] · b[k×n]`; `dst` is row-major with row stride
 /// `dst_rs`; accumulates when `accumulate`, otherwise overwrites.
+///
+/// # Panics
+/// If `dst` (row stride `dst_rs`), `a` or `b` does not hold its matrix:
+/// an element beyond its slice, its index overflowing `usize`, or a stride
+/// above `isize::MAX`.
 #[allow(clippy::too_many_arguments)]
 pub fn matmul(
     m: usize,
@@ -44,7 +59,9 @@ pub fn matmul(
     if m == 0 || n == 0 {
         return;
     }
-    assert!((m - 1) * dst_rs + n <= dst.len(), "destination out of bounds");
+    assert!(dst_rs <= isize::MAX as usize, "destination stride above isize::MAX");
+    let end = (m - 1).checked_mul(dst_rs).and_then(|r| r.checked_add(n));
+    assert!(end.is_some_and(|end| end <= dst.len()), "destination out of bounds");
     if k == 0 {
         if !accumulate {
             for r in 0..m {
@@ -104,5 +121,30 @@ mod tests {
         matmul(k, k, m, &mut d, k, false, View::t(&a, k), View::rows(&a, k));
         let want: f32 = (0..m).map(|p| a[p * k] * a[p * k + 1]).sum();
         assert!((d[1] - want).abs() < 1e-4);
+    }
+
+    #[test]
+    #[should_panic(expected = "matrix view out of bounds")]
+    fn a_stride_whose_last_element_overflows_panics_before_the_kernel() {
+        // 4 · 2⁶² wraps to 0 in release: the last row would pass for the first
+        let a = View { data: &[1.0; 4], rs: 1 << 62, cs: 1 };
+        let mut c = vec![0.0; 5];
+        matmul(5, 1, 1, &mut c, 1, false, a, View::rows(&[1.0], 1));
+    }
+
+    #[test]
+    #[should_panic(expected = "stride above isize::MAX")]
+    fn a_stride_above_isize_max_panics_before_the_kernel() {
+        let a = View { data: &[1.0; 4], rs: isize::MAX as usize + 1, cs: 1 };
+        let mut c = vec![0.0; 1];
+        matmul(1, 1, 1, &mut c, 1, false, a, View::rows(&[1.0], 1));
+    }
+
+    #[test]
+    #[should_panic(expected = "destination out of bounds")]
+    fn a_destination_stride_that_overflows_panics_before_the_kernel() {
+        let one = [1.0];
+        let mut c = vec![0.0; 4];
+        matmul(5, 1, 1, &mut c, 1 << 62, false, View::rows(&[1.0; 5], 1), View::rows(&one, 1));
     }
 }

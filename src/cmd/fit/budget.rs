@@ -8,7 +8,7 @@ use std::num::NonZeroU16;
 /// a model of that shape with random weights, exported as `nerf fit`
 /// exports a trained one (an upper bound: training can only prune).
 pub(super) fn model_bytes(cfg: &TrainConfig, scene: nerf_infer::format::Scene, bits: Scheme) -> CmdResult<usize> {
-    let mut twin = random_model(cfg, scene, 0, 1.0);
+    let mut twin = random_model(cfg, scene, 0, 1.0)?;
     // the records a trained model may carry, at their largest (varints): the size is then an upper bound
     twin.meta.iterations = u32::MAX;
     twin.meta.train_downscale = u16::MAX;

@@ -191,7 +191,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         for note in &fitted.notes {
             eprintln!("{note}");
         }
-        let mut tr = Trainer::new(fitted.cfg, data.scene, downscale, a.seed);
+        let mut tr = Trainer::new(fitted.cfg, data.scene, downscale, a.seed)?;
         tr.data = data_source(&a);
         (tr, data)
     };
