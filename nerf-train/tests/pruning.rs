@@ -27,7 +27,7 @@ fn trainer_with_dead_neurons() -> Trainer {
         c.model.view_width = 32;
     });
     let mut tr = Trainer::new(cfg, unit_scene(), 1, 7).unwrap();
-    let mlp = tr.mlp();
+    let mlp = tr.mlp().clone();
     let view = mlp.topo.depth as usize + 2;
     for net in 0..2 {
         let base = net * mlp.n_params;

@@ -50,10 +50,10 @@ pub fn trainer_model(tr: &Trainer, calibration: &[crate::train::Sample], prune: 
     let mut encoding = tr.cfg.encoding();
     encoding.raw_frac_bits = raw_frac_bits_for(cal.max_pos);
     let t = tr.cfg.topology();
-    let coarse = f32_network(&mlp, tr.coarse_params(), &cal.max_c);
+    let coarse = f32_network(mlp, tr.coarse_params(), &cal.max_c);
     let coarse = prune_network(&t, &encoding, &coarse, &cal.active_c, prune);
     let fine = tr.fine_params().map(|p| {
-        let net = f32_network(&mlp, p, cal.max_f.as_deref().unwrap_or(&[]));
+        let net = f32_network(mlp, p, cal.max_f.as_deref().unwrap_or(&[]));
         prune_network(&t, &encoding, &net, cal.active_f.as_deref().unwrap_or(&[]), prune)
     });
     OwnedModel {
@@ -95,7 +95,7 @@ pub fn random_model(
     sigma_gain: f32,
 ) -> crate::error::Result<OwnedModel> {
     let mut tr = Trainer::new(cfg.clone(), scene, 1, seed)?;
-    let mlp = tr.mlp();
+    let mlp = tr.mlp().clone();
     let si = sigma_layer(&mlp.topo);
     let nets = if cfg.sampling.n_fine.is_some() { 2 } else { 1 };
     for k in 0..nets {

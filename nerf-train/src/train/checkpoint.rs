@@ -98,7 +98,7 @@ impl Trainer {
     }
 
     /// The first part of a restored state that does not fit the rest
-    /// (`grid`, `proposal`, `appearance`, `poses`, `cfg`, `pixel`,
+    /// (`grid`, `proposal`, `appearance`, `poses`, `pixel`,
     /// `params`, `adam`, `ema`), or `None` when all fit.
     fn inconsistent_part(&self) -> Option<&'static str> {
         let t = self;
@@ -133,10 +133,7 @@ impl Trainer {
         if let Some(&(part, _)) = parts.iter().find(|p| !p.1) {
             return Some(part);
         }
-        // the network's layout is read from the configuration: only of a valid one
-        if t.cfg.validate().is_err() {
-            return Some("cfg");
-        }
+        // the configuration was validated before the network's layout was read from it ([`restored_field`])
         let (field, nets) = (&t.field, if t.cfg.sampling.n_fine.is_some() { 2 } else { 1 });
         let parts = [
             ("pixel", t.pixel.is_finite() && t.pixel >= 0.0),

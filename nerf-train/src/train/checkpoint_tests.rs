@@ -4,6 +4,7 @@
 use super::checkpoint::{ABSENT_MEANS, CHECKPOINT_VERSION, CHECKPOINT_VERSION_MIN};
 use super::checkpoint_v18::V18;
 use super::*;
+use crate::error::{CheckpointError, Error};
 use nerf_infer::format::{frame, unframe, CHECKPOINT_MAGIC};
 
 /// A run of the fast preset with some state to keep: steps, time, a seed, data.
@@ -117,4 +118,17 @@ fn a_checkpoint_with_a_field_this_build_does_not_know_is_refused_naming_it() {
     all.push(("second_proposal".into(), vec![0]));
     let e = Trainer::from_bytes(&checkpoint(&all)).unwrap_err().to_string();
     assert!(e.contains("it holds second_proposal, which this build does not know (written by a newer build)"), "{e}");
+}
+
+#[test]
+fn a_checkpoint_whose_configuration_fails_validation_is_refused_naming_it() {
+    let all = sections(&trainer());
+    let invalid = with_cfg(&all, |v| v["sampling"]["n_coarse"] = 1.into());
+    let mut t = trainer();
+    t.cfg.sampling.n_coarse = 1;
+    let v18 = frame(&CHECKPOINT_MAGIC, CHECKPOINT_VERSION_MIN, &postcard::to_stdvec(&V18::from(&t)).unwrap()).unwrap();
+    for bytes in [checkpoint(&invalid), v18] {
+        let e = Trainer::from_bytes(&bytes).unwrap_err();
+        assert!(matches!(e, Error::Checkpoint(CheckpointError::Inconsistent { part: "cfg" })), "{e:?}");
+    }
 }

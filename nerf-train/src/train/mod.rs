@@ -210,8 +210,8 @@ impl Trainer {
     }
 
     /// The network shape (both networks share it).
-    pub fn mlp(&self) -> Mlp {
-        self.field.net.clone()
+    pub fn mlp(&self) -> &Mlp {
+        &self.field.net
     }
 
     /// Coarse parameters.

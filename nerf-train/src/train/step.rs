@@ -133,7 +133,7 @@ impl Trainer {
             for (k, rays) in groups.get(gi).map_or(&[][..], |r| r).chunks(chunk).enumerate() {
                 let ci = gi * per_group + k;
                 let key = hash32(step_key ^ hash32(ci as u32));
-                let (a, b, m, grid) = self.chunk_gradient(&net, rays, key, scale, &mut ws, &mut g, &mut t);
+                let (a, b, m, grid) = self.chunk_gradient(net, rays, key, scale, &mut ws, &mut g, &mut t);
                 grids.extend(grid.map(|gg| (ci, gg)));
                 (c, f, n) = (c + a, f + b, n + m);
             }

@@ -227,7 +227,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         log: RunLog::open(&a.out.join("train.jsonl"), a.resume.then_some(run.trainer.step))?,
         out: a.out.clone(),
         prune: a.prune,
-        mlp: run.trainer.mlp(),
+        mlp: run.trainer.mlp().clone(),
         wall: Instant::now(),
         last_val_psnr: None,
     };
