@@ -133,7 +133,7 @@ impl Trainer {
         if let Some(&(part, _)) = parts.iter().find(|p| !p.1) {
             return Some(part);
         }
-        // the configuration was validated before the network's layout was read from it ([`restored_field`])
+        // the configuration was validated by restored_field, before the network's layout was read from it
         let (field, nets) = (&t.field, if t.cfg.sampling.n_fine.is_some() { 2 } else { 1 });
         let parts = [
             ("pixel", t.pixel.is_finite() && t.pixel >= 0.0),

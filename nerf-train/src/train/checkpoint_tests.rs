@@ -121,7 +121,7 @@ fn a_checkpoint_with_a_field_this_build_does_not_know_is_refused_naming_it() {
 }
 
 #[test]
-fn a_checkpoint_whose_configuration_fails_validation_is_refused_naming_it() {
+fn a_checkpoint_whose_configuration_fails_validation_is_refused_as_an_inconsistent_cfg() {
     let all = sections(&trainer());
     let invalid = with_cfg(&all, |v| v["sampling"]["n_coarse"] = 1.into());
     let mut t = trainer();
