@@ -124,7 +124,7 @@ fn a_forward_facing_grid_sized_to_large_photos_gets_sixteen_levels_unless_the_co
     (n.width, n.height) = (1008.0, 756.0);
     let fitted = fit_to_data(&preset, Fit::ALL, &large).unwrap();
     let f = &fitted.cfg.features;
-    assert_eq!((f.levels, f.max_res, f.log2_table), (Some(TrainConfig::FORWARD_FACING_LEVELS), 4096, 19));
+    assert_eq!((f.levels, f.max_res, f.log2_table), (Some(TrainConfig::SIZED_LEVELS), 4096, 19));
     assert!(fitted.notes[0].contains("16 levels (was 8"), "{:?}", fitted.notes);
     let over = serde_json::json!({"features": {"levels": 12}});
     let named = fit_to_data(
@@ -133,6 +133,28 @@ fn a_forward_facing_grid_sized_to_large_photos_gets_sixteen_levels_unless_the_co
         &large,
     );
     assert_eq!(named.unwrap().cfg.features.levels.map(|l| l.get()), Some(12));
+}
+
+/// An object scene whose photos resolve 2 048 cells or more gets its grid
+/// sized with 16 levels (the preset's 8 from 16 cells would be 2× apart or
+/// more, as lego's at 800×800); one sized to 512 cells keeps 8.
+#[test]
+fn an_object_grid_sized_to_large_photos_gets_sixteen_levels_where_eight_would_be_twice_apart() {
+    use nerf_train::config::{Preset, TrainConfig};
+    use nerf_train::run::{fit_to_data, Fit};
+    let d = tmp("object_levels");
+    write_blender(&d, spec()).unwrap();
+    let preset = Preset::default().config();
+    // the built-in scene resolves as many cells as its focal length in pixels (bounds ±1, cameras 4 away)
+    let fitted = |focal: f32| {
+        let mut data = load(&d, Split::Train, opts(Format::Blender, 1)).unwrap();
+        data.views.iter_mut().for_each(|v| (v.camera.fx, v.camera.fy) = (focal, focal));
+        fit_to_data(&preset, Fit::ALL, &data).unwrap().cfg.features
+    };
+    let mid = fitted(400.0);
+    assert_eq!((mid.levels, mid.max_res), (preset.features.levels, 512));
+    let large = fitted(1500.0);
+    assert_eq!((large.levels, large.max_res, large.log2_table), (Some(TrainConfig::SIZED_LEVELS), 2048, 18));
 }
 
 #[test]

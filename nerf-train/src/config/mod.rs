@@ -122,14 +122,16 @@ impl TrainConfig {
     /// and forward-facing scenes ([`SamplingConfig::proposal_res`]).
     pub const PROPOSAL_RES: NonZeroU16 = NonZeroU16::new(64).unwrap();
 
-    /// The feature grid's levels in a forward-facing scene whose grid
-    /// [`Self::fit_features_to`] sizes to the photos (unless the
-    /// configuration names `features.levels`): 16, instant-ngp's, in place
-    /// of the preset's 8, so that the levels stay about as close together
-    /// (1.45× per level from 16 to 4 096 cells instead of 2.2×). On flower
-    /// at 1008×756 the steps of 20 minutes score 0.27 dB higher than 8
-    /// levels (docs/EXPERIMENTS.md, "Forward-facing photos at 1008×756").
-    pub const FORWARD_FACING_LEVELS: NonZeroU8 = NonZeroU8::new(16).unwrap();
+    /// The feature grid's levels where [`Self::fit_features_to`] sizes it
+    /// to the photos (unless the configuration names `features.levels`):
+    /// 16, instant-ngp's, in place of the preset's 8, so that the levels
+    /// stay about as close together. `nerf train` gives them to a
+    /// forward-facing scene's sized grid (flower at 1008×756: 1.45× per level
+    /// from 16 to 4 096 cells instead of 2.2×, +0.27 dB at equal time) and to
+    /// an object scene's where 8 levels would be 2× apart or more (lego at
+    /// 800×800, 16 to 2 048 cells: +0.58 dB in 60 minutes); docs/EXPERIMENTS.md,
+    /// "The paper's protocol".
+    pub const SIZED_LEVELS: NonZeroU8 = NonZeroU8::new(16).unwrap();
 
     /// The stratified samples per ray compositing the proposal grid where
     /// `nerf train` turns it on ([`SamplingConfig::n_coarse`], unless the

@@ -14,8 +14,9 @@ use crate::error::{ConfigError, Result};
 pub struct Fit {
     /// Size the feature grid to the photos ([`TrainConfig::fit_features_to`]).
     pub features: bool,
-    /// Give a forward-facing scene's grid, once sized to the photos,
-    /// [`TrainConfig::FORWARD_FACING_LEVELS`] levels.
+    /// Give a grid sized to the photos [`TrainConfig::SIZED_LEVELS`]
+    /// levels: in a forward-facing scene, and in an object scene where the
+    /// configuration's levels would be 2× apart or more.
     pub levels: bool,
     /// Set the samples per ray for the photos ([`TrainConfig::fit_samples_to`]),
     /// or to [`TrainConfig::PROPOSAL_COARSE`] where a proposal grid is
@@ -108,9 +109,14 @@ pub fn fit_to_data(cfg: &TrainConfig, fit: Fit, data: &Dataset) -> Result<Fitted
         cfg = with;
     }
     if let Some(cells) = data.resolvable_cells() {
-        // a forward-facing grid sized to the photos keeps its levels close together
-        if fit.features && cfg.fit_features_to(cells) && fit.levels && data.scene.ndc.is_some() {
-            cfg.features.levels = Some(TrainConfig::FORWARD_FACING_LEVELS);
+        // a grid sized to the photos keeps its levels close together: forward-facing ones always
+        // (flower), others where the configuration's levels would be 2× apart or more (lego at 800×800)
+        if fit.features && cfg.fit_features_to(cells) && fit.levels {
+            let f = &cfg.features;
+            let wide = f.levels.is_some_and(|l| f.max_res as u64 >= (f.min_res as u64) << (l.get() - 1));
+            if data.scene.ndc.is_some() || wide {
+                cfg.features.levels = Some(TrainConfig::SIZED_LEVELS);
+            }
         }
         if fit.samples {
             cfg.fit_samples_to(cells);
