@@ -788,8 +788,8 @@ def step_sizes_section():
 lego trained 1 500 steps at 100×100 and at 800×800, each with the default
 flags (the feature grid and the samples per ray sized to the photos: at
 800×800 a 2 048-cell finest level, 2¹⁸ entries per level, 16 levels
-from e56e4a2 on and 8 before, and 512 stratified samples) and with the configuration the 100×100 photos get
-(so that only the photos differ); rays per second, network samples per
+from e56e4a2 on and 8 before, and 512 stratified samples) and with the
+configuration the 100×100 photos get (so that only the photos differ); rays per second, network samples per
 ray and the step's wall-clock stages in ms over the last 500 steps, and
 the run's peak memory. × 100×100: rays per second against the 100×100
 run with the same configuration.""", t if rs else missing("step-sizes"))
