@@ -685,8 +685,10 @@ table's gradient scatter, Adam), then, starred, the chunks' thread time
 summed over the threads (samples along the rays, the encoding: γ and the
 feature lookups, the layers forward, the quadrature and loss, the backward
 pass). GFLOP/s are the layers' per thread, 2 flops per multiply-accumulate
-forward and 4 backward; the gemm crate's own rate at these shapes is in
-the table above.""", t if rs else missing("step"))
+forward and 4 backward (from 2026-12-07 over the samples the backward
+pass takes, which skips those whose gradient is zero, so earlier rows'
+backward figures count more samples); the
+gemm crate's own rate at these shapes is in the table above.""", t if rs else missing("step"))
 
 
 def mesh_section():

@@ -16,7 +16,8 @@
 //!
 //! Files: this one holds the network's layout and initialisation;
 //! `features.rs` the feature grid's lookups and table gradients, `forward.rs`
-//! and `backward.rs` the two passes.
+//! and `backward.rs` the two passes, `retain.rs` the samples dropped
+//! between them.
 
 use crate::util::gemm::{matmul, View};
 use nerf_infer::camera::FOOTPRINT_POINTS;
@@ -30,6 +31,7 @@ mod backward;
 mod features;
 mod forward;
 mod position;
+pub mod retain;
 
 /// Where one layer's tensors sit in the flat parameter vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

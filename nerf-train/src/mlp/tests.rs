@@ -287,3 +287,50 @@ fn scatter_equals_backward(footprint: bool) {
     let differ: Vec<f32> = inf.iter().zip(&others).filter(|(a, b)| a != b).map(|(a, _)| *a).collect();
     assert!(!differ.is_empty() && differ.len() <= 8 * 2 && differ.iter().all(|v| !v.is_finite()), "{differ:?}");
 }
+
+#[test]
+fn samples_dropped_before_the_backward_leave_the_others_gradient() {
+    let m = with_feature_grid(2);
+    let mut p = m.init(7);
+    for (k, v) in p[m.table..].iter_mut().enumerate() {
+        *v = (k as f32 * 0.7).sin() * 0.5;
+    }
+    let pos: Vec<[f32; 3]> = (0..6).map(|i| [0.1 * i as f32, -0.2, 0.05 * i as f32 - 0.1]).collect();
+    let keep = [true, false, false, true, true, false];
+    // the dropped samples' gradients zero, as a sample past the ray's end gets
+    let ds: Vec<f32> = (0..6).map(|i| if keep[i] { 0.3 + i as f32 * 0.1 } else { 0.0 }).collect();
+    let dc: Vec<f32> = (0..18).map(|i| if keep[i / 3] { (i % 5) as f32 - 2.0 } else { 0.0 }).collect();
+    for footprint in [false, true] {
+        let foot: Vec<[f32; 3]> = match footprint {
+            true => pos.iter().flat_map(|q| [0.05f32, -0.03, 0.08].map(|o| [q[0] + o, q[1] - o, q[2]])).collect(),
+            false => Vec::new(),
+        };
+        // a view direction per ray of three samples, and one per sample
+        let per_ray = vec![[0.0, 0.6, -0.8], [0.8, 0.0, -0.6]];
+        let per_sample: Vec<[f32; 3]> =
+            (0..6).map(|i| [0.6, 0.0, -0.8].map(|v: f32| v * (1.0 - 0.1 * i as f32))).collect();
+        for dirs in [per_ray, per_sample] {
+            let mut a = Acts::default();
+            m.encode_footprint(&p, &pos, &foot, &mut a);
+            m.forward_layers(&p, &dirs, true, &mut a);
+            let mut whole = vec![0.0; m.n_params];
+            m.backward(&p, &mut a, &ds, &dc, &mut whole);
+            m.encode_footprint(&p, &pos, &foot, &mut a);
+            m.forward_layers(&p, &dirs, true, &mut a);
+            assert_eq!(a.retain_samples(&m, &keep), 3);
+            assert_eq!(a.samples(), 3);
+            let (mut ds3, mut dc3) = (ds.clone(), dc.clone());
+            retain::retain_rows(&mut ds3, 1, &keep);
+            retain::retain_rows(&mut dc3, 3, &keep);
+            let mut kept = vec![0.0; m.n_params];
+            m.backward(&p, &mut a, &ds3, &dc3, &mut kept);
+            assert!(kept[m.table..].iter().filter(|v| **v != 0.0).count() >= 8, "the table reached");
+            for (i, (x, y)) in whole.iter().zip(&kept).enumerate() {
+                assert!(
+                    (x - y).abs() <= 1e-5 * (1.0 + x.abs()),
+                    "parameter {i}: {x} against {y} ({footprint}, {dirs:?})"
+                );
+            }
+        }
+    }
+}

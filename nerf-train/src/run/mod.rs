@@ -87,6 +87,8 @@ pub struct Window {
     pub rays: usize,
     /// Network evaluations.
     pub samples: usize,
+    /// Network evaluations the backward pass took ([`StepStats::backward_samples`]).
+    pub backward_samples: usize,
     /// Seconds of training.
     pub secs: f64,
     /// Steps taken.
@@ -99,6 +101,7 @@ impl Window {
     fn add(&mut self, st: &StepStats, secs: f64) {
         self.rays += st.rays;
         self.samples += st.samples;
+        self.backward_samples += st.backward_samples;
         self.secs += secs;
         self.steps += 1;
         self.times.add(&st.times);

@@ -1,9 +1,24 @@
 //! A chunk's loss as the run's configuration weighs it
 //! ([`crate::loss::photo::photo_loss`] with its priors and the photos'
-//! colour corrections), and the gradient's scaling near the cameras.
+//! colour corrections), the gradient's scaling near the cameras, and the
+//! samples the backward pass can skip.
 
 use super::*;
 use crate::loss::photo::{photo_loss, Corrections, Priors, Target};
+use crate::mlp::retain::retain_rows;
+
+/// Marks in `keep` (one flag per sample) the samples whose gradient
+/// (`dsig`, three values of `drgb` each) is not zero. Returns how many.
+///
+/// # Panics
+/// If `drgb` holds fewer than three values per value of `dsig`.
+pub fn live_samples(dsig: &[f32], drgb: &[f32], keep: &mut Vec<bool>) -> usize {
+    keep.clear();
+    keep.extend(
+        dsig.iter().zip(drgb[..3 * dsig.len()].chunks_exact(3)).map(|(s, c)| *s != 0.0 || c.iter().any(|g| *g != 0.0)),
+    );
+    keep.iter().filter(|&&k| k).count()
+}
 
 impl Trainer {
     /// [`photo_loss`] of a chunk's pass (the coarse or only pass's
@@ -53,5 +68,38 @@ impl Trainer {
                 ws.drgb[3 * k..3 * k + 3].iter_mut().for_each(|g| *g *= f);
             }
         }
+    }
+
+    /// Drops from the chunk's coarse or only pass (its activations,
+    /// `ws.dsig` and `ws.drgb`) the samples whose gradient is zero: a
+    /// sample without density whose weight is zero (empty space inside an
+    /// occupied cell) and one so far behind a surface that its weight and
+    /// density gradient round to zero. The backward pass gives the others
+    /// the gradient it gave before, summed over fewer terms. Returns the
+    /// samples kept.
+    pub(super) fn drop_idle_samples(&self, net: &Mlp, ws: &mut Workspace) -> usize {
+        let n = ws.acts_c.samples();
+        ws.dsig.truncate(n);
+        ws.drgb.truncate(3 * n);
+        live_samples(&ws.dsig, &ws.drgb, &mut ws.keep);
+        retain_rows(&mut ws.dsig, 1, &ws.keep);
+        retain_rows(&mut ws.drgb, 3, &ws.keep);
+        ws.acts_c.retain_samples(net, &ws.keep)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samples_with_any_gradient_are_live() {
+        let dsig = [0.1, 0.0, 0.0, -0.0, -2e-30];
+        let mut drgb = vec![0.0f32; 15];
+        drgb[4] = 1e-20;
+        drgb[9..12].fill(-0.0);
+        let mut keep = vec![true; 2];
+        assert_eq!(live_samples(&dsig, &drgb, &mut keep), 3);
+        assert_eq!(keep, [true, true, false, false, true]);
     }
 }

@@ -54,6 +54,7 @@ mod step;
 pub use batch::*;
 pub use calibrate::*;
 pub use checkpoint::*;
+pub use loss::live_samples;
 use pool::GradPool;
 
 /// Statistics of one optimisation step.
@@ -67,6 +68,9 @@ pub struct StepStats {
     pub rays: usize,
     /// Network evaluations (samples) in the step, both networks.
     pub samples: usize,
+    /// Of those, the evaluations the backward pass took: the others had no
+    /// gradient ([`live_samples`]).
+    pub backward_samples: usize,
     /// The step was skipped because the loss or a gradient was not finite.
     pub skipped: bool,
     /// Where the step's time went.
@@ -141,6 +145,8 @@ struct Workspace {
     acts_f: Acts,
     dsig: Vec<f32>,
     drgb: Vec<f32>,
+    /// Which samples the backward pass takes ([`Trainer::drop_idle_samples`]).
+    keep: Vec<bool>,
     /// The photos' colour corrections' gradient (runs with
     /// [`PerPhotoConfig::appearance`](crate::config::PerPhotoConfig::appearance); as [`Appearance::params`]).
     dapp: Vec<f32>,

@@ -10,10 +10,14 @@ use crate::per_photo::pose::Poses;
 const GROUPS: usize = 16;
 
 /// One group's (or a sum of groups') share of a step: the layers' gradient,
-/// the squared errors (coarse, fine), the network evaluations, each chunk's
+/// the squared errors (coarse, fine), the network evaluations ([`Evals`]), each chunk's
 /// grid-value gradient under its index, the time of its stages and the
 /// photos' corrections' gradients.
-type Acc = (Vec<f32>, f64, f64, usize, Vec<(usize, GridGrad)>, StepTimes, PerPhoto);
+type Acc = (Vec<f32>, f64, f64, Evals, Vec<(usize, GridGrad)>, StepTimes, PerPhoto);
+
+/// Network evaluations: in the forward pass, and in the backward pass
+/// (those left after [`Trainer::drop_idle_samples`]).
+type Evals = [usize; 2];
 
 impl Trainer {
     /// One optimisation step on a batch drawn from `data`; `progress` is
@@ -50,7 +54,7 @@ impl Trainer {
                 *a = Appearance::new(photos);
             }
         }
-        let (mut grad, sq_c, sq_f, samples, PerPhoto { appearance: mut photos, mut pose }, finite) =
+        let (mut grad, sq_c, sq_f, [samples, backward_samples], PerPhoto { appearance: mut photos, mut pose }, finite) =
             self.gradients_timed(&batch, step_key, &mut times);
         let n = batch.len() as f64 * 3.0;
         let mse_f = if self.cfg.sampling.n_fine.is_some() { sq_f / n } else { sq_c / n };
@@ -60,6 +64,7 @@ impl Trainer {
             psnr: (-10.0 * mse_f.max(1e-12).log10()) as f32,
             rays: batch.len(),
             samples,
+            backward_samples,
             skipped: false,
             times,
         };
@@ -97,20 +102,20 @@ impl Trainer {
     /// gradient is scattered afterwards, one level per task, chunk after
     /// chunk ([`Mlp::scatter_table`]).
     pub fn gradients(&self, batch: &[Sample], step_key: u32) -> (Vec<f32>, f64, f64, usize) {
-        let (g, c, f, n, ..) = self.gradients_timed(batch, step_key, &mut StepTimes::default());
+        let (g, c, f, [n, _], ..) = self.gradients_timed(batch, step_key, &mut StepTimes::default());
         (g, c, f, n)
     }
 
-    /// [`Trainer::gradients`], adding the time of its stages to `times`
-    /// (`chunks` and its split, `scatter`), the photos' corrections'
-    /// gradients ([`PerPhoto`]) and whether every value of the gradient is
-    /// finite.
+    /// [`Trainer::gradients`] with the network evaluations of both passes,
+    /// adding the time of its stages to `times` (`chunks` and its split,
+    /// `scatter`), the photos' corrections' gradients ([`PerPhoto`]) and
+    /// whether every value of the gradient is finite.
     pub(super) fn gradients_timed(
         &self,
         batch: &[Sample],
         step_key: u32,
         times: &mut StepTimes,
-    ) -> (Vec<f32>, f64, f64, usize, PerPhoto, bool) {
+    ) -> (Vec<f32>, f64, f64, Evals, PerPhoto, bool) {
         let start = std::time::Instant::now();
         // the proposal grid's gradient is this batch's alone
         if let Ok(mut g) = self.pool.2.lock() {
@@ -128,14 +133,14 @@ impl Trainer {
         let groups: Vec<&[Sample]> = batch.chunks(per_group * chunk).collect();
         let group = |gi: usize| -> Acc {
             let mut ws = self.pool.take_workspace();
-            let (mut g, mut c, mut f, mut n) = (self.pool.take(dense), 0.0f64, 0.0f64, 0usize);
+            let (mut g, mut c, mut f, mut n) = (self.pool.take(dense), 0.0f64, 0.0f64, [0usize; 2]);
             let (mut grids, mut t) = (Vec::new(), StepTimes::default());
             for (k, rays) in groups.get(gi).map_or(&[][..], |r| r).chunks(chunk).enumerate() {
                 let ci = gi * per_group + k;
                 let key = hash32(step_key ^ hash32(ci as u32));
                 let (a, b, m, grid) = self.chunk_gradient(net, rays, key, scale, &mut ws, &mut g, &mut t);
                 grids.extend(grid.map(|gg| (ci, gg)));
-                (c, f, n) = (c + a, f + b, n + m);
+                (c, f, n) = (c + a, f + b, [n[0] + m[0], n[1] + m[1]]);
             }
             let photos = PerPhoto { appearance: std::mem::take(&mut ws.dapp), pose: std::mem::take(&mut ws.dpose) };
             self.pool.give_workspace(ws);
@@ -178,12 +183,12 @@ impl Trainer {
         r1.extend(r2);
         t1.add(&t2);
         p1.add(&p2);
-        (g1, c1 + c2, f1 + f2, n1 + n2, r1, t1, p1)
+        (g1, c1 + c2, f1 + f2, [n1[0] + n2[0], n1[1] + n2[1]], r1, t1, p1)
     }
 
     /// Forward and backward of one chunk; accumulates into `g` and returns
     /// the squared errors (coarse, fine) summed over rays and channels, the
-    /// number of network evaluations and, with a feature grid, the grid
+    /// network evaluations of both passes and, with a feature grid, the grid
     /// values' gradient (`g` then holds the layers only: the table's
     /// gradient is left to [`Mlp::scatter_table`]). Adds the time of its
     /// parts to `t`'s thread stages.
@@ -197,7 +202,7 @@ impl Trainer {
         ws: &mut Workspace,
         g: &mut [f32],
         t: &mut StepTimes,
-    ) -> (f64, f64, usize, Option<GridGrad>) {
+    ) -> (f64, f64, Evals, Option<GridGrad>) {
         let r = rays.len();
         let nc = self.cfg.sampling.n_coarse as usize;
         let nf = self.cfg.sampling.n_fine.map_or(0, |n| n.get() as usize);
@@ -225,8 +230,12 @@ impl Trainer {
             // the interlevel loss, a mean over the batch's rays as the colour loss is
             timed(&mut t.composite, || self.proposal_backward(pg, r, key, 1.5 * scale, ws));
         }
-        let mut grid = None;
+        let (mut grid, mut n_back) = (None, n_c);
         if n_c > 0 && net.features.is_some() {
+            if !self.refines_poses() {
+                // a pose's gradient is read per sample of the forward pass
+                n_back = timed(&mut t.backward, || self.drop_idle_samples(net, ws));
+            }
             timed(&mut t.backward, || net.backward_layers(pc, &mut ws.acts_c, &ws.dsig, &ws.drgb, gc));
             if self.refines_poses() {
                 timed(&mut t.backward, || self.pose_backward(net, pc, rays, ws));
@@ -241,7 +250,7 @@ impl Trainer {
             }
         }
         if nf == 0 {
-            return (sq_c, 0.0, n_c, grid);
+            return (sq_c, 0.0, [n_c, n_back], grid);
         }
         // no grid (validated): every ray has its nc coarse samples
         let start = std::time::Instant::now();
@@ -275,7 +284,7 @@ impl Trainer {
         timed(&mut t.forward, || net.forward_layers(pf, &ws.samples.dirs, true, &mut ws.acts_f));
         let sq_f = timed(&mut t.composite, || self.colour_loss(rays, scale, ws, true));
         timed(&mut t.backward, || net.backward(pf, &mut ws.acts_f, &ws.dsig, &ws.drgb, gf));
-        (sq_c, sq_f, n_c + r * na, grid)
+        (sq_c, sq_f, [n_c + r * na, n_back + r * na], grid)
     }
 }
 

@@ -245,7 +245,7 @@ fn train_in(a: Args, new_run: Option<NewRun>) -> CmdResult {
         Outcome::Finished { val_psnr } => val_psnr,
     };
     let totals = &run.totals;
-    eprintln!("{}", time_summary(&totals.times, run.trainer.step - start_step, totals.samples, &progress.mlp));
+    eprintln!("{}", time_summary(totals, run.trainer.step - start_step, &progress.mlp));
     eprintln!(
         "trained {} steps in {:.1} s; wrote {}{}",
         run.trainer.step,
@@ -299,7 +299,8 @@ impl Observer for Progress {
                 "val_psnr": ev.val_psnr,
                 "skipped_steps": tr.skipped,
                 "step_ms": stage_ms(&w.times, w.steps),
-                "mlp_gflops_per_thread": mlp_gflops(&w.times, w.samples, &self.mlp),
+                "backward_share": w.backward_samples as f64 / w.samples.max(1) as f64,
+                "mlp_gflops_per_thread": mlp_gflops(w, &self.mlp),
             });
             self.log.append(&line)?;
             self.bar.set_message(format!(
