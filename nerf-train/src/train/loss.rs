@@ -20,6 +20,14 @@ pub fn live_samples(dsig: &[f32], drgb: &[f32], keep: &mut Vec<bool>) -> usize {
     keep.iter().filter(|&&k| k).count()
 }
 
+/// The share of a chunk's samples with a gradient above which the
+/// backward pass takes them all ([`Trainer::drop_idle_samples`]): copying
+/// the kept samples' activations makes each cost about a fifth more in the
+/// backward pass (lego at 100×100, docs/EXPERIMENTS.md), which the dropped
+/// ones must pay for (flower's proposal samples, nearly all live, trained
+/// slower with them dropped).
+const KEEP_ALL_ABOVE: f32 = 0.8;
+
 impl Trainer {
     /// [`photo_loss`] of a chunk's pass (the coarse or only pass's
     /// samples in `ws`, or with `fine` the fine pass's), with the run's
@@ -75,13 +83,16 @@ impl Trainer {
     /// sample without density whose weight is zero (empty space inside an
     /// occupied cell) and one so far behind a surface that its weight and
     /// density gradient round to zero. The backward pass gives the others
-    /// the gradient it gave before, summed over fewer terms. Returns the
-    /// samples kept.
+    /// the gradient it gave before, summed over fewer terms. A chunk with
+    /// more than [`KEEP_ALL_ABOVE`] of its samples live keeps them all.
+    /// Returns the samples kept.
     pub(super) fn drop_idle_samples(&self, net: &Mlp, ws: &mut Workspace) -> usize {
         let n = ws.acts_c.samples();
         ws.dsig.truncate(n);
         ws.drgb.truncate(3 * n);
-        live_samples(&ws.dsig, &ws.drgb, &mut ws.keep);
+        if live_samples(&ws.dsig, &ws.drgb, &mut ws.keep) as f32 > KEEP_ALL_ABOVE * n as f32 {
+            return n;
+        }
         retain_rows(&mut ws.dsig, 1, &ws.keep);
         retain_rows(&mut ws.drgb, 3, &ws.keep);
         ws.acts_c.retain_samples(net, &ws.keep)
