@@ -297,7 +297,7 @@ fn samples_dropped_before_the_backward_leave_the_others_gradient() {
     }
     let pos: Vec<[f32; 3]> = (0..6).map(|i| [0.1 * i as f32, -0.2, 0.05 * i as f32 - 0.1]).collect();
     let keep = [true, false, false, true, true, false];
-    // the dropped samples' gradients zero, as a sample past the ray's end gets
+    // the dropped samples' gradients zero, as a sample without density or weight has
     let ds: Vec<f32> = (0..6).map(|i| if keep[i] { 0.3 + i as f32 * 0.1 } else { 0.0 }).collect();
     let dc: Vec<f32> = (0..18).map(|i| if keep[i / 3] { (i % 5) as f32 - 2.0 } else { 0.0 }).collect();
     for footprint in [false, true] {
