@@ -1,7 +1,8 @@
 //! The field's density on tiny data: where a fresh network starts, the
 //! optical-depth penalty that empties free space, a field without density
-//! growing back, an unbounded scene's thin start, and gradients scaled
-//! near the cameras.
+//! growing back, an unbounded scene's thin start, gradients scaled near
+//! the cameras, and samples behind an opaque stretch left out of the
+//! backward pass.
 
 mod support;
 
@@ -11,7 +12,7 @@ use nerf_train::dataset::synthetic::{write_blender, write_colmap, ColmapText, Sc
 use nerf_train::dataset::{load, LoadOptions, Split};
 use nerf_train::train::{Draw, Sample, Trainer};
 use nerf_train::util::rng::Rng;
-use std::num::NonZeroU16;
+use std::num::{NonZeroU16, NonZeroU8};
 use support::small_config;
 
 /// The density at 200 random points of the normalised cube of a fresh
@@ -154,4 +155,40 @@ fn gradients_shrink_only_within_the_near_gradient_distance_of_the_camera() {
         let half = near_gradient(&cfg, data.scene, &probe, 0.5 * (near + far));
         assert!(half != off && norm(&half) > norm(&all), "{} against {}", norm(&half), norm(&all));
     }
+}
+
+#[test]
+fn samples_behind_half_the_light_leave_the_backward_pass() {
+    let d = support::TestDir::new("backward-transmittance-test");
+    write_blender(&d, SceneSpec { size: 16, train: 8, val: 1, test: 1 }).unwrap();
+    let data = load(&d, Split::Train, LoadOptions::default()).unwrap();
+    let small = TrainConfig::features().with(|c| {
+        (c.model.depth, c.model.width, c.model.view_width) = (2, 32, 16);
+        (c.features.levels, c.features.log2_table, c.features.max_res) = (NonZeroU8::new(4), 10, 32);
+        c.sampling.n_coarse = 48;
+        c.sampling.batch_rays = 128;
+    });
+    // a field with surfaces: 40 steps fitted to the photos
+    let mut tr = Trainer::new(small.clone(), data.scene, 1, 3).unwrap();
+    support::loss_before_and_after(&mut tr, &data, 40);
+    let probe = Trainer::draw_batch(&data, 256, Draw::CENTRES, &mut Rng::new(5));
+    // the probe in one chunk, the same field under each transmittance
+    let mut gradient = |t: f32| {
+        tr.cfg = small.clone().with(|c| (c.sampling.chunk_rays, c.loss.backward_transmittance) = (probe.len(), t));
+        tr.gradients(&probe, 1).0
+    };
+    let norm = |g: &[f32]| g.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
+    let dist = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(&x, &y)| ((x - y) as f64).powi(2)).sum::<f64>().sqrt();
+    let all = gradient(0.0);
+    assert!(norm(&all) > 0.0);
+    assert_eq!(gradient(0.0), all);
+    // the samples behind half of the light carry a share of the gradient
+    let half = gradient(0.5);
+    assert!(dist(&half, &all) > 1e-2 * norm(&all), "{} against {}", dist(&half, &all), norm(&all));
+    // and a step leaves them out of its backward pass, beside those without gradient
+    let mut keeping = tr.clone();
+    keeping.cfg.loss.backward_transmittance = 0.0;
+    let (cut, kept) = (tr.train_step(&data, 0.5), keeping.train_step(&data, 0.5));
+    assert_eq!(cut.samples, kept.samples);
+    assert!(cut.backward_samples < kept.backward_samples, "{} against {}", cut.backward_samples, kept.backward_samples);
 }

@@ -52,7 +52,7 @@ impl TrainConfig {
                 feature_decay: 0.0,
                 ema_decay: 0.0,
             },
-            loss: LossConfig { distortion: 0.0, density_l1: 0.0, near_gradient: 0.0 },
+            loss: LossConfig { distortion: 0.0, density_l1: 0.0, near_gradient: 0.0, backward_transmittance: 0.0 },
             per_photo: PerPhotoConfig { appearance: false, pose_refine: false, pose_lr: 1e-4 },
         }
     }

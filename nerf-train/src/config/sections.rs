@@ -200,6 +200,16 @@ pub struct LossConfig {
     /// Runs with one network only (`sampling.n_fine` `None`); forward-facing
     /// scenes, whose rays run in NDC, are left alone.
     pub near_gradient: f32,
+    /// Transmittance, in `[0, 1)`, under which a training sample is left
+    /// out of the backward pass (0: off, every preset): the samples of the
+    /// coarse or only pass behind that much opacity on their ray (light
+    /// left `1 − Σ w` of the samples before them) carry a gradient at most
+    /// that share of their ray's, and the backward pass and the feature
+    /// table's scatter skip them (instant-ngp ends a training ray at 10⁻⁴),
+    /// except in a chunk that would keep more than 80 % of its samples,
+    /// which takes them all. Applies with a feature grid, in runs that do
+    /// not refine poses.
+    pub backward_transmittance: f32,
 }
 
 /// The corrections fitted per training photo beside the model, each off

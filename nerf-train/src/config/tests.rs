@@ -63,6 +63,15 @@ fn the_near_gradient_distance_is_finite_not_negative_and_needs_one_network() {
 }
 
 #[test]
+fn the_backward_transmittance_is_a_share_of_light_below_1() {
+    let with = |t: f32| TrainConfig::features().with(|c| c.loss.backward_transmittance = t);
+    assert!(with(0.0).validate().is_ok() && with(1e-4).validate().is_ok());
+    for t in [-1e-4, 1.0, f32::NAN, f32::INFINITY] {
+        assert!(with(t).validate().unwrap_err().to_string().contains("backward_transmittance"), "{t}");
+    }
+}
+
+#[test]
 fn the_footprint_starts_at_a_share_of_the_run_in_0_to_1() {
     let with = |footprint_from: f32| TrainConfig::features().with(|c| c.features.footprint_from = footprint_from);
     assert!(with(0.0).validate().is_ok() && with(0.5).validate().is_ok());

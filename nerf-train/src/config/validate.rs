@@ -82,6 +82,12 @@ impl TrainConfig {
                 format!("{} must be a finite distance ≥ 0", self.loss.near_gradient),
             ));
         }
+        if !(0.0..1.0).contains(&self.loss.backward_transmittance) {
+            return Err(ConfigError::invalid(
+                "loss.backward_transmittance",
+                format!("{} must be a transmittance in [0, 1)", self.loss.backward_transmittance),
+            ));
+        }
         if !(self.loss.density_l1.is_finite() && self.loss.density_l1 >= 0.0) {
             return Err(ConfigError::invalid(
                 "loss.density_l1",

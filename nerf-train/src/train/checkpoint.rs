@@ -39,7 +39,10 @@ pub const CHECKPOINT_VERSION_MIN: u16 = 18;
 /// value (as JSON) that means what builds before it did. A field added to
 /// [`Trainer`] or [`TrainConfig`] gets a line here when such a value
 /// exists; without one, checkpoints that lack it are refused, naming it.
-pub const ABSENT_MEANS: &[(&str, &str)] = &[];
+pub const ABSENT_MEANS: &[(&str, &str)] = &[
+    // every sample with a gradient went through the backward pass
+    ("cfg.loss.backward_transmittance", "0"),
+];
 
 impl Trainer {
     /// Serialises the run for a checkpoint: [`CHECKPOINT_MAGIC`], the

@@ -34,11 +34,14 @@ struct OptimiserV18 {
     pose_lr: f32,
 }
 
-/// [`LossConfig`] then the per-photo corrections' switches.
+/// [`LossConfig`]'s fields of that version then the per-photo
+/// corrections' switches.
 #[derive(Deserialize)]
 #[cfg_attr(test, derive(Serialize))]
 struct LossV18 {
-    loss: LossConfig,
+    distortion: f32,
+    density_l1: f32,
+    near_gradient: f32,
     appearance: bool,
     pose_refine: bool,
 }
@@ -52,7 +55,13 @@ impl From<ConfigV18> for TrainConfig {
             sampling: c.sampling,
             grid: c.grid,
             optimiser: o.optimiser,
-            loss: l.loss,
+            loss: LossConfig {
+                distortion: l.distortion,
+                density_l1: l.density_l1,
+                near_gradient: l.near_gradient,
+                // samples behind an opaque stretch kept, as that version did
+                backward_transmittance: 0.0,
+            },
             per_photo: PerPhotoConfig { appearance: l.appearance, pose_refine: l.pose_refine, pose_lr: o.pose_lr },
         }
     }
@@ -69,7 +78,13 @@ impl From<&TrainConfig> for ConfigV18 {
             sampling: c.sampling.clone(),
             grid: c.grid.clone(),
             optimiser: OptimiserV18 { optimiser: c.optimiser.clone(), pose_lr: p.pose_lr },
-            loss: LossV18 { loss: c.loss.clone(), appearance: p.appearance, pose_refine: p.pose_refine },
+            loss: LossV18 {
+                distortion: c.loss.distortion,
+                density_l1: c.loss.density_l1,
+                near_gradient: c.loss.near_gradient,
+                appearance: p.appearance,
+                pose_refine: p.pose_refine,
+            },
         }
     }
 }

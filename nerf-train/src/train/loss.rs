@@ -20,6 +20,29 @@ pub fn live_samples(dsig: &[f32], drgb: &[f32], keep: &mut Vec<bool>) -> usize {
     keep.iter().filter(|&&k| k).count()
 }
 
+/// Clears in `keep` (one flag per sample) the flags of the samples whose
+/// transmittance, `1 − Σ w` over the samples before them on their ray, is
+/// under `t_min`; ray `i`'s samples are `offs[i]..offs[i + 1]`, their
+/// weights `w`. Returns how many flags it cleared.
+///
+/// # Panics
+/// If `keep` or `w` hold fewer samples than `offs`'s last offset.
+pub fn occluded_samples(offs: &[usize], w: &[f32], t_min: f32, keep: &mut [bool]) -> usize {
+    let mut cleared = 0;
+    for ray in offs.windows(2) {
+        let mut seen = 0.0f32;
+        for k in ray[0]..ray[1] {
+            if 1.0 - seen < t_min {
+                cleared += keep[k..ray[1]].iter().filter(|&&k| k).count();
+                keep[k..ray[1]].fill(false);
+                break;
+            }
+            seen += w[k];
+        }
+    }
+    cleared
+}
+
 /// The share of a chunk's samples with a gradient above which the
 /// backward pass takes them all ([`Trainer::drop_idle_samples`]): copying
 /// the kept samples' activations makes each cost about a fifth more in the
@@ -82,15 +105,22 @@ impl Trainer {
     /// `ws.dsig` and `ws.drgb`) the samples whose gradient is zero: a
     /// sample without density whose weight is zero (empty space inside an
     /// occupied cell) and one so far behind a surface that its weight and
-    /// density gradient round to zero. The backward pass gives the others
-    /// the gradient it gave before, summed over fewer terms. A chunk with
-    /// more than [`KEEP_ALL_ABOVE`] of its samples live keeps them all.
-    /// Returns the samples kept.
+    /// density gradient round to zero; with
+    /// [`LossConfig::backward_transmittance`](crate::config::LossConfig::backward_transmittance)
+    /// also those behind a transmittance under it ([`occluded_samples`]).
+    /// The backward pass gives the others the gradient it gave before,
+    /// summed over fewer terms. A chunk with more than [`KEEP_ALL_ABOVE`]
+    /// of its samples kept keeps them all. Returns the samples kept.
     pub(super) fn drop_idle_samples(&self, net: &Mlp, ws: &mut Workspace) -> usize {
         let n = ws.acts_c.samples();
         ws.dsig.truncate(n);
         ws.drgb.truncate(3 * n);
-        if live_samples(&ws.dsig, &ws.drgb, &mut ws.keep) as f32 > KEEP_ALL_ABOVE * n as f32 {
+        let mut live = live_samples(&ws.dsig, &ws.drgb, &mut ws.keep);
+        let t_min = self.cfg.loss.backward_transmittance;
+        if t_min > 0.0 {
+            live -= occluded_samples(&ws.samples.offs, &ws.w_c, t_min, &mut ws.keep);
+        }
+        if live as f32 > KEEP_ALL_ABOVE * n as f32 {
             return n;
         }
         retain_rows(&mut ws.dsig, 1, &ws.keep);
@@ -112,5 +142,20 @@ mod tests {
         let mut keep = vec![true; 2];
         assert_eq!(live_samples(&dsig, &drgb, &mut keep), 3);
         assert_eq!(keep, [true, true, false, false, true]);
+    }
+
+    #[test]
+    fn samples_behind_the_transmittance_are_cleared_ray_by_ray() {
+        // ray 0: 0.5 then 0.49995 of the light (T 1, 0.5, 5e-5, ...); ray 1: none taken
+        let w = [0.5, 0.49995, 0.0, 0.0, 0.1, 0.1, 0.0];
+        let offs = [0, 4, 7];
+        let mut keep = [true, true, true, false, true, true, true];
+        assert_eq!(occluded_samples(&offs, &w, 1e-4, &mut keep), 1);
+        assert_eq!(keep, [true, true, false, false, true, true, true]);
+        let mut keep = [true; 7];
+        assert_eq!(occluded_samples(&offs, &w, 0.85, &mut keep), 3 + 1);
+        assert_eq!(keep, [true, false, false, false, true, true, false]);
+        let mut keep = [true; 7];
+        assert_eq!(occluded_samples(&offs, &w, 0.0, &mut keep), 0);
     }
 }

@@ -54,7 +54,7 @@ mod step;
 pub use batch::*;
 pub use calibrate::*;
 pub use checkpoint::*;
-pub use loss::live_samples;
+pub use loss::{live_samples, occluded_samples};
 use pool::GradPool;
 
 /// Statistics of one optimisation step.
@@ -69,7 +69,8 @@ pub struct StepStats {
     /// Network evaluations (samples) in the step, both networks.
     pub samples: usize,
     /// Of those, the evaluations the backward pass took: the others had no
-    /// gradient ([`live_samples`]).
+    /// gradient ([`live_samples`]) or lay behind the run's
+    /// `loss.backward_transmittance` ([`occluded_samples`]).
     pub backward_samples: usize,
     /// The step was skipped because the loss or a gradient was not finite.
     pub skipped: bool,
