@@ -118,6 +118,11 @@ fn an_unbounded_scene_starts_thin_and_even_so_light_reaches_beyond_its_bounds() 
     }
 }
 
+/// The Euclidean norm of a gradient.
+fn norm(g: &[f32]) -> f64 {
+    g.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt()
+}
+
 /// The gradient over `probe` of a fresh run (seed 3) of `cfg` on `scene`
 /// with `loss.near_gradient` at `d0`, the batch in one chunk (one sum, the
 /// same at every call).
@@ -135,7 +140,6 @@ fn gradients_shrink_only_within_the_near_gradient_distance_of_the_camera() {
     write_blender(&object, SceneSpec { size: 16, train: 4, val: 1, test: 1 }).unwrap();
     let room = support::TestDir::new("near-gradient-room-test");
     write_colmap(&room, SceneSpec { size: 16, train: 6, val: 1, test: 0 }, ColmapText::Binary, true).unwrap();
-    let norm = |g: &[f32]| g.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
     // an object scene's stratified samples, and an unbounded scene's placed by a proposal grid
     let one = small_config().with(|c| c.sampling.n_fine = None);
     let proposed = one.clone().with(|c| c.sampling.proposal_res = NonZeroU16::new(16));
@@ -177,7 +181,6 @@ fn samples_behind_half_the_light_leave_the_backward_pass() {
         tr.cfg = small.clone().with(|c| (c.sampling.chunk_rays, c.loss.backward_transmittance) = (probe.len(), t));
         tr.gradients(&probe, 1).0
     };
-    let norm = |g: &[f32]| g.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
     let dist = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(&x, &y)| ((x - y) as f64).powi(2)).sum::<f64>().sqrt();
     let all = gradient(0.0);
     assert!(norm(&all) > 0.0);
