@@ -44,6 +44,12 @@ pub(crate) fn features_w2<const N: usize>(
     // a narrow table in whole words, and its entry indices fit an i32)
     assert!(g.width == 2 && g.is_valid(2) && at + g.dim() <= N && pos.len() <= out.len());
     let bits = g.narrow.map_or(0, |n| n.bits);
+    // a table past the caches: log2 of an entry's bytes, to prefetch the corners ahead
+    let entry_shift = (g.table.len() > PREFETCH_ABOVE).then_some(match bits {
+        0 => 2,
+        8 => 1,
+        _ => 0,
+    });
     let mut base = 0;
     for l0 in (0..g.levels()).step_by(8) {
         let k = (g.levels() - l0).min(8);
@@ -67,7 +73,11 @@ pub(crate) fn features_w2<const N: usize>(
             c.code[j] = ((l0 + j) << bits) as i32;
             base += g.entries(l0 + j);
         }
-        for (p, o) in pos.iter().zip(out.iter_mut()) {
+        for (i, (p, o)) in pos.iter().zip(out.iter_mut()).enumerate() {
+            if let (Some(shift), Some(next)) = (entry_shift, pos.get(i + AHEAD)) {
+                // SAFETY: the token proves the CPU has AVX2; a prefetch reads nothing.
+                unsafe { prefetch8(g.table, shift, &c, *next) };
+            }
             // SAFETY: the token proves the CPU has AVX2; every
             // lane's entry is below its level's count (hashed: masked;
             // dense: < (N+1)³), so each read is inside the table, and each
@@ -77,23 +87,60 @@ pub(crate) fn features_w2<const N: usize>(
     }
 }
 
-// the shifts below are those of the Q24 position (u·N in Q25, fractions Q15)
-const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
+/// Table bytes above which the corners of the position [`AHEAD`] ahead are
+/// prefetched while one is looked up: the lookups of a table of 0.8 MiB
+/// (lego's at 100×100) or 3.4 MiB lose more to the prefetches'
+/// instructions than they gain, those of 6.1 MiB (lego's at 800×800 with
+/// 8-bit indices) and 12.3 MiB (with i16 values) gain
+/// (docs/EXPERIMENTS.md, `examples/lookup_cost`).
+const PREFETCH_ABOVE: usize = 4 << 20;
 
-/// Up to 8 levels (`out.len() / 2`) of one position; see [`features_w2`].
+/// Positions ahead of the one looked up whose corners are prefetched: the
+/// next sample's first footprint point, or the third sample ahead.
+const AHEAD: usize = 3;
+
+/// Prefetches the table's cache lines of the corners of `p` with the lower
+/// x vertex (the upper one is the next entry, in the same line but at a
+/// line's end) in every lane; an entry is `1 << entry_shift` bytes (4: i16
+/// values, 2: 8-bit indices, 1: 4-bit ones).
 ///
 /// # Safety
-/// AVX2, and every lane's entry `base + e` below the table's entries: for
-/// an i16 table (`narrow` none) `4·(base + e + 1) ≤ table.len()`; for a
-/// narrow one the table padded to whole words and the codebook holding
-/// `2^bits` codes for each lane's level (as [`FeatureGrid::is_valid`]
-/// checks them).
+/// AVX2.
 #[target_feature(enable = "avx2")]
-unsafe fn levels8(table: &[u8], narrow: Option<NarrowTable<'_>>, c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
+unsafe fn prefetch8(table: &[u8], entry_shift: u32, c: &LevelLanes, p: [i32; 3]) {
+    let (cell, _) = cells(c, p);
     let one = |v: i32| _mm256_set1_epi32(v);
     // SAFETY: each array is 8 i32 (32 bytes) long.
     let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
-    let res = ld(&c.res);
+    let (my, mz) = (ld(&c.mul_y), ld(&c.mul_z));
+    let py = [_mm256_mullo_epi32(cell[1], my), _mm256_mullo_epi32(_mm256_add_epi32(cell[1], one(1)), my)];
+    let pz = [_mm256_mullo_epi32(cell[2], mz), _mm256_mullo_epi32(_mm256_add_epi32(cell[2], one(1)), mz)];
+    let (dense, mask, base) = (ld(&c.dense), ld(&c.mask), ld(&c.base));
+    let mut idx = [[0i32; 8]; 4];
+    for (k, row) in idx.iter_mut().enumerate() {
+        let (x, y, z) = (cell[0], py[k & 1], pz[k >> 1]);
+        let sum = _mm256_add_epi32(_mm256_add_epi32(x, y), z);
+        let hash = _mm256_and_si256(_mm256_xor_si256(_mm256_xor_si256(x, y), z), mask);
+        let e = _mm256_add_epi32(base, _mm256_blendv_epi8(hash, sum, dense));
+        // SAFETY: `row` is 8 i32 (32 bytes) long.
+        unsafe { _mm256_storeu_si256(row.as_mut_ptr().cast(), e) };
+    }
+    for row in &idx {
+        for &e in row {
+            crate::arch::prefetch(table, (e as usize) << entry_shift);
+        }
+    }
+}
+
+/// Per axis, the cell of `p` in each lane's level and the Q15 weights of
+/// its lower and upper vertex.
+///
+#[target_feature(enable = "avx2")]
+#[inline]
+fn cells(c: &LevelLanes, p: [i32; 3]) -> ([__m256i; 3], [[__m256i; 2]; 3]) {
+    let one = |v: i32| _mm256_set1_epi32(v);
+    // SAFETY: each array is 8 i32 (32 bytes) long.
+    let res = unsafe { _mm256_loadu_si256(c.res.as_ptr().cast()) };
     let (res_odd, res_m1) = (_mm256_srli_epi64::<32>(res), _mm256_sub_epi32(res, one(1)));
     let (mut cell, mut w) = ([_mm256_setzero_si256(); 3], [[_mm256_setzero_si256(); 2]; 3]);
     for a in 0..3 {
@@ -112,6 +159,26 @@ unsafe fn levels8(table: &[u8], narrow: Option<NarrowTable<'_>>, c: &LevelLanes,
         cell[a] = i;
         w[a] = [_mm256_sub_epi32(one(1 << 15), f), f];
     }
+    (cell, w)
+}
+
+// the shifts below are those of the Q24 position (u·N in Q25, fractions Q15)
+const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
+
+/// Up to 8 levels (`out.len() / 2`) of one position; see [`features_w2`].
+///
+/// # Safety
+/// AVX2, and every lane's entry `base + e` below the table's entries: for
+/// an i16 table (`narrow` none) `4·(base + e + 1) ≤ table.len()`; for a
+/// narrow one the table padded to whole words and the codebook holding
+/// `2^bits` codes for each lane's level (as [`FeatureGrid::is_valid`]
+/// checks them).
+#[target_feature(enable = "avx2")]
+unsafe fn levels8(table: &[u8], narrow: Option<NarrowTable<'_>>, c: &LevelLanes, p: [i32; 3], out: &mut [i16]) {
+    let one = |v: i32| _mm256_set1_epi32(v);
+    // SAFETY: each array is 8 i32 (32 bytes) long.
+    let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
+    let (cell, w) = cells(c, p);
     // Q30 products of the x and y factors (≤ 2³⁰, exact)
     let wxy: [__m256i; 4] = core::array::from_fn(|k| _mm256_mullo_epi32(w[0][k & 1], w[1][k >> 1]));
     // per axis, the lower and upper vertex's index contribution

@@ -30,10 +30,11 @@ impl FeatureCase {
 
 /// Dense and hashed levels, one and two register groups, extreme table
 /// values; i16 tables and narrow ones (8- and 4-bit indices, each level's
-/// codebook with the extreme i16 values); positions beyond the bounds, on
-/// the faces and at vertices.
+/// codebook with the extreme i16 values); tables of 12 and 6 MiB, whose
+/// corners the AVX2 kernel prefetches ahead (lego's grid at 800×800);
+/// positions beyond the bounds, on the faces and at vertices.
 pub(super) fn feature_cases() -> Vec<FeatureCase> {
-    let shapes = [(3, 2, 9, 6), (8, 16, 256, 10), (16, 1, 4096, 10), (9, 4, 600, 8)];
+    let shapes = [(3, 2, 9, 6), (8, 16, 256, 10), (16, 1, 4096, 10), (9, 4, 600, 8), (16, 16, 2048, 18)];
     let one = 1i32 << NPOS_FRAC;
     let mut cases = Vec::new();
     for (shape, bits) in (0..shapes.len()).flat_map(|s| [(s, 16u8), (s, 8), (s, 4)]) {
