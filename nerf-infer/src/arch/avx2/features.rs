@@ -99,10 +99,11 @@ const PREFETCH_ABOVE: usize = 4 << 20;
 /// next sample's first footprint point, or the third sample ahead.
 const AHEAD: usize = 3;
 
-/// Prefetches the table's cache lines of the corners of `p` with the lower
-/// x vertex (the upper one is the next entry, in the same line but at a
-/// line's end) in every lane; an entry is `1 << entry_shift` bytes (4: i16
-/// values, 2: 8-bit indices, 1: 4-bit ones).
+/// Prefetches the table's cache lines of the corners of `p` at the lower
+/// x vertex in every lane (the upper x vertex's entry is the next one, in
+/// the same line unless the lower one ends a line); an entry is
+/// `1 << entry_shift` bytes (4: i16 values, 2: 8-bit indices, 1: 4-bit
+/// ones).
 ///
 /// # Safety
 /// AVX2.
@@ -132,9 +133,11 @@ unsafe fn prefetch8(table: &[u8], entry_shift: u32, c: &LevelLanes, p: [i32; 3])
     }
 }
 
+// the shifts below are those of the Q24 position (u·N in Q25, fractions Q15)
+const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
+
 /// Per axis, the cell of `p` in each lane's level and the Q15 weights of
 /// its lower and upper vertex.
-///
 #[target_feature(enable = "avx2")]
 #[inline]
 fn cells(c: &LevelLanes, p: [i32; 3]) -> ([__m256i; 3], [[__m256i; 2]; 3]) {
@@ -161,9 +164,6 @@ fn cells(c: &LevelLanes, p: [i32; 3]) -> ([__m256i; 3], [[__m256i; 2]; 3]) {
     }
     (cell, w)
 }
-
-// the shifts below are those of the Q24 position (u·N in Q25, fractions Q15)
-const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
 
 /// Up to 8 levels (`out.len() / 2`) of one position; see [`features_w2`].
 ///
