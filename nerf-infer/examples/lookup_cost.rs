@@ -59,12 +59,11 @@ fn main() {
     for (levels, max_res, log2_table, narrow) in
         grids.into_iter().flat_map(|(l, r, t)| [(l, r, t, false), (l, r, t, true)])
     {
-        let resolutions = geometric_resolutions(levels, 16, max_res);
         let shape = FeatureGrid {
             width: 2,
             log2_table,
             frac_bits: 12,
-            resolutions: resolutions.clone(),
+            resolutions: geometric_resolutions(levels, 16, max_res),
             table: &[],
             narrow: None,
         };

@@ -109,20 +109,12 @@ const AHEAD: usize = 3;
 /// AVX2.
 #[target_feature(enable = "avx2")]
 unsafe fn prefetch8(table: &[u8], entry_shift: u32, c: &LevelLanes, p: [i32; 3]) {
-    let (cell, _) = cells(c, p);
-    let one = |v: i32| _mm256_set1_epi32(v);
-    // SAFETY: each array is 8 i32 (32 bytes) long.
-    let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
-    let (my, mz) = (ld(&c.mul_y), ld(&c.mul_z));
-    let py = [_mm256_mullo_epi32(cell[1], my), _mm256_mullo_epi32(_mm256_add_epi32(cell[1], one(1)), my)];
-    let pz = [_mm256_mullo_epi32(cell[2], mz), _mm256_mullo_epi32(_mm256_add_epi32(cell[2], one(1)), mz)];
-    let (dense, mask, base) = (ld(&c.dense), ld(&c.mask), ld(&c.base));
+    let (parts, _) = cells(c, p);
+    let lanes = entry_lanes(c);
     let mut idx = [[0i32; 8]; 4];
     for (k, row) in idx.iter_mut().enumerate() {
-        let (x, y, z) = (cell[0], py[k & 1], pz[k >> 1]);
-        let sum = _mm256_add_epi32(_mm256_add_epi32(x, y), z);
-        let hash = _mm256_and_si256(_mm256_xor_si256(_mm256_xor_si256(x, y), z), mask);
-        let e = _mm256_add_epi32(base, _mm256_blendv_epi8(hash, sum, dense));
+        // corners 0, 2, 4, 6: the lower x vertex
+        let e = corner_entry(lanes, &parts, 2 * k);
         // SAFETY: `row` is 8 i32 (32 bytes) long.
         unsafe { _mm256_storeu_si256(row.as_mut_ptr().cast(), e) };
     }
@@ -136,14 +128,16 @@ unsafe fn prefetch8(table: &[u8], entry_shift: u32, c: &LevelLanes, p: [i32; 3])
 // the shifts below are those of the Q24 position (u·N in Q25, fractions Q15)
 const _: () = assert!(crate::fixed::NPOS_FRAC == 24);
 
-/// Per axis, the cell of `p` in each lane's level and the Q15 weights of
-/// its lower and upper vertex.
+/// Per axis, the index contributions (the cell's vertex times the axis's
+/// multiplier) and the Q15 weights of the lower and upper vertex of the
+/// cell of `p`, in each lane's level.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn cells(c: &LevelLanes, p: [i32; 3]) -> ([__m256i; 3], [[__m256i; 2]; 3]) {
+fn cells(c: &LevelLanes, p: [i32; 3]) -> ([[__m256i; 2]; 3], [[__m256i; 2]; 3]) {
     let one = |v: i32| _mm256_set1_epi32(v);
     // SAFETY: each array is 8 i32 (32 bytes) long.
-    let res = unsafe { _mm256_loadu_si256(c.res.as_ptr().cast()) };
+    let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
+    let res = ld(&c.res);
     let (res_odd, res_m1) = (_mm256_srli_epi64::<32>(res), _mm256_sub_epi32(res, one(1)));
     let (mut cell, mut w) = ([_mm256_setzero_si256(); 3], [[_mm256_setzero_si256(); 2]; 3]);
     for a in 0..3 {
@@ -162,7 +156,32 @@ fn cells(c: &LevelLanes, p: [i32; 3]) -> ([__m256i; 3], [[__m256i; 2]; 3]) {
         cell[a] = i;
         w[a] = [_mm256_sub_epi32(one(1 << 15), f), f];
     }
-    (cell, w)
+    // x multiplier 1 in either lattice (FeatureGrid::lattice)
+    let up = |v: __m256i| _mm256_add_epi32(v, one(1));
+    let times = |v: __m256i, m: __m256i| [_mm256_mullo_epi32(v, m), _mm256_mullo_epi32(up(v), m)];
+    let parts = [[cell[0], up(cell[0])], times(cell[1], ld(&c.mul_y)), times(cell[2], ld(&c.mul_z))];
+    (parts, w)
+}
+
+/// [`LevelLanes`]' `dense`, `mask` and `base` in registers, for [`corner_entry`].
+#[target_feature(enable = "avx2")]
+#[inline]
+fn entry_lanes(c: &LevelLanes) -> [__m256i; 3] {
+    // SAFETY: each array is 8 i32 (32 bytes) long.
+    [&c.dense, &c.mask, &c.base].map(|a| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) })
+}
+
+/// The entry of corner `k` (bit 0: upper x vertex, bit 1: y, bit 2: z) of
+/// a cell's index contributions `parts` ([`cells`]) in each lane's level:
+/// their sum in dense levels, their masked XOR in hashed ones, from the
+/// level's first entry (`[dense, mask, base]` from [`entry_lanes`]).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn corner_entry([dense, mask, base]: [__m256i; 3], parts: &[[__m256i; 2]; 3], k: usize) -> __m256i {
+    let (x, y, z) = (parts[0][k & 1], parts[1][(k >> 1) & 1], parts[2][k >> 2]);
+    let sum = _mm256_add_epi32(_mm256_add_epi32(x, y), z);
+    let hash = _mm256_and_si256(_mm256_xor_si256(_mm256_xor_si256(x, y), z), mask);
+    _mm256_add_epi32(base, _mm256_blendv_epi8(hash, sum, dense))
 }
 
 /// Up to 8 levels (`out.len() / 2`) of one position; see [`features_w2`].
@@ -178,16 +197,10 @@ unsafe fn levels8(table: &[u8], narrow: Option<NarrowTable<'_>>, c: &LevelLanes,
     let one = |v: i32| _mm256_set1_epi32(v);
     // SAFETY: each array is 8 i32 (32 bytes) long.
     let ld = |a: &[i32; 8]| unsafe { _mm256_loadu_si256(a.as_ptr().cast()) };
-    let (cell, w) = cells(c, p);
+    let (parts, w) = cells(c, p);
     // Q30 products of the x and y factors (≤ 2³⁰, exact)
     let wxy: [__m256i; 4] = core::array::from_fn(|k| _mm256_mullo_epi32(w[0][k & 1], w[1][k >> 1]));
-    // per axis, the lower and upper vertex's index contribution
-    let up = |v: __m256i| _mm256_add_epi32(v, one(1));
-    let px = [cell[0], up(cell[0])]; // x multiplier 1 in either lattice (FeatureGrid::lattice)
-    let (my, mz) = (ld(&c.mul_y), ld(&c.mul_z));
-    let py = [_mm256_mullo_epi32(cell[1], my), _mm256_mullo_epi32(up(cell[1]), my)];
-    let pz = [_mm256_mullo_epi32(cell[2], mz), _mm256_mullo_epi32(up(cell[2]), mz)];
-    let (dense, mask, base, code) = (ld(&c.dense), ld(&c.mask), ld(&c.base), ld(&c.code));
+    let (lanes, code) = (entry_lanes(c), ld(&c.code));
     let (mut acc0, mut acc1) = (_mm256_setzero_si256(), _mm256_setzero_si256());
     for k in 0..8 {
         let (wxy, wz) = (wxy[k & 3], w[2][k >> 2]);
@@ -196,10 +209,7 @@ unsafe fn levels8(table: &[u8], narrow: Option<NarrowTable<'_>>, c: &LevelLanes,
         let (hi, lo) = (_mm256_srli_epi32::<15>(wxy), _mm256_and_si256(wxy, one(0x7FFF)));
         let low = _mm256_srli_epi32::<15>(_mm256_add_epi32(_mm256_mullo_epi32(lo, wz), one(1 << 29)));
         let wc = _mm256_srli_epi32::<15>(_mm256_add_epi32(_mm256_mullo_epi32(hi, wz), low));
-        let (x, y, z) = (px[k & 1], py[(k >> 1) & 1], pz[k >> 2]);
-        let sum = _mm256_add_epi32(_mm256_add_epi32(x, y), z);
-        let hash = _mm256_and_si256(_mm256_xor_si256(_mm256_xor_si256(x, y), z), mask);
-        let idx = _mm256_add_epi32(base, _mm256_blendv_epi8(hash, sum, dense));
+        let idx = corner_entry(lanes, &parts, k);
         let (v0, v1) = match narrow {
             None => {
                 // SAFETY: the caller's contract; each entry is 4 bytes (2 × i16 LE).
